@@ -1,0 +1,20 @@
+"""spacephys: gravity, thrust, missiles, collisions and explosions for space games.
+
+The whole public API, re-exported by name.
+"""
+from .geometry import polygon_center_of_mass
+from .integrators import INTEGRATORS, Integrator, get_integrator
+from .orbits import elements_to_state, kepler_state, period, solve_kepler
+from .units import UNITS, UnitSystem, get_units
+from .world import DEFAULT_KINDS, GRAVITY_MODELS, Body, World
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "World", "Body", "DEFAULT_KINDS", "GRAVITY_MODELS",
+    "INTEGRATORS", "Integrator", "get_integrator",
+    "UNITS", "UnitSystem", "get_units",
+    "polygon_center_of_mass",
+    "elements_to_state", "kepler_state", "period", "solve_kepler",
+    "__version__",
+]

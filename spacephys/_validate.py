@@ -1,0 +1,70 @@
+"""Input checks shared by the public API: each error names the field and the offending value."""
+import numbers
+
+import numpy as np
+
+
+def _first_bad(name, arr, bad):
+    idx = tuple(int(i) for i in np.argwhere(bad)[0])
+    where = name + "".join(f"[{i}]" for i in idx)
+    return where, arr[idx]
+
+
+def floats(name, value, shape=None, *, minimum=None, positive=False):
+    """value as a float64 array of the given shape (None entries match any length).
+
+    Raises ValueError naming `name` for non-numbers, wrong shapes, NaN/inf, values below
+    `minimum` or, with positive=True, values <= 0.
+    """
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{name} = {value!r}: expected a number, not text")
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {value!r}: expected numbers") from None
+    if shape is not None:
+        ok = arr.ndim == len(shape) and all(s is None or s == a for s, a in zip(shape, arr.shape))
+        if not ok:
+            want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
+            raise ValueError(f"{name} has shape {arr.shape}, expected {want}")
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        where, v = _first_bad(name, arr, bad)
+        raise ValueError(f"{where} = {v}: must be finite (no NaN or inf)")
+    if minimum is not None:
+        bad = arr < minimum
+        if bad.any():
+            where, v = _first_bad(name, arr, bad)
+            raise ValueError(f"{where} = {v}: must be >= {minimum}")
+    if positive:
+        bad = arr <= 0
+        if bad.any():
+            where, v = _first_bad(name, arr, bad)
+            raise ValueError(f"{where} = {v}: must be > 0")
+    return arr
+
+
+def scalar(name, value, *, minimum=None, positive=False):
+    """A finite float (see floats)."""
+    if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
+        raise ValueError(f"{name} = {value!r}: expected a real number")
+    return float(floats(name, value, (), minimum=minimum, positive=positive))
+
+
+def count(name, value, *, minimum=0):
+    """An integer >= minimum (bools refused)."""
+    if isinstance(value, bool) or not isinstance(value, (numbers.Integral, np.integer)):
+        raise ValueError(f"{name} = {value!r}: expected an integer")
+    if value < minimum:
+        raise ValueError(f"{name} = {value}: must be >= {minimum}")
+    return int(value)
+
+
+def per_body(name, value, k, *, minimum=None):
+    """A scalar broadcast to k bodies or a (k,) array, checked as in floats."""
+    arr = floats(name, value, minimum=minimum)
+    if arr.ndim == 0:
+        return np.full(k, float(arr))
+    if arr.shape != (k,):
+        raise ValueError(f"{name} has shape {arr.shape}, expected a number or ({k},)")
+    return arr

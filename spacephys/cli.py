@@ -1,0 +1,56 @@
+"""The `spacephys` command: run a scene, benchmark against REBOUND."""
+import argparse
+import json
+import sys
+
+from .integrators import INTEGRATORS
+from .scenes import SCENES
+
+
+def _run(args):
+    from .runner import default_progress, run_scene
+    result = run_scene(args.scene, integrator=args.integrator, dt=args.dt, duration=args.duration,
+                       progress=None if args.quiet else default_progress())
+    print(result.summary())
+    return 0
+
+
+def _bench(args):
+    from . import bench
+    results = bench.BENCHMARKS[args.what](quick=args.quick)
+    print(bench.format_table(results))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(results, f, indent=2)
+        print(f"wrote {args.json}")
+    return 0
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="spacephys", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    run = sub.add_parser("run", help="run a scene and print a summary")
+    run.add_argument("scene", nargs="?", default="star_system", choices=list(SCENES))
+    run.add_argument("--integrator", choices=list(INTEGRATORS))
+    run.add_argument("--dt", type=float, help="step [time units]")
+    run.add_argument("--duration", type=float, help="simulated time [time units]")
+    run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.set_defaults(func=_run)
+
+    bench = sub.add_parser("bench", help="benchmark side by side with REBOUND")
+    bench.add_argument("what", choices=["gravity"])
+    bench.add_argument("--quick", action="store_true", help="fewer repeats, smaller cases")
+    bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
+    bench.set_defaults(func=_bench)
+
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except ValueError as err:     # bad input: a message, not a traceback
+        print(f"spacephys {args.command}: error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,105 @@
+"""Accelerations [length/time^2] of every body under one gravity model; arrays in, `out` written.
+
+Models (the integer `model` argument):
+  NONE     no gravity;
+  DIRECT   direct summation F = G m1 m2 / D^2: the bodies listed in `src` (active, massive) pull
+           every body; the bodies in `passive` (test particles, ships, debris) feel but never pull;
+  UNIFORM  a constant field `field` (the seed's `y += gravity` near a planet's surface);
+  CENTRAL  a fixed body of mass `field_mass` at `field` pulls every body; bodies ignore each other.
+Softening is Plummer's: a = G m d / (|d|^2 + eps2)^(3/2). Two bodies at exactly the same point
+(|d|^2 + eps2 == 0) exert no force on each other: the direction is undefined, and a zero keeps
+the state finite instead of NaN.
+"""
+import numba
+import numpy as np
+
+from .._jit import PARALLEL_MIN_PAIRS, kernel
+
+NONE, DIRECT, UNIFORM, CENTRAL = 0, 1, 2, 3
+
+
+@kernel(fast=True)
+def _pull(x, y, z, sx, sy, sz, sm, eps2):
+    """Acceleration / G at (x, y, z) from point masses sm at (sx, sy, sz): three floats."""
+    ax = 0.0
+    ay = 0.0
+    az = 0.0
+    for j in range(sx.size):
+        dx = sx[j] - x
+        dy = sy[j] - y
+        dz = sz[j] - z
+        r2 = dx * dx + dy * dy + dz * dz + eps2
+        d3 = r2 * np.sqrt(r2)
+        # a select, not a branch, so the loop still vectorises; d3 == 0 is the coincident case
+        w = sm[j] / d3 if d3 > 0.0 else 0.0
+        ax += w * dx
+        ay += w * dy
+        az += w * dz
+    return ax, ay, az
+
+
+@kernel(fast=True, parallel=True, inline=True)
+def _pull_all(targets, pos, sx, sy, sz, sm, G, eps2, out):
+    """out[k] = G * pull of the sources on pos[k] for every k in targets; threads when it pays.
+
+    Each target's sum runs in a fixed order on one thread, so the result does not depend on
+    the thread count.
+    """
+    if targets.size * sx.size >= PARALLEL_MIN_PAIRS:
+        for a in numba.prange(targets.size):
+            k = targets[a]
+            ax, ay, az = _pull(pos[k, 0], pos[k, 1], pos[k, 2], sx, sy, sz, sm, eps2)
+            out[k, 0] = G * ax
+            out[k, 1] = G * ay
+            out[k, 2] = G * az
+    else:
+        for a in range(targets.size):
+            k = targets[a]
+            ax, ay, az = _pull(pos[k, 0], pos[k, 1], pos[k, 2], sx, sy, sz, sm, eps2)
+            out[k, 0] = G * ax
+            out[k, 1] = G * ay
+            out[k, 2] = G * az
+
+
+@kernel(parallel=True, inline=True)
+def accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, scratch, out):
+    """Write the gravitational acceleration of every body into out.
+
+    pos : (n, 3) float64 [length]
+    model : int, NONE | DIRECT | UNIFORM | CENTRAL; mass : (n,) float64 [mass]
+    src : (ns,) int64, indices of the bodies that pull (DIRECT); passive : (np,) int64, the rest
+    G : float [length^3 / (mass time^2)]; eps2 : float, Plummer softening squared [length^2]
+    field : (3,) float64, the uniform acceleration (UNIFORM) or the fixed body's position (CENTRAL)
+    field_mass : float, the fixed body's mass (CENTRAL)
+    scratch : (4, ns) float64 for DIRECT, (4, 1) for CENTRAL: the sources' x, y, z, m
+              (exactly that wide, so its rows are contiguous and the inner loop vectorises)
+    out : (n, 3) float64 [length / time^2]
+    """
+    n = pos.shape[0]
+    if model == DIRECT or model == CENTRAL:
+        if model == DIRECT:
+            # gathered into separate contiguous rows so the inner loop loads unit-stride
+            for a in range(src.size):
+                k = src[a]
+                scratch[0, a] = pos[k, 0]
+                scratch[1, a] = pos[k, 1]
+                scratch[2, a] = pos[k, 2]
+                scratch[3, a] = mass[k]
+        else:
+            scratch[0, 0] = field[0]
+            scratch[1, 0] = field[1]
+            scratch[2, 0] = field[2]
+            scratch[3, 0] = field_mass
+        sx, sy, sz, sm = scratch[0], scratch[1], scratch[2], scratch[3]
+        _pull_all(src, pos, sx, sy, sz, sm, G, eps2, out)
+        _pull_all(passive, pos, sx, sy, sz, sm, G, eps2, out)
+    elif model == UNIFORM:
+        for i in range(n):
+            out[i, 0] = field[0]
+            out[i, 1] = field[1]
+            out[i, 2] = field[2]
+    else:
+        for i in range(n):
+            out[i, 0] = 0.0
+            out[i, 1] = 0.0
+            out[i, 2] = 0.0

@@ -1,0 +1,86 @@
+"""Fixed-step integrators driven by coefficient tables; the loop over steps runs inside numba.
+
+Two families serve every fixed-step method of the registry (spacephys.integrators):
+  splitting_steps  drift/kick compositions (symplectic Euler, leapfrog, Yoshida 4/6/8);
+  rk_steps         explicit Runge-Kutta tableaux (explicit Euler, classical RK4).
+Positions and velocities are updated in place; gravity comes from gravity.accelerations.
+"""
+import numpy as np
+
+from .._jit import kernel
+from .gravity import DIRECT, accelerations
+
+
+@kernel
+def _scratch(model, src):
+    # exactly as wide as the source list so gravity's inner loop is unit-stride
+    return np.empty((4, src.size if model == DIRECT else 1))
+
+
+@kernel(parallel=True)
+def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass,
+                    drift, kick, dt, nsteps):
+    """Advance nsteps steps of dt with the drift/kick sequence (drift[s], kick[s]).
+
+    Stage s: pos += drift[s] dt vel, then vel += kick[s] dt a(pos) (skipped where kick[s] == 0).
+    pos, vel : (n, 3) float64, updated in place; mass : (n,) float64; drift, kick : (S,) float64.
+    model ... field_mass : the gravity arguments of gravity.accelerations.
+    """
+    n = pos.shape[0]
+    acc = np.empty((n, 3))
+    scratch = _scratch(model, src)
+    for _ in range(nsteps):
+        for s in range(drift.size):
+            h = drift[s] * dt
+            if h != 0.0:
+                for i in range(n):
+                    pos[i, 0] += h * vel[i, 0]
+                    pos[i, 1] += h * vel[i, 1]
+                    pos[i, 2] += h * vel[i, 2]
+            h = kick[s] * dt
+            if h != 0.0:
+                accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass,
+                              scratch, acc)
+                for i in range(n):
+                    vel[i, 0] += h * acc[i, 0]
+                    vel[i, 1] += h * acc[i, 1]
+                    vel[i, 2] += h * acc[i, 2]
+
+
+@kernel(parallel=True)
+def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass,
+             a, b, dt, nsteps):
+    """Advance nsteps steps of dt with the explicit Runge-Kutta tableau (a, b).
+
+    a : (S, S) float64, strictly lower triangular; b : (S,) float64 weights.
+    Stage s evaluates x_s = x + dt sum_j a[s, j] v_j, v_s = v + dt sum_j a[s, j] a_j, a_s = a(x_s).
+    """
+    n = pos.shape[0]
+    S = b.size
+    kx = np.empty((S, n, 3))     # stage velocities (the derivative of position)
+    kv = np.empty((S, n, 3))     # stage accelerations (the derivative of velocity)
+    x = np.empty((n, 3))
+    scratch = _scratch(model, src)
+    for _ in range(nsteps):
+        for s in range(S):
+            for i in range(n):
+                for c in range(3):
+                    xs = pos[i, c]
+                    vs = vel[i, c]
+                    for j in range(s):
+                        if a[s, j] != 0.0:
+                            xs += dt * a[s, j] * kx[j, i, c]
+                            vs += dt * a[s, j] * kv[j, i, c]
+                    x[i, c] = xs
+                    kx[s, i, c] = vs
+            accelerations(x, model, mass, src, passive, G, eps2, field, field_mass,
+                          scratch, kv[s])
+        for i in range(n):
+            for c in range(3):
+                dx = 0.0
+                dv = 0.0
+                for s in range(S):
+                    dx += b[s] * kx[s, i, c]
+                    dv += b[s] * kv[s, i, c]
+                pos[i, c] += dt * dx
+                vel[i, c] += dt * dv

@@ -1,0 +1,99 @@
+"""Run a scene for a duration and summarise it: steps, wall time, conservation errors."""
+import math
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .scenes import SCENES
+from .world import World
+
+
+@dataclass
+class RunResult:
+    """What a run did: the World at the end and the figures of the summary."""
+    world: World
+    scene: str
+    steps: int
+    wall: float              # seconds spent stepping, compile excluded
+    compile_wall: float      # seconds of the first step (numba compile or cache load)
+    t0: float
+    energy0: float
+    energy: float
+    momentum_error: float    # |P - P0| / sum |m v|
+    angular_momentum0: float
+    angular_momentum: float
+
+    @property
+    def energy_error(self):
+        return abs(self.energy - self.energy0) / abs(self.energy0) if self.energy0 else abs(self.energy)
+
+    @property
+    def angular_momentum_error(self):
+        L0 = self.angular_momentum0
+        return abs(self.angular_momentum - L0) / abs(L0) if L0 else abs(self.angular_momentum)
+
+    def summary(self):
+        w = self.world
+        spec = w.integrator_spec
+        pulls = int(np.count_nonzero(w.active & (w.mass > 0))) if w.gravity == "direct" else 0
+        rate = self.steps / self.wall if self.wall > 0 else float("inf")
+        return "\n".join([
+            f"scene         {self.scene} ({w.dim}D, {w.n} bodies: {pulls} pulling, "
+            f"{w.n - pulls} feeling only; gravity {w.gravity})",
+            f"integrator    {spec.name} (order {spec.order}, "
+            f"{'symplectic' if spec.symplectic else 'not symplectic'}), dt = {w.dt:g}",
+            f"steps         {self.steps} in {self.wall:.3f} s ({rate:,.0f} steps/s); "
+            f"first step incl. compile/cache load {self.compile_wall:.2f} s",
+            f"time          {self.t0:g} -> {w.t:g}",
+            f"energy        {self.energy0:.12g} -> {self.energy:.12g}, "
+            f"relative error {self.energy_error:.2e}",
+            f"momentum      error {self.momentum_error:.2e} of sum |m v|",
+            f"ang. momentum relative error {self.angular_momentum_error:.2e}",
+        ])
+
+
+def _norm_L(w):
+    return float(np.linalg.norm(w.angular_momentum()))
+
+
+def run_scene(name="star_system", *, integrator=None, dt=None, duration=None, progress=None):
+    """Build the scene `name` of scenes.SCENES and run it for `duration` [time].
+
+    integrator, dt : override the scene's; progress : a file to draw a progress bar on.
+    """
+    if name not in SCENES:
+        raise ValueError(f"scene {name!r} is not known; valid: {', '.join(SCENES)}")
+    build, default_duration, default_integrator, default_dt = SCENES[name]
+    w = build(integrator=integrator or default_integrator, dt=default_dt if dt is None else dt)
+    duration = default_duration if duration is None else float(duration)
+    if not math.isfinite(duration) or duration <= 0:
+        raise ValueError(f"duration = {duration}: must be > 0")
+    total = max(1, round(duration / w.dt))
+    t0, E0, P0, L0 = w.t, w.energy(), w.momentum(), _norm_L(w)
+    scale = float(np.sum(w.mass * np.linalg.norm(w.vel, axis=1))) or 1.0
+
+    start = time.perf_counter()
+    w.step(1)
+    compile_wall = time.perf_counter() - start
+    done, chunks = 1, 50
+    start = time.perf_counter()
+    for c in range(1, chunks + 1):
+        n = total * c // chunks - done
+        if n > 0:
+            w.step(n)
+            done += n
+        if progress is not None:
+            bar = "#" * (30 * c // chunks)
+            print(f"\r[{bar:<30}] {100 * c // chunks:3d}%  t = {w.t:.4g}", end="", file=progress,
+                  flush=True)
+    wall = time.perf_counter() - start
+    if progress is not None:
+        print(file=progress)
+    return RunResult(w, name, done, wall, compile_wall, t0, E0, w.energy(),
+                     float(np.linalg.norm(w.momentum() - P0)) / scale, L0, _norm_L(w))
+
+
+def default_progress():
+    return sys.stderr if sys.stderr.isatty() else None

@@ -1,0 +1,114 @@
+"""Structure-of-arrays body storage: live bodies packed at [0, n), capacity that grows by
+doubling, and stable generational ids.
+
+An id is (generation << 32) | slot. Removing a body bumps its slot's generation, so the old id
+turns stale and never names a later body; freed slots are reused first-in first-out, which keeps
+the slot table as large as the most bodies ever alive at once. First-generation ids are 0, 1, 2...
+"""
+import numpy as np
+
+_SLOT_BITS = 32
+_SLOT_MASK = (1 << _SLOT_BITS) - 1
+
+# per-body columns: name -> (trailing shape, dtype)
+_COLUMNS = {
+    "ids": ((), np.int64),
+    "pos": ((3,), np.float64),
+    "vel": ((3,), np.float64),
+    "prev": ((3,), np.float64),     # positions before the latest step, for render interpolation
+    "mass": ((), np.float64),
+    "radius": ((), np.float64),
+    "kind": ((), np.int16),
+    "active": ((), np.bool_),
+}
+
+
+class Bodies:
+    """Per-body columns of length `capacity`; rows [0, n) are the live bodies in insertion order.
+
+    Columns: ids (int64), pos/vel/prev (cap, 3) float64, mass/radius float64, kind int16,
+    active bool. Always 3 components: a 2D world keeps z = 0, so one set of kernels serves both.
+    """
+
+    def __init__(self, capacity=64):
+        capacity = max(int(capacity), 1)
+        self.n = 0
+        for name, (shape, dtype) in _COLUMNS.items():
+            setattr(self, name, np.zeros((capacity,) + shape, dtype=dtype))
+        self.generation = np.zeros(capacity, dtype=np.int64)   # per slot
+        self.index = np.full(capacity, -1, dtype=np.int64)     # per slot: row of its body, -1 free
+        self.slots_used = 0                                    # slots ever handed out
+        self.free = np.zeros(0, dtype=np.int64)                # freed slots, oldest first
+
+    @property
+    def capacity(self):
+        return self.mass.shape[0]
+
+    def _grow(self, need):
+        """Make room for `need` rows, doubling so that growth is amortised O(1) per body."""
+        cap = self.capacity
+        if need <= cap:
+            return
+        new = max(need, 2 * cap)
+        for name in _COLUMNS:
+            old = getattr(self, name)
+            arr = np.zeros((new,) + old.shape[1:], dtype=old.dtype)
+            arr[:self.n] = old[:self.n]
+            setattr(self, name, arr)
+
+    def _grow_slots(self, need):
+        cap = self.generation.shape[0]
+        if need <= cap:
+            return
+        new = max(need, 2 * cap)
+        self.generation = np.concatenate([self.generation, np.zeros(new - cap, np.int64)])
+        self.index = np.concatenate([self.index, np.full(new - cap, -1, np.int64)])
+
+    def add(self, columns):
+        """Append k bodies; columns maps every column name but ids/prev to a (k, ...) array.
+
+        The caller has validated everything, so this cannot fail half-way. Returns (k,) ids.
+        """
+        k = len(columns["mass"])
+        n = self.n
+        self._grow(n + k)
+        reused = self.free[:k]
+        fresh = np.arange(self.slots_used, self.slots_used + (k - reused.size), dtype=np.int64)
+        slots = np.concatenate([reused, fresh])
+        self._grow_slots(self.slots_used + fresh.size)
+        self.free = self.free[reused.size:]
+        self.slots_used += fresh.size
+        ids = (self.generation[slots] << _SLOT_BITS) | slots
+        self.ids[n:n + k] = ids
+        for name, values in columns.items():
+            getattr(self, name)[n:n + k] = values
+        self.prev[n:n + k] = self.pos[n:n + k]
+        self.index[slots] = np.arange(n, n + k)
+        self.n = n + k
+        return ids
+
+    def lookup(self, ids):
+        """Rows of the given ids: (k,) int64, or -1 where an id names no live body."""
+        ids = np.asarray(ids, dtype=np.int64)
+        slots = ids & _SLOT_MASK
+        rows = np.full(ids.shape, -1, dtype=np.int64)
+        ok = (ids >= 0) & (slots < self.slots_used)
+        ok[ok] &= self.generation[slots[ok]] == (ids[ok] >> _SLOT_BITS)
+        rows[ok] = self.index[slots[ok]]
+        return rows
+
+    def remove(self, rows):
+        """Delete the bodies at the given (validated, distinct) rows, keeping the others' order."""
+        n = self.n
+        keep = np.ones(n, dtype=bool)
+        keep[rows] = False
+        slots = self.ids[rows] & _SLOT_MASK
+        self.generation[slots] += 1      # every id that named these bodies is now stale
+        self.index[slots] = -1
+        self.free = np.concatenate([self.free, slots])
+        m = n - len(rows)
+        for name in _COLUMNS:
+            col = getattr(self, name)
+            col[:m] = col[:n][keep]
+        self.n = m
+        self.index[self.ids[:m] & _SLOT_MASK] = np.arange(m)

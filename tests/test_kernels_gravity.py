@@ -1,0 +1,105 @@
+"""The numba gravity and energy kernels against plain numpy, on every model and code path."""
+import numpy as np
+import pytest
+from reference import direct_accelerations, direct_potential
+
+from spacephys._jit import PARALLEL_MIN_PAIRS
+from spacephys.kernels import diagnostics
+from spacephys.kernels.gravity import CENTRAL, DIRECT, NONE, UNIFORM, accelerations
+
+
+def _scene(rng, n, frac_pulling):
+    pos = rng.normal(size=(n, 3))
+    mass = rng.uniform(0.1, 2.0, n)
+    pulls = rng.random(n) < frac_pulling
+    mass[rng.random(n) < 0.2] = 0.0        # some test particles among the passive ones
+    pulls &= mass > 0
+    return pos, mass, pulls
+
+
+def _run(pos, mass, pulls, model, G=1.7, eps2=0.0, field=np.zeros(3), field_mass=0.0):
+    src = np.flatnonzero(pulls).astype(np.int64)
+    passive = np.flatnonzero(~pulls).astype(np.int64)
+    out = np.full((len(mass), 3), np.nan)
+    scratch = np.empty((4, src.size if model == DIRECT else 1))
+    accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, scratch, out)
+    energy = diagnostics.potential_energy(pos, model, mass, src, passive, G, eps2, field,
+                                          field_mass)
+    return out, energy
+
+
+# n = 40 stays on the serial path, n = 400 crosses PARALLEL_MIN_PAIRS onto threads
+@pytest.mark.parametrize("n", [40, 400])
+@pytest.mark.parametrize("eps", [0.0, 0.05])
+def test_direct_matches_numpy(rng, n, eps):
+    assert (40 * 40 < PARALLEL_MIN_PAIRS) and (400 * 200 > PARALLEL_MIN_PAIRS)
+    pos, mass, pulls = _scene(rng, n, 0.6)
+    acc, energy = _run(pos, mass, pulls, DIRECT, eps2=eps * eps)
+    ref = direct_accelerations(pos, mass, pulls, 1.7, eps * eps)
+    assert np.max(np.abs(acc - ref)) <= 1e-12 * np.max(np.abs(ref))
+    ref_energy = direct_potential(pos, mass, pulls, 1.7, eps * eps)
+    assert abs(energy - ref_energy) <= 1e-12 * abs(ref_energy)
+
+
+def test_passive_bodies_feel_but_do_not_pull(rng):
+    pos, mass, _ = _scene(rng, 50, 1.0)
+    pulls = np.zeros(50, bool)
+    pulls[:10] = True
+    acc, _ = _run(pos, mass, pulls, DIRECT)
+    # the pulling bodies' accelerations are those of a scene without the passive ones
+    alone, _ = _run(pos[:10], mass[:10], pulls[:10], DIRECT)
+    assert np.array_equal(acc[:10], alone)
+    assert np.all(np.abs(acc[10:]) > 0)
+
+
+def test_coincident_bodies_exert_no_force_and_stay_finite():
+    pos = np.array([[1.0, 2.0, 3.0], [1.0, 2.0, 3.0], [4.0, 2.0, 3.0]])
+    mass = np.array([1.0, 2.0, 3.0])
+    acc, energy = _run(pos, mass, np.ones(3, bool), DIRECT, G=1.0)
+    # bodies 0 and 1 feel only body 2 (distance 3): G m2 / 9 along +x
+    np.testing.assert_allclose(acc[0], [3.0 / 9.0, 0, 0], rtol=1e-15)
+    np.testing.assert_allclose(acc[1], [3.0 / 9.0, 0, 0], rtol=1e-15)
+    np.testing.assert_allclose(acc[2], [-3.0 / 9.0, 0, 0], rtol=1e-15)
+    assert energy == pytest.approx(-(1.0 * 3.0 + 2.0 * 3.0) / 3.0, rel=1e-15)
+
+
+def test_softening_is_plummer():
+    pos = np.array([[0.0, 0.0, 0.0], [0.3, 0.4, 0.0]])     # |d| = 0.5
+    mass = np.array([2.0, 0.0])
+    acc, _ = _run(pos, mass, mass > 0, DIRECT, G=1.0, eps2=0.12 ** 2)
+    expected = -2.0 * pos[1] / (0.25 + 0.0144) ** 1.5
+    np.testing.assert_allclose(acc[1], expected, rtol=1e-14)
+
+
+@pytest.mark.parametrize("n", [30, 20000])
+def test_central_matches_numpy(rng, n):
+    pos, mass, pulls = _scene(rng, n, 0.5)
+    centre = np.array([0.3, -0.2, 0.1])
+    acc, energy = _run(pos, mass, pulls, CENTRAL, G=2.0, eps2=1e-4, field=centre, field_mass=5.0)
+    # a fixed body: every body feels it the same way, whatever it pulls itself
+    both = np.vstack([centre, pos])
+    m = np.concatenate([[5.0], np.zeros(n)])
+    ref = direct_accelerations(both, m, np.arange(n + 1) == 0, 2.0, 1e-4)[1:]
+    assert np.max(np.abs(acc - ref)) <= 1e-12 * np.max(np.abs(ref))
+    r = np.sqrt(((pos - centre) ** 2).sum(axis=1) + 1e-4)
+    assert energy == pytest.approx(-2.0 * 5.0 * (mass / r).sum(), rel=1e-12)
+
+
+def test_uniform_and_none(rng):
+    pos, mass, pulls = _scene(rng, 20, 0.5)
+    g = np.array([0.0, -9.81, 0.5])
+    acc, energy = _run(pos, mass, pulls, UNIFORM, field=g)
+    assert np.array_equal(acc, np.broadcast_to(g, acc.shape))
+    assert energy == pytest.approx(-(mass * (pos @ g)).sum(), rel=1e-13)
+    acc, energy = _run(pos, mass, pulls, NONE)
+    assert np.array_equal(acc, np.zeros_like(acc)) and energy == 0.0
+
+
+def test_kinetic_energy_is_compensated():
+    # 1e6 terms of 1e-16 after one of 1.0: each is below half an ulp of 1.0, so a plain running
+    # sum (or one whose compensation fastmath optimised away) returns exactly 1.0
+    vel = np.zeros((1_000_001, 3))
+    vel[:, 0] = 1.0
+    mass = np.full(1_000_001, 2e-16)
+    mass[0] = 2.0
+    assert diagnostics.kinetic_energy(vel, mass) == 1.0 + 1e-10
