@@ -1,0 +1,67 @@
+"""The command line end to end, as a user runs it: exit codes, summaries, errors."""
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def spacephys(*args):
+    exe = Path(sys.executable).parent / "spacephys"        # the installed console script
+    return subprocess.run([str(exe), *args], capture_output=True, text=True, cwd=ROOT,
+                          timeout=600)
+
+
+def test_run_prints_a_summary():
+    res = spacephys("run", "figure_eight", "--duration", "6.32591398", "--quiet")
+    assert res.returncode == 0, res.stderr
+    out = res.stdout
+    assert "scene         figure_eight (2D, 3 bodies: 3 pulling" in out
+    assert "integrator    yoshida6 (order 6, symplectic), dt = 0.001" in out
+    assert re.search(r"steps         6326 in [\d.]+ s", out)
+    error = float(re.search(r"energy .* relative error (\S+)", out).group(1))
+    assert error < 1e-12          # yoshida6 at dt = 1e-3 over one period of the figure-eight
+
+
+def test_run_overrides_integrator_and_dt():
+    res = spacephys("run", "kepler", "--integrator", "euler", "--dt", "0.01", "--duration", "6.3",
+                    "--quiet")
+    assert res.returncode == 0, res.stderr
+    assert "integrator    euler (order 1, not symplectic), dt = 0.01" in res.stdout
+    assert "steps         630 in" in res.stdout
+    error = float(re.search(r"energy .* relative error (\S+)", res.stdout).group(1))
+    assert error > 1e-2           # the textbook Euler visibly loses energy
+
+
+@pytest.mark.parametrize("args,message", [
+    (["run", "kepler", "--dt", "-1"], "spacephys run: error: dt = -1.0: must be > 0"),
+    (["run", "kepler", "--duration", "0"], "spacephys run: error: duration = 0.0: must be > 0"),
+    (["run", "kepler", "--duration", "nan"], "spacephys run: error: duration = nan: must be > 0"),
+    (["run", "jupiter"], "invalid choice: 'jupiter'"),
+    (["run", "--integrator", "ias15"], "invalid choice: 'ias15'"),
+    (["bench", "everything"], "invalid choice: 'everything'"),
+])
+def test_bad_arguments_exit_2_without_traceback(args, message):
+    res = spacephys(*args)
+    assert res.returncode == 2
+    assert message in res.stderr
+    assert "Traceback" not in res.stderr
+
+
+def test_readme_quickstart_runs_as_pasted():
+    text = (ROOT / "README.md").read_text()
+    block = re.search(r"<!-- quickstart -->\s*```python\n(.*?)```", text, re.S).group(1)
+    res = subprocess.run([sys.executable, "-c", block], capture_output=True, text=True,
+                         cwd=ROOT, timeout=600)
+    assert res.returncode == 0, res.stderr
+    assert "energy error" in res.stdout
+
+
+def test_readme_commands_are_what_ci_runs():
+    readme = (ROOT / "README.md").read_text()
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert "python3.11 dev.py test" in ci and "python3.11 dev.py test" in readme
+    assert "python3.11 dev.py run" in readme
