@@ -341,7 +341,9 @@ class World:
 
     def copy(self):
         """An independent deep copy (same ids, state, time and settings)."""
-        return copy.deepcopy(self)
+        # the integrator spec is immutable and shared: a copied (writeable) table would make
+        # numba compile the kernels a second time for a different array type
+        return copy.deepcopy(self, memo={id(self._spec): self._spec})
 
     # ---------------------------------------------------------------- stepping
     def _source_lists(self):

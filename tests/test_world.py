@@ -86,6 +86,15 @@ def test_step_n_equals_n_single_steps():
     assert np.array_equal(a.pos, b.pos) and np.array_equal(a.vel, b.vel) and a.t == b.t
 
 
+def test_copy_is_independent_and_shares_the_method():
+    a = kepler(0.5, integrator="yoshida4", dt=1e-2)
+    b = a.copy()
+    b.step(10)
+    assert a.t == 0 and b.t == pytest.approx(0.1)
+    assert not np.array_equal(a.pos, b.pos)
+    assert b.integrator_spec is a.integrator_spec     # no second compilation for a copy
+
+
 def test_time_does_not_accumulate_rounding():
     w = sp.World(dt=0.1)
     w.add_body(1.0, (0, 0))
