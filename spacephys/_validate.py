@@ -19,9 +19,13 @@ def floats(name, value, shape=None, *, minimum=None, positive=False):
     if isinstance(value, (str, bytes)):
         raise ValueError(f"{name} = {value!r}: expected a number, not text")
     try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} = {value!r}: expected numbers") from None
+        raw = np.asarray(value)
+        # text, bools, complex numbers and objects would convert silently; refuse them
+        if raw.dtype.kind not in "iuf":
+            raise TypeError
+        arr = np.array(raw, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name} = {value!r}: expected real numbers") from None
     if shape is not None:
         ok = arr.ndim == len(shape) and all(s is None or s == a for s, a in zip(shape, arr.shape))
         if not ok:
@@ -46,14 +50,19 @@ def floats(name, value, shape=None, *, minimum=None, positive=False):
 
 def scalar(name, value, *, minimum=None, positive=False):
     """A finite float (see floats)."""
-    if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.floating,
+                                                                    np.integer)):
         raise ValueError(f"{name} = {value!r}: expected a real number")
     return float(floats(name, value, (), minimum=minimum, positive=positive))
 
 
 def count(name, value, *, minimum=0):
     """An integer >= minimum (bools refused)."""
-    if isinstance(value, bool) or not isinstance(value, (numbers.Integral, np.integer)):
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, np.integer)):
         raise ValueError(f"{name} = {value!r}: expected an integer")
     if value < minimum:
         raise ValueError(f"{name} = {value}: must be >= {minimum}")

@@ -50,6 +50,9 @@ def main(argv=None):
     except ValueError as err:     # bad input: a message, not a traceback
         print(f"spacephys {args.command}: error: {err}", file=sys.stderr)
         return 2
+    except FloatingPointError as err:     # the integration broke down
+        print(f"spacephys {args.command}: failed: {err}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ Every fixed-step method here runs through one of two kernels (kernels/integrate.
 drift/kick splittings and explicit Runge-Kutta tableaux. Adding a method is adding a table.
 """
 from dataclasses import dataclass, field
+from fractions import Fraction
 
 import numpy as np
 
@@ -14,8 +15,10 @@ class Integrator:
 
     name : registry key; order : global order of accuracy; symplectic : preserves phase-space
     volume (bounded energy error, no drift); adaptive : chooses its own substeps;
-    family : "splitting" (drift, kick tables) or "rk" (a, b tableau);
-    evaluations : force evaluations per step; reference : where the coefficients come from.
+    family : "splitting" (drift, kick tables), "rk" (a, b tableau), "gauss_radau" (nodes and
+    the g <-> b conversions) or "wisdom_holman" (Kepler drifts about the heaviest body);
+    evaluations : force evaluations per step (per corrector sweep for Gauss-Radau);
+    reference : where the method comes from; corrector : order of the symplectic corrector.
     """
     name: str
     order: int
@@ -28,6 +31,10 @@ class Integrator:
     kick: np.ndarray = field(default=None, repr=False)
     a: np.ndarray = field(default=None, repr=False)
     b: np.ndarray = field(default=None, repr=False)
+    nodes: np.ndarray = field(default=None, repr=False)
+    c_gb: np.ndarray = field(default=None, repr=False)
+    d_bg: np.ndarray = field(default=None, repr=False)
+    corrector: int = 0
 
 
 def _frozen(values):
@@ -62,6 +69,39 @@ def _rk(name, order, a, b, reference):
                       a=_frozen(a), b=b)
 
 
+# The seven Gauss-Radau spacings on (0, 1] (Everhart 1985): with tau = 0 they are the nodes of the
+# 8-point Radau quadrature, i.e. the roots of (P7(x) + P8(x)) / (1 + x) at x = 2 tau - 1 (checked
+# in the tests).
+_RADAU_NODES = (0.0562625605369221464656521910, 0.1802406917368923649875799428,
+                0.3526247171131696373739078209, 0.5471536263305553830014485577,
+                0.7342101772154105315232106546, 0.8853209468390957680903597629,
+                0.9775206135612875018911745004)
+
+
+def _gauss_radau(name):
+    """Tables relating the Newton form a0 + sum_j g_j tau prod_{m<j} (tau - h_m) of the step's
+    acceleration polynomial to its power form a0 + sum_k b_k tau^k, expanded in exact rational
+    arithmetic from the (binary) node values and rounded once."""
+    h = [Fraction(x) for x in _RADAU_NODES]
+    C = [[Fraction(0)] * 7 for _ in range(7)]      # C[j][k]: tau^(k+1) in the j-th Newton term
+    poly = [Fraction(1)]                              # prod (tau - h_m), lowest power first
+    for j in range(7):
+        for k, coeff in enumerate(poly):
+            C[j][k] = coeff                           # times tau: power k + 1 -> b index k
+        poly = [Fraction(0)] + poly                   # multiply by (tau - h_j)
+        for k in range(len(poly) - 1):
+            poly[k] -= h[j] * poly[k + 1]
+    D = [[Fraction(0)] * 7 for _ in range(7)]         # C^-1, lower triangular as C is
+    for i in range(7):
+        for j in range(i + 1):
+            D[i][j] = ((i == j) - sum(C[i][m] * D[m][j] for m in range(j, i))) / C[i][i]
+    return Integrator(name, 15, False, True, "gauss_radau", 7,
+                      "Everhart (1985); Rein & Spiegel, MNRAS 446 (2015) 1424; step criterion of "
+                      "Pham, Rein & Spiegel, OJAp (2024)",
+                      nodes=_frozen(_RADAU_NODES), c_gb=_frozen([[float(x) for x in r] for r in C]),
+                      d_bg=_frozen([[float(x) for x in r] for r in D]))
+
+
 _YOSHIDA = "H. Yoshida, Construction of higher order symplectic integrators, Phys. Lett. A 150 (1990) 262"
 
 _ALL = [
@@ -86,16 +126,24 @@ _ALL = [
                         -0.158240635368243e0, -0.144485223686048e1, 0.253693336566229e0,
                         0.914844246229740e0],
                        _YOSHIDA + ", Table 2, solution D"),
+    _gauss_radau("gauss_radau"),
+    # order 2 in dt, but the error is epsilon dt^2 with epsilon the planet/star mass ratio; with
+    # the corrector epsilon dt^4 + epsilon^2 dt^2
+    Integrator("wisdom_holman", 2, True, False, "wisdom_holman", 1,
+               "Wisdom & Holman, AJ 102 (1991) 1528, in Jacobi coordinates"),
+    Integrator("wisdom_holman_corrected", 2, True, False, "wisdom_holman", 1,
+               "Wisdom & Holman (1991) with the third-order symplectic corrector of Wisdom, "
+               "Holman & Touma, Fields Inst. Commun. 10 (1996) 217", corrector=3),
 ]
 
 INTEGRATORS = {spec.name: spec for spec in _ALL}
 
 
 def get_integrator(name):
-    """The spec registered under name; ValueError listing the valid names otherwise."""
-    if isinstance(name, Integrator):
+    """The spec registered under name (or a spec of the registry itself); ValueError listing
+    the valid names otherwise."""
+    if isinstance(name, Integrator) and INTEGRATORS.get(name.name) is name:
         return name
-    try:
+    if isinstance(name, str) and name in INTEGRATORS:
         return INTEGRATORS[name]
-    except (KeyError, TypeError):
-        raise ValueError(f"integrator={name!r} is not known; valid: {', '.join(INTEGRATORS)}") from None
+    raise ValueError(f"integrator={name!r} is not known; valid: {', '.join(INTEGRATORS)}")

@@ -83,6 +83,57 @@ def star_system(*, asteroids=2000, seed=1, dim=2, **world):
     return w
 
 
+# Keplerian elements of the planets at J2000 (E. M. Standish, "Keplerian elements for approximate
+# positions of the major planets", JPL/SSD, Table 1): a [AU], e, I, L, long. of perihelion,
+# long. of ascending node [deg], ecliptic frame; masses [solar masses] from the IAU 2015 nominal
+# values (Earth: the Earth-Moon barycentre).
+PLANETS = {
+    "mercury": (0.38709927, 0.20563593, 7.00497902, 252.25032350, 77.45779628, 48.33076593, 1.6601e-7),
+    "venus": (0.72333566, 0.00677672, 3.39467605, 181.97909950, 131.60246718, 76.67984255, 2.4478e-6),
+    "earth": (1.00000261, 0.01671123, -0.00001531, 100.46457166, 102.93768193, 0.0, 3.0404e-6),
+    "mars": (1.52371034, 0.09339410, 1.84969142, -4.55343205, -23.94362959, 49.55953891, 3.2272e-7),
+    "jupiter": (5.20288700, 0.04838624, 1.30439695, 34.39644051, 14.72847983, 100.47390909, 9.5479e-4),
+    "saturn": (9.53667594, 0.05386179, 2.48599187, 49.95424423, 92.59887831, 113.66242448, 2.8589e-4),
+    "uranus": (19.18916464, 0.04725744, 0.77263783, 313.23810451, 170.95427630, 74.01692503, 4.3662e-5),
+    "neptune": (30.06992276, 0.00859048, 1.77004347, -55.12002969, 44.96476227, 131.78422574, 5.1514e-5),
+}
+
+
+def solar_system(planets=tuple(PLANETS), **world):
+    """The Sun and planets at J2000 from their Keplerian elements, heliocentric elements turned
+    into barycentric state vectors; units au-msun-yr (G from the Gaussian constant)."""
+    world.setdefault("units", "au-msun-yr")
+    w = World(dim=3, **world)
+    w.add_body(1.0, np.zeros(3), radius=0.00465, kind="star")
+    for name in planets:
+        a, e, inc, L, varpi, node, m = PLANETS[name]
+        omega, M = np.radians(varpi - node), np.radians(L - varpi)
+        pos, vel = elements_to_state(w.G * (1.0 + m), a, e, np.radians(inc), np.radians(node),
+                                     omega, M=M)
+        w.add_body(m, pos, vel, kind="planet")
+    w.move_to_center_of_mass()
+    return w
+
+
+def outer_solar_system(**world):
+    """Sun (with the inner planets' mass), Jupiter, Saturn, Uranus, Neptune at 1994-09-05: the
+    initial values of Hairer, Lubich & Wanner, Geometric Numerical Integration (2006), I.2.4,
+    positions [AU] and velocities [AU/day] turned to AU/yr; units au-msun-yr."""
+    world.setdefault("units", "au-msun-yr")
+    w = World(dim=3, **world)
+    masses = [1.00000597682, 0.000954786104043, 0.000285583733151, 0.0000437273164546,
+              0.0000517759138449]
+    pos = [[0.0, 0.0, 0.0], [-3.5023653, -3.8169847, -1.5507963],
+           [9.0755314, -3.0458353, -1.6483708], [8.3101420, -16.2901086, -7.2521278],
+           [11.4707666, -25.7294829, -10.8169456]]
+    vel = np.array([[0.0, 0.0, 0.0], [0.00565429, -0.00412490, -0.00190589],
+                    [0.00168318, 0.00483525, 0.00192462], [0.00354178, 0.00137102, 0.00055029],
+                    [0.00288930, 0.00114527, 0.00039677]]) * 365.25
+    w.add_bodies(masses, pos, vel, kind=["star"] + ["planet"] * 4)
+    w.move_to_center_of_mass()
+    return w
+
+
 # Scenes `spacephys run` knows: name -> (function building the World, duration [time],
 # integrator and dt suited to it). The Pythagorean problem waits for the adaptive integrator:
 # its close encounters defeat any fixed step.

@@ -33,6 +33,7 @@ class Bodies:
     def __init__(self, capacity=64):
         capacity = max(int(capacity), 1)
         self.n = 0
+        self.columns = dict(_COLUMNS)
         for name, (shape, dtype) in _COLUMNS.items():
             setattr(self, name, np.zeros((capacity,) + shape, dtype=dtype))
         self.generation = np.zeros(capacity, dtype=np.int64)   # per slot
@@ -44,13 +45,21 @@ class Bodies:
     def capacity(self):
         return self.mass.shape[0]
 
+    def ensure_column(self, name, shape, dtype=np.float64):
+        """Add a per-body column (zeros) that grows, compacts and copies with the others;
+        integrators keep per-body state this way (Gauss-Radau's polynomial, compensations)."""
+        if name not in self.columns:
+            self.columns[name] = (tuple(shape), dtype)
+            setattr(self, name, np.zeros((self.capacity,) + tuple(shape), dtype=dtype))
+        return getattr(self, name)
+
     def _grow(self, need):
         """Make room for `need` rows, doubling so that growth is amortised O(1) per body."""
         cap = self.capacity
         if need <= cap:
             return
         new = max(need, 2 * cap)
-        for name in _COLUMNS:
+        for name in self.columns:
             old = getattr(self, name)
             arr = np.zeros((new,) + old.shape[1:], dtype=old.dtype)
             arr[:self.n] = old[:self.n]
@@ -65,9 +74,9 @@ class Bodies:
         self.index = np.concatenate([self.index, np.full(new - cap, -1, np.int64)])
 
     def add(self, columns):
-        """Append k bodies; columns maps every column name but ids/prev to a (k, ...) array.
-
-        The caller has validated everything, so this cannot fail half-way. Returns (k,) ids.
+        """Append k bodies; columns maps column names to (k, ...) arrays (ids and prev are set
+        here; columns not given start at zero). The caller has validated everything, so this
+        cannot fail half-way. Returns (k,) ids.
         """
         k = len(columns["mass"])
         n = self.n
@@ -79,9 +88,9 @@ class Bodies:
         self.free = self.free[reused.size:]
         self.slots_used += fresh.size
         ids = (self.generation[slots] << _SLOT_BITS) | slots
+        for name in self.columns:
+            getattr(self, name)[n:n + k] = columns.get(name, 0)
         self.ids[n:n + k] = ids
-        for name, values in columns.items():
-            getattr(self, name)[n:n + k] = values
         self.prev[n:n + k] = self.pos[n:n + k]
         self.index[slots] = np.arange(n, n + k)
         self.n = n + k
@@ -107,7 +116,7 @@ class Bodies:
         self.index[slots] = -1
         self.free = np.concatenate([self.free, slots])
         m = n - len(rows)
-        for name in _COLUMNS:
+        for name in self.columns:
             col = getattr(self, name)
             col[:m] = col[:n][keep]
         self.n = m

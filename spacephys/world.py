@@ -1,5 +1,6 @@
 """World: the game-facing object holding bodies, the gravity model and the integrator."""
 import copy
+import warnings
 from collections import namedtuple
 
 import numpy as np
@@ -7,16 +8,23 @@ import numpy as np
 from . import _validate as check
 from .integrators import get_integrator
 from .kernels import diagnostics
+from .kernels import gauss_radau as gr
 from .kernels.gravity import CENTRAL, DIRECT, NONE, UNIFORM
 from .kernels.integrate import rk_steps, splitting_steps
+from .kernels.wisdom_holman import wisdom_holman_steps
 from .state import Bodies
 from .units import get_units
 
 GRAVITY_MODELS = {"none": NONE, "direct": DIRECT, "uniform": UNIFORM, "central": CENTRAL}
+STEP_CONTROLS = ("auto", "pulling", "all")
+# kinds whose bodies feel gravity but do not pull unless told to (active=True): their mass is
+# for thrust and collisions, and their pull on planets would only cost time
+PASSIVE_KINDS = ("ship", "missile", "debris")
 DEFAULT_KINDS = ("body", "star", "planet", "moon", "asteroid", "ship", "missile", "debris")
 
-Body = namedtuple("Body", "id pos vel mass radius kind active")
-Body.__doc__ = "A copy of one body's state: id, pos/vel (dim,), mass, radius, kind name, active."
+Body = namedtuple("Body", "id pos vel mass radius kind active pulls")
+Body.__doc__ = ("A copy of one body's state: id, pos/vel (dim,), mass, radius, kind name, "
+                "active (may pull) and pulls (active and massive).")
 
 
 def _readonly(arr):
@@ -34,7 +42,20 @@ class World:
     units : "game" (G = 1), "si" (G = 6.6743e-11), "au-msun-yr" (G = 39.4769...)
     G : float >= 0, overrides the units' G [length^3 / (mass time^2)]
     integrator : a name of spacephys.INTEGRATORS
-    dt : float > 0, the step [time]
+    dt : float > 0, the step [time]; for an adaptive integrator the output interval: step(n)
+         lands exactly on n * dt, taking as many substeps as the accuracy needs
+    tolerance : float >= 0, the adaptive integrator's error parameter (1e-9 gives machine
+                precision for Gauss-Radau; 0 turns adaptivity off: steps of min(dt, max_step))
+    max_step : float > 0 or None, longest adaptive substep (so that thrust changes, collisions
+               and frame boundaries are not stepped over) [time]
+    min_step : float >= 0, shortest adaptive substep; reaching it warns, since accuracy is no
+               longer controlled [time]
+    step_control : "auto" | "pulling" | "all", which bodies set the adaptive step. "pulling":
+               only the bodies that pull, so test particles and passive ships never change
+               their trajectories (the passive bodies are still iterated to convergence within
+               those steps). "all": every body. "auto" (default): "pulling" when two or more
+               bodies pull under direct gravity, else "all" (a lone star has no dynamics of its
+               own to set a step)
     softening : float >= 0, Plummer softening length [length]
     gravity : "direct" (mutual, bodies of mass 0 or passive feel but do not pull),
               "uniform" (a constant field g), "central" (a fixed body central_mass at
@@ -47,15 +68,16 @@ class World:
 
     def __init__(self, dim=2, *, units="game", G=None, integrator="leapfrog", dt=1 / 240,
                  softening=0.0, gravity="direct", g=None, central_mass=None, central_pos=None,
+                 tolerance=1e-9, max_step=None, min_step=0.0, step_control="auto",
                  max_substeps=16, capacity=64):
-        if dim not in (2, 3) or isinstance(dim, bool):
-            raise ValueError(f"dim = {dim!r}: must be 2 or 3")
+        if isinstance(dim, bool) or not isinstance(dim, (int, np.integer)) or dim not in (2, 3):
+            raise ValueError(f"dim = {dim!r}: must be the integer 2 or 3")
         unit_system = get_units(units)
         G = unit_system.G if G is None else check.scalar("G", G, minimum=0.0)
         spec = get_integrator(integrator)
         dt = check.scalar("dt", dt, positive=True)
         softening = check.scalar("softening", softening, minimum=0.0)
-        if gravity not in GRAVITY_MODELS:
+        if not isinstance(gravity, str) or gravity not in GRAVITY_MODELS:
             raise ValueError(f"gravity={gravity!r} is not known; valid: {', '.join(GRAVITY_MODELS)}")
         field = np.zeros(3)
         field_mass = 0.0
@@ -74,10 +96,14 @@ class World:
         elif central_mass is not None or central_pos is not None:
             raise ValueError(f"central_mass/central_pos are only used with gravity='central' "
                              f"(gravity={gravity!r})")
-        self.max_substeps = check.count("max_substeps", max_substeps, minimum=1)
+        max_substeps = check.count("max_substeps", max_substeps, minimum=1)
         capacity = check.count("capacity", capacity, minimum=1)
+        tolerance, max_step, min_step = self._adaptive_settings(tolerance, max_step, min_step)
+        step_control = self._checked_step_control(step_control)
 
-        self._dim = dim
+        self._dim = int(dim)
+        self._max_substeps = max_substeps
+        self._step_control = step_control
         self._units = unit_system
         self._G = G
         self._spec = spec
@@ -94,6 +120,11 @@ class World:
         self._steps = 0
         self._accumulator = 0.0
         self.dropped_time = 0.0         # frame time advance() dropped to stay real-time
+        # adaptive integrators: [tolerance, max_step, min_step, next step, step the per-body
+        # polynomials are scaled to, have a prediction] and counters (see kernels/gauss_radau.py)
+        self._adaptive = np.array([tolerance, max_step, min_step, min(dt, max_step),
+                                   min(dt, max_step), 0.0])
+        self._adaptive_stats = np.zeros(5, dtype=np.int64)
 
     # ---------------------------------------------------------------- settings
     @property
@@ -136,10 +167,80 @@ class World:
     @integrator.setter
     def integrator(self, name):
         self._spec = get_integrator(name)
+        # switching methods voids the old one's carried state (prediction, step proposal)
+        self._adaptive[3:5] = min(self._dt, self._adaptive[1])
+        self._adaptive[5] = 0.0
 
     @property
     def integrator_spec(self):
         return self._spec
+
+    @property
+    def max_substeps(self):
+        """Most steps one advance() call may take; the rest of a long frame is dropped."""
+        return self._max_substeps
+
+    @max_substeps.setter
+    def max_substeps(self, value):
+        self._max_substeps = check.count("max_substeps", value, minimum=1)
+
+    @staticmethod
+    def _checked_step_control(value):
+        if not isinstance(value, str) or value not in STEP_CONTROLS:
+            raise ValueError(f"step_control={value!r} is not known; valid: "
+                             f"{', '.join(STEP_CONTROLS)}")
+        return value
+
+    @property
+    def step_control(self):
+        """Which bodies set an adaptive integrator's step: "auto", "pulling" or "all"."""
+        return self._step_control
+
+    @step_control.setter
+    def step_control(self, value):
+        self._step_control = self._checked_step_control(value)
+
+    @staticmethod
+    def _adaptive_settings(tolerance, max_step, min_step):
+        tolerance = check.scalar("tolerance", tolerance, minimum=0.0)
+        max_step = np.inf if max_step is None else check.scalar("max_step", max_step, positive=True)
+        min_step = check.scalar("min_step", min_step, minimum=0.0)
+        if min_step > max_step:
+            raise ValueError(f"min_step = {min_step} is larger than max_step = {max_step}")
+        return tolerance, max_step, min_step
+
+    @property
+    def tolerance(self):
+        return float(self._adaptive[0])
+
+    @tolerance.setter
+    def tolerance(self, value):
+        self._adaptive[0] = self._adaptive_settings(value, None, 0.0)[0]
+
+    @property
+    def max_step(self):
+        return None if np.isinf(self._adaptive[1]) else float(self._adaptive[1])
+
+    @max_step.setter
+    def max_step(self, value):
+        _, self._adaptive[1], _ = self._adaptive_settings(0.0, value, self._adaptive[2])
+
+    @property
+    def min_step(self):
+        return float(self._adaptive[2])
+
+    @min_step.setter
+    def min_step(self, value):
+        max_step = None if np.isinf(self._adaptive[1]) else self._adaptive[1]
+        _, _, self._adaptive[2] = self._adaptive_settings(0.0, max_step, value)
+
+    @property
+    def integrator_stats(self):
+        """Counters of the adaptive integrator: substeps taken, rejected, at min_step, and
+        corrector sweeps that did not converge."""
+        s = self._adaptive_stats
+        return {"steps": int(s[gr.STEPS]), "rejected": int(s[gr.REJECTED]),
+                "at_min_step": int(s[gr.AT_MIN_STEP]), "not_converged": int(s[gr.NOT_CONVERGED])}
 
     @property
     def softening(self):
@@ -170,6 +271,8 @@ class World:
         return int(self._kind_codes(name, 1, "kind")[0])
 
     def _kind_codes(self, kind, k, field):
+        if isinstance(kind, np.ndarray) and kind.ndim == 0:
+            kind = kind.item()
         names = [kind] * k if isinstance(kind, (str, int, np.integer)) else list(kind)
         if len(names) != k:
             raise ValueError(f"{field} has {len(names)} entries, expected {k}")
@@ -228,14 +331,23 @@ class World:
 
     @property
     def active(self):
-        """(n,) bool: True where a massive body pulls others (passive bodies only feel)."""
+        """(n,) bool: the bodies allowed to pull (by default all but ships, missiles and
+        debris); w.pulls says which actually do."""
         return _readonly(self._b.active[:self._b.n])
+
+    @property
+    def pulls(self):
+        """(n,) bool: True where a body pulls others, i.e. is active and has mass; the others
+        (test particles, passive ships) feel gravity only."""
+        b = self._b
+        return b.active[:b.n] & (b.mass[:b.n] > 0)
 
     def add_body(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None):
         """Add one body; returns its id.
 
         mass [mass] >= 0 (0: a test particle); pos, vel : (dim,); radius [length] >= 0;
-        kind : a declared kind name or code; active : pulls others (default: mass > 0).
+        kind : a declared kind name or code; active : may pull others (it does when it has
+        mass); default True, except for the kinds ship, missile and debris.
         """
         pos = check.floats("pos", pos, (self._dim,))
         vel = np.zeros(self._dim) if vel is None else check.floats("vel", vel, (self._dim,))
@@ -250,8 +362,8 @@ class World:
         """Add k bodies at once; returns their (k,) int64 ids.
 
         mass : number or (k,); pos, vel : (k, dim); radius : number or (k,);
-        kind : one name/code or k of them; active : None (mass > 0), a bool or (k,) bools.
-        Everything is checked before anything is added.
+        kind : one name/code or k of them; active : None (by kind, see add_body), a bool or
+        (k,) bools. Everything is checked before anything is added.
         """
         pos = check.floats("pos", pos, (None, self._dim))
         k = pos.shape[0]
@@ -260,10 +372,11 @@ class World:
         radius = check.per_body("radius", radius, k, minimum=0.0)
         codes = self._kind_codes(kind, k, "kind")
         if active is None:
-            act = mass > 0
+            passive_codes = [self._kinds.index(k) for k in PASSIVE_KINDS if k in self._kinds]
+            act = ~np.isin(codes, passive_codes)
         else:
             act = np.asarray(active)
-            if act.dtype != np.bool_ or act.shape not in ((), (k,)):
+            if act.dtype != np.bool_ or act.shape not in ((), (k,)):  # no 0/1 ints: typo guard
                 raise ValueError(f"active = {active!r}: must be None, a bool or {k} bools")
             act = np.broadcast_to(act, (k,))
         p3 = np.zeros((k, 3))
@@ -289,7 +402,11 @@ class World:
         return int(rows[0]) if scalar else rows
 
     def __contains__(self, body_id):
-        return np.ndim(body_id) == 0 and int(self._b.lookup([body_id])[0]) >= 0
+        if isinstance(body_id, bool) or not isinstance(body_id, (int, np.integer)):
+            return False
+        if not 0 <= body_id <= np.iinfo(np.int64).max:
+            return False
+        return int(self._b.lookup([body_id])[0]) >= 0
 
     def get(self, body_id):
         """A copy of one body's state as a Body namedtuple."""
@@ -297,7 +414,7 @@ class World:
         b = self._b
         return Body(int(b.ids[i]), b.pos[i, :self._dim].copy(), b.vel[i, :self._dim].copy(),
                     float(b.mass[i]), float(b.radius[i]), self._kinds[b.kind[i]],
-                    bool(b.active[i]))
+                    bool(b.active[i]), bool(b.active[i] and b.mass[i] > 0))
 
     def set_body(self, body_id, *, pos=None, vel=None, mass=None, radius=None, kind=None,
                  active=None):
@@ -330,6 +447,10 @@ class World:
                 col[i] = value
         if "pos" in new:
             b.prev[i] = b.pos[i]
+        # a jump in the state voids its rounding compensation
+        for name, key in (("csx", "pos"), ("csv", "vel")):
+            if key in new and name in b.columns:
+                getattr(b, name)[i] = 0.0
         if "mass" in new or "active" in new:
             self._sources = None
 
@@ -367,20 +488,88 @@ class World:
         if spec.family == "splitting":
             splitting_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.drift,
                             spec.kick, self._dt, nsteps)
-        else:
+        elif spec.family == "rk":
             rk_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.a, spec.b,
                      self._dt, nsteps)
+        elif spec.family == "gauss_radau":
+            self._run_gauss_radau(nsteps)
+        else:
+            self._run_wisdom_holman(nsteps)
+
+    def _run_wisdom_holman(self, nsteps):
+        if self._model != DIRECT:
+            raise ValueError(f"integrator {self._spec.name!r} needs gravity='direct' with a "
+                             f"dominant body among the bodies (gravity={self._gravity!r})")
+        b = self._b
+        n = b.n
+        args = self._gravity_args()
+        src, passive = args[2], args[3]
+        if src.size == 0:
+            order = np.arange(n, dtype=np.int64)
+            m = np.zeros(n)
+        else:
+            # the heaviest body is the centre; the other pulling bodies follow in their order
+            # (add planets inside out: each Jacobi orbit is about the bodies before it), then
+            # the passive ones, which do not move the Jacobi frames
+            central = src[np.argmax(b.mass[src])]
+            order = np.concatenate([[central], src[src != central], passive]).astype(np.int64)
+            m = np.where(np.isin(order, src), b.mass[order], 0.0)
+        saved = b.pos[:n].copy(), b.vel[:n].copy()
+        if not wisdom_holman_steps(b.pos[:n], b.vel[:n], *args, order, m, self._dt, nsteps,
+                                   self._spec.corrector > 0):
+            b.pos[:n], b.vel[:n] = saved
+            raise FloatingPointError(
+                f"{self._spec.name}: a Kepler drift did not converge: a body sits at the centre "
+                f"of mass of the bodies before it (its Jacobi orbit is singular), or the state "
+                f"is NaN. The state is that at t = {self.t:g}. Wisdom-Holman is for scenes "
+                f"with one dominant mass; use gauss_radau or yoshida6 otherwise.")
+
+    def _run_gauss_radau(self, nsteps):
+        b = self._b
+        n = b.n
+        cols = [b.ensure_column(name, shape)[:n] for name, shape in
+                (("csx", (3,)), ("csv", (3,)), ("gr_b", (7, 3)), ("gr_e", (7, 3)))]
+        args = self._gravity_args()
+        src, passive = args[2], args[3]
+        pulling = self._model == DIRECT and (
+            self.step_control == "pulling" and src.size
+            or self.step_control == "auto" and src.size >= 2)
+        if pulling:
+            control, riders = src, passive
+        else:
+            control, riders = np.arange(n, dtype=np.int64), passive[:0]
+        spec = self._spec
+        stats = self._adaptive_stats
+        before = stats.copy()
+        done = gr.gauss_radau_steps(b.pos[:n], b.vel[:n], *args, *cols, control, riders,
+                                    spec.nodes, spec.c_gb, spec.d_bg, self._dt, nsteps,
+                                    self._adaptive, stats)
+        if stats[gr.FAILED]:
+            stats[gr.FAILED] = 0
+            self._steps += done          # the state is that of the last completed interval
+            raise FloatingPointError(
+                f"gauss_radau: the step shrank below the resolution of time or became NaN "
+                f"after t = {self.t:g} (next step {self._adaptive[3]:.3g}); bodies may have "
+                f"collided. The state is that at t = {self.t:g}. Set min_step, or soften "
+                f"gravity.")
+        if stats[gr.AT_MIN_STEP] > before[gr.AT_MIN_STEP]:
+            warnings.warn(f"gauss_radau: {stats[gr.AT_MIN_STEP] - before[gr.AT_MIN_STEP]} "
+                          f"substeps were held at min_step = {self._adaptive[2]:g}; the error "
+                          f"is no longer controlled there", RuntimeWarning, stacklevel=3)
 
     def step(self, n=1):
         """Advance n steps of dt, the loop inside numba; returns the new time."""
         n = check.count("n", n)
         b = self._b
-        if n and b.n:
-            if n > 1:
-                self._run(n - 1)
-            b.prev[:b.n] = b.pos[:b.n]
-            self._run(1)
-        self._steps += n
+        if not (n and b.n):
+            self._steps += n
+            return self.t
+        if n > 1:
+            self._run(n - 1)
+            self._steps += n - 1
+        b.prev[:b.n] = b.pos[:b.n]
+        self._run(1)
+        self._steps += 1
         return self.t
 
     def advance(self, frame_time):
@@ -394,14 +583,16 @@ class World:
         frame_time = check.scalar("frame_time", frame_time, minimum=0.0)
         acc = self._accumulator + frame_time
         # a hair of slack so that 4 frames of dt/4 make one step, not 0.99999 of one
-        n = int(np.floor(acc / self._dt * (1.0 + 1e-12)))
-        if n > self.max_substeps:
-            self.dropped_time += (n - self.max_substeps) * self._dt
-            acc -= (n - self.max_substeps) * self._dt
-            n = self.max_substeps
-        self.step(n)
-        self._accumulator = max(acc - n * self._dt, 0.0)
-        return min(self._accumulator / self._dt, np.nextafter(1.0, 0.0))
+        whole = acc / self._dt * (1.0 + 1e-12)
+        if whole >= self._max_substeps + 1:          # also a frame of inf steps
+            n, left, dropped = self._max_substeps, 0.0, acc - self._max_substeps * self._dt
+        else:
+            n = int(whole)
+            left, dropped = max(acc - n * self._dt, 0.0), 0.0
+        self.step(n)                     # the only part that can fail: nothing changed before
+        self._accumulator = left
+        self.dropped_time += dropped
+        return min(left / self._dt, np.nextafter(1.0, 0.0))
 
     def interpolate(self, alpha):
         """(n, dim) positions for rendering: prev + alpha (pos - prev), alpha in [0, 1]."""
@@ -413,27 +604,38 @@ class World:
         return prev + alpha * (b.pos[:b.n, :self._dim] - prev)
 
     # ---------------------------------------------------------------- diagnostics
-    def kinetic_energy(self):
+    # Diagnostics cover every body by default. With pulling_only=True they cover the bodies that
+    # pull only: when passive bodies have mass (ships), those are the quantities the dynamics
+    # conserve, since a passive body is pulled without pulling back.
+    def _masses(self, pulling_only):
         b = self._b
-        return diagnostics.kinetic_energy(b.vel[:b.n], b.mass[:b.n])
+        return np.where(self.pulls, b.mass[:b.n], 0.0) if pulling_only else b.mass[:b.n]
 
-    def potential_energy(self):
-        """Potential energy in the gravity model (passive bodies in the active ones' field)."""
-        return diagnostics.potential_energy(self._b.pos[:self._b.n], *self._gravity_args())
+    def kinetic_energy(self, pulling_only=False):
+        b = self._b
+        return diagnostics.kinetic_energy(b.vel[:b.n], self._masses(pulling_only))
 
-    def energy(self):
+    def potential_energy(self, pulling_only=False):
+        """Potential energy in the gravity model (passive bodies in the pulling ones' field)."""
+        model, mass, src, passive, *rest = self._gravity_args()
+        if pulling_only:
+            mass, passive = self._masses(True), passive[:0]
+        return diagnostics.potential_energy(self._b.pos[:self._b.n], model, mass, src, passive,
+                                            *rest)
+
+    def energy(self, pulling_only=False):
         """Kinetic + potential energy [mass length^2 / time^2]."""
-        return self.kinetic_energy() + self.potential_energy()
+        return self.kinetic_energy(pulling_only) + self.potential_energy(pulling_only)
 
-    def momentum(self):
+    def momentum(self, pulling_only=False):
         """(dim,) total linear momentum sum m v [mass length / time]."""
         b = self._b
-        return (b.mass[:b.n, None] * b.vel[:b.n]).sum(axis=0)[:self._dim]
+        return (self._masses(pulling_only)[:, None] * b.vel[:b.n]).sum(axis=0)[:self._dim]
 
-    def angular_momentum(self):
+    def angular_momentum(self, pulling_only=False):
         """sum m r x v about the origin: (3,) in 3D, the scalar z component in 2D."""
         b = self._b
-        L = (b.mass[:b.n, None] * np.cross(b.pos[:b.n], b.vel[:b.n])).sum(axis=0)
+        L = (self._masses(pulling_only)[:, None] * np.cross(b.pos[:b.n], b.vel[:b.n])).sum(axis=0)
         return L if self._dim == 3 else float(L[2])
 
     def total_mass(self):

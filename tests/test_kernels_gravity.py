@@ -1,4 +1,6 @@
 """The numba gravity and energy kernels against plain numpy, on every model and code path."""
+import math
+
 import numpy as np
 import pytest
 from reference import direct_accelerations, direct_potential
@@ -103,3 +105,21 @@ def test_kinetic_energy_is_compensated():
     mass = np.full(1_000_001, 2e-16)
     mass[0] = 2.0
     assert diagnostics.kinetic_energy(vel, mass) == 1.0 + 1e-10
+
+
+def test_potential_energy_is_compensated():
+    # one pair at distance 1 (-1) and a million terms of ~5e-18, each below half an ulp of 1:
+    # a plain running sum returns exactly -1
+    n = 1_000_000
+    pos = np.zeros((n + 2, 3))
+    pos[1, 0] = 1.0
+    pos[2:, 1] = 10.0
+    mass = np.full(n + 2, 5e-17)
+    mass[:2] = 1.0
+    pulls = np.zeros(n + 2, bool)
+    pulls[:2] = True
+    _, energy = _run(pos, mass, pulls, DIRECT, G=1.0)
+    r = np.sqrt(((pos[2:3] - pos[:2]) ** 2).sum(axis=1))
+    exact = math.fsum([-1.0] + [-5e-17 / r[0]] * n + [-5e-17 / r[1]] * n)
+    assert energy != -1.0
+    assert abs(energy - exact) <= 2.3e-16

@@ -18,11 +18,30 @@ def test_add_and_views_are_index_aligned():
     np.testing.assert_array_equal(w.mass, [1.0, 0.0, 3.0])
     np.testing.assert_array_equal(w.radius, [2.0, 0.1, 0.2])
     assert [w.kinds[k] for k in w.kind] == ["star", "ship", "planet"]
-    np.testing.assert_array_equal(w.active, [True, False, True])   # mass 0 never pulls
+    np.testing.assert_array_equal(w.active, [True, False, True])   # ships are passive
+    np.testing.assert_array_equal(w.pulls, [True, False, True])
     assert w.get(2) == sp.Body(2, pytest.approx([2, 0]), pytest.approx([0, 2]), 3.0, 0.2,
-                               "planet", True)
+                               "planet", True, True)
     with pytest.raises(ValueError, match="read-only"):
         w.pos[0, 0] = 5.0
+
+
+def test_membership_is_for_integer_ids_only():
+    w = sp.World(dim=2)
+    w.add_bodies([1.0, 1.0], np.zeros((2, 2)))
+    assert 0 in w and 1 in w and np.int64(1) in w
+    for other in (0.9, "0", True, None, 2 ** 70, -1, 2):
+        assert other not in w
+
+
+def test_removing_an_id_twice_in_one_call_removes_it_once():
+    w = sp.World(dim=2)
+    a, b, c = w.add_bodies([1.0, 2.0, 3.0], np.zeros((3, 2)))
+    w.remove([b, b])
+    np.testing.assert_array_equal(w.ids, [a, c])
+    d = w.add_body(4.0, (0, 0))
+    assert d not in (a, b, c)
+    np.testing.assert_array_equal(w.mass, [1.0, 3.0, 4.0])
 
 
 def test_removal_keeps_order_and_ids_are_never_reused():
@@ -121,17 +140,45 @@ def test_advance_clamps_the_spiral_of_death():
     alpha = w.advance(1.0)                       # a 1 s hitch: 100 steps' worth
     assert w.t == pytest.approx(0.05)
     assert w.dropped_time == pytest.approx(0.95)
-    assert 0.0 <= alpha < 1.0
+    assert alpha == 0.0
+    w.advance(0.02)                              # the next ordinary frame is ordinary again
+    assert w.t == pytest.approx(0.07)
+
+
+def test_advance_has_slack_for_rounding():
+    w = kepler(0.0, dt=0.1)
+    for _ in range(4):                           # 4 x 0.025 sums to 0.09999999999999999
+        w.advance(0.025)
+    assert w.t == 0.1
 
 
 def test_interpolate_between_the_last_two_states():
     w = kepler(0.0, dt=0.01)
-    w.advance(0.0125)                            # one step taken, a quarter left over
-    before = w._b.prev[:2, :2].copy()
-    np.testing.assert_allclose(w.interpolate(0.0), before)
-    np.testing.assert_allclose(w.interpolate(1.0), w.pos)
-    np.testing.assert_allclose(w.interpolate(0.25), before + 0.25 * (w.pos - before))
+    ref = w.copy()
+    w.advance(0.0325)                            # three steps taken, a quarter left over
+    ref.step(2)
+    before = ref.pos.copy()                      # the state before the last of the three
+    np.testing.assert_array_equal(w.interpolate(0.0), before)
+    np.testing.assert_array_equal(w.interpolate(1.0), w.pos)
+    np.testing.assert_allclose(w.interpolate(0.25), before + 0.25 * (w.pos - before),
+                               rtol=1e-15)
     assert not np.allclose(before, w.pos)
+
+
+def test_interpolation_follows_adds_removes_and_shifts():
+    w = kepler(0.0, planet_mass=1e-3, dt=0.01)
+    w.step(3)
+    new = w.add_body(0.0, (5.0, 5.0), (1.0, 0.0))
+    np.testing.assert_array_equal(w.interpolate(0.5)[2], [5.0, 5.0])   # no smear from nowhere
+    w.step(1)
+    moved = w.interpolate(0.5)
+    w.remove(w.ids[0])                           # rows shift up; prev goes with them
+    np.testing.assert_array_equal(w.interpolate(0.5), moved[1:])
+    before = w.interpolate(0.5)
+    r = w.center_of_mass()
+    w.move_to_center_of_mass()
+    np.testing.assert_allclose(w.interpolate(0.5), before - r, rtol=0, atol=1e-14)
+    assert new in w
 
 
 def _snapshot(w):
@@ -153,6 +200,12 @@ BAD_CALLS = [
     (lambda w: w.add_body(1.0, (0, 0), radius=-2), "radius = -2.0: must be >= 0"),
     (lambda w: w.add_body(1.0, (0, 0), kind="shp"), "kind = 'shp' is not a declared kind"),
     (lambda w: w.add_body(1.0, (0, 0), kind=99), "kind = 99 is not a kind name or code"),
+    (lambda w: w.add_body(1.0, (0, 0), kind=len(w.kinds)), "is not a kind name or code"),
+    (lambda w: w.add_body(1.0, ("1", "2")), r"pos = \('1', '2'\): expected real numbers"),
+    (lambda w: w.add_body(1.0, (True, False)), "pos = .*: expected real numbers"),
+    (lambda w: w.add_bodies(True, [[0, 0]]), "mass = True: expected real numbers"),
+    (lambda w: w.add_bodies([1 + 2j], [[0, 0]]), "mass = .*: expected real numbers"),
+    (lambda w: w.add_body(10 ** 400, (0, 0)), "mass = .*: expected real numbers"),
     (lambda w: w.add_body("heavy", (0, 0)), "mass = 'heavy': expected a real number"),
     (lambda w: w.add_bodies([1, 1, 1, -4], np.zeros((4, 2))), r"mass\[3\] = -4.0: must be >= 0"),
     (lambda w: w.add_bodies(1.0, np.zeros((4, 2)), np.zeros((3, 2))),
@@ -176,6 +229,10 @@ BAD_CALLS = [
     (lambda w: w.advance(-0.1), "frame_time = -0.1: must be >= 0"),
     (lambda w: w.interpolate(1.5), "alpha = 1.5: must be <= 1"),
     (lambda w: w.add_kind(""), "kind name = '': must be a non-empty string"),
+    (lambda w: setattr(w, "max_substeps", 0.5), "max_substeps = 0.5: expected an integer"),
+    (lambda w: setattr(w, "step_control", "some"), "step_control='some' is not known"),
+    (lambda w: setattr(w, "integrator", sp.Integrator("x", 2, True, False, "rk", 1, "")),
+     "integrator=Integrator.* is not known"),
 ]
 
 
@@ -191,7 +248,10 @@ def test_bad_input_is_named_and_changes_nothing(call, message):
 
 
 @pytest.mark.parametrize("kwargs,message", [
-    (dict(dim=4), "dim = 4: must be 2 or 3"),
+    (dict(dim=4), "dim = 4: must be the integer 2 or 3"),
+    (dict(dim=2.0), "dim = 2.0: must be the integer 2 or 3"),
+    (dict(gravity=["direct"]), r"gravity=\['direct'\] is not known"),
+    (dict(step_control="massive"), "step_control='massive' is not known"),
     (dict(dt=0), "dt = 0.0: must be > 0"),
     (dict(G=-1.0), "G = -1.0: must be >= 0"),
     (dict(units="cgs"), "units='cgs' is not known; valid: game, si, au-msun-yr"),
@@ -216,10 +276,34 @@ def test_set_body_changes_everything_it_names_at_once():
     i = w.add_body(0.0, (0, 0))
     w.set_body(i, pos=(1, 2), vel=(3, 4), mass=5.0, radius=0.5, kind="planet")
     assert w.get(i) == sp.Body(i, pytest.approx([1, 2]), pytest.approx([3, 4]), 5.0, 0.5,
-                               "planet", False)
+                               "planet", True, True)
     np.testing.assert_array_equal(w.interpolate(0.5), [[1, 2]])   # a teleport, not a smear
-    w.set_body(i, active=True)
-    assert w.active[0]
+    w.set_body(i, active=False)
+    assert not w.active[0] and not w.pulls[0]
+
+
+def test_mass_and_active_changes_take_effect_in_the_forces():
+    w = sp.World(dim=2, dt=1e-3)
+    star = w.add_body(1.0, (0, 0))
+    probe = w.add_body(0.0, (1, 0))
+    w.step(10)
+    assert np.all(w.vel[0] == 0)                 # a test particle does not pull
+    w.set_body(probe, mass=1.0)                  # now it does
+    w.step(10)
+    assert w.vel[0, 0] > 0
+    w.set_body(star, vel=(0, 0))
+    w.set_body(probe, pos=(1, 0), vel=(0, 0), active=False)   # passive again
+    w.step(10)
+    assert np.all(w.vel[0] == 0) and w.vel[1, 0] < 0
+
+
+def test_kinds_ship_missile_debris_are_passive_by_default():
+    w = sp.World(dim=2)
+    ids = w.add_bodies([5.0, 5.0, 5.0, 5.0], np.zeros((4, 2)),
+                       kind=["ship", "missile", "debris", "planet"])
+    np.testing.assert_array_equal(w.pulls, [False, False, False, True])
+    w.add_body(5.0, (1, 1), kind="ship", active=True)
+    assert w.pulls[-1] and ids.size == 4
 
 
 # -------------------------------------------------------------------------- diagnostics
@@ -238,6 +322,18 @@ def test_diagnostics_of_a_two_body_state():
     w.move_to_center_of_mass()
     np.testing.assert_allclose(w.center_of_mass(), 0, atol=1e-15)
     np.testing.assert_allclose(w.momentum(), 0, atol=1e-15)
+
+
+def test_pulling_only_diagnostics_are_what_passive_ships_leave_conserved():
+    w = sp.World(dim=2, integrator="yoshida6", dt=1e-3)
+    w.add_bodies([1.0, 1.0], [[-0.5, 0], [0.5, 0]], [[0, -0.7], [0, 0.7]])
+    w.add_body(0.5, (0, 2.0), (0.6, 0), kind="ship")          # feels, does not pull back
+    E0, P0 = w.energy(pulling_only=True), w.momentum(pulling_only=True)
+    E0_all = w.energy()
+    w.step(20_000)
+    assert abs(w.energy(pulling_only=True) / E0 - 1) < 1e-10
+    np.testing.assert_allclose(w.momentum(pulling_only=True), P0, atol=1e-13)
+    assert abs(w.energy() / E0_all - 1) > 1e-3                # all bodies: not conserved
 
 
 def test_two_dimensional_angular_momentum_is_a_scalar():

@@ -16,22 +16,24 @@ import numpy as np
 from .._jit import PARALLEL_MIN_PAIRS, kernel
 
 NONE, DIRECT, UNIFORM, CENTRAL = 0, 1, 2, 3
+ALL, PULLING, PASSIVE = 0, 1, 2          # which bodies' accelerations to compute
 
 
 @kernel(fast=True)
-def _pull(x, y, z, sx, sy, sz, sm, eps2):
-    """Acceleration / G at (x, y, z) from point masses sm at (sx, sy, sz): three floats."""
+def _pull(x, y, z, s, eps2):
+    """Acceleration / G at (x, y, z) from point masses s[3] at (s[0], s[1], s[2]), s a (4, ns)
+    array: three floats."""
     ax = 0.0
     ay = 0.0
     az = 0.0
-    for j in range(sx.size):
-        dx = sx[j] - x
-        dy = sy[j] - y
-        dz = sz[j] - z
+    for j in range(s.shape[1]):
+        dx = s[0, j] - x
+        dy = s[1, j] - y
+        dz = s[2, j] - z
         r2 = dx * dx + dy * dy + dz * dz + eps2
         d3 = r2 * np.sqrt(r2)
         # a select, not a branch, so the loop still vectorises; d3 == 0 is the coincident case
-        w = sm[j] / d3 if d3 > 0.0 else 0.0
+        w = s[3, j] / d3 if d3 > 0.0 else 0.0
         ax += w * dx
         ay += w * dy
         az += w * dz
@@ -39,30 +41,31 @@ def _pull(x, y, z, sx, sy, sz, sm, eps2):
 
 
 @kernel(fast=True, parallel=True, inline=True)
-def _pull_all(targets, pos, sx, sy, sz, sm, G, eps2, out):
+def _pull_all(targets, pos, s, G, eps2, out):
     """out[k] = G * pull of the sources on pos[k] for every k in targets; threads when it pays.
 
     Each target's sum runs in a fixed order on one thread, so the result does not depend on
     the thread count.
     """
-    if targets.size * sx.size >= PARALLEL_MIN_PAIRS:
+    if targets.size * s.shape[1] >= PARALLEL_MIN_PAIRS:
         for a in numba.prange(targets.size):
             k = targets[a]
-            ax, ay, az = _pull(pos[k, 0], pos[k, 1], pos[k, 2], sx, sy, sz, sm, eps2)
+            ax, ay, az = _pull(pos[k, 0], pos[k, 1], pos[k, 2], s, eps2)
             out[k, 0] = G * ax
             out[k, 1] = G * ay
             out[k, 2] = G * az
     else:
         for a in range(targets.size):
             k = targets[a]
-            ax, ay, az = _pull(pos[k, 0], pos[k, 1], pos[k, 2], sx, sy, sz, sm, eps2)
+            ax, ay, az = _pull(pos[k, 0], pos[k, 1], pos[k, 2], s, eps2)
             out[k, 0] = G * ax
             out[k, 1] = G * ay
             out[k, 2] = G * az
 
 
 @kernel(parallel=True, inline=True)
-def accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, scratch, out):
+def accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, scratch, out,
+                  which=ALL):
     """Write the gravitational acceleration of every body into out.
 
     pos : (n, 3) float64 [length]
@@ -74,6 +77,7 @@ def accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, sc
     scratch : (4, ns) float64 for DIRECT, (4, 1) for CENTRAL: the sources' x, y, z, m
               (exactly that wide, so its rows are contiguous and the inner loop vectorises)
     out : (n, 3) float64 [length / time^2]
+    which : ALL, or with DIRECT only the rows of the PULLING or of the PASSIVE bodies
     """
     n = pos.shape[0]
     if model == DIRECT or model == CENTRAL:
@@ -90,9 +94,10 @@ def accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, sc
             scratch[1, 0] = field[1]
             scratch[2, 0] = field[2]
             scratch[3, 0] = field_mass
-        sx, sy, sz, sm = scratch[0], scratch[1], scratch[2], scratch[3]
-        _pull_all(src, pos, sx, sy, sz, sm, G, eps2, out)
-        _pull_all(passive, pos, sx, sy, sz, sm, G, eps2, out)
+        if which != PASSIVE or model != DIRECT:
+            _pull_all(src, pos, scratch, G, eps2, out)
+        if which != PULLING or model != DIRECT:
+            _pull_all(passive, pos, scratch, G, eps2, out)
     elif model == UNIFORM:
         for i in range(n):
             out[i, 0] = field[0]

@@ -1,0 +1,339 @@
+"""Adaptive 15th-order Gauss-Radau integration (the IAS15 family) of y'' = a(y).
+
+Written from the published method: E. Everhart, "An efficient integrator that uses Gauss-Radau
+spacings", IAU Colloq. 83 (1985) 185; H. Rein & D. S. Spiegel, MNRAS 446 (2015) 1424
+(predictor-corrector to convergence, compensated summation); D. Pham, H. Rein & D. S. Spiegel,
+OJAp (2024), arXiv:2401.02849 (the step criterion from acceleration, jerk and snap).
+
+Within a step of length h the acceleration of each body is the polynomial
+    a(tau) = a0 + b1 tau + ... + b7 tau^7,   tau = (t - t0) / h in [0, 1],
+fitted at the seven Gauss-Radau nodes. In Newton form its coefficients are g1..g7 (divided
+differences), which the corrector updates node by node. Integrating twice gives the position and
+velocity at any tau. Compiled without fastmath: the compensated sums and the convergence test
+depend on exact rounding.
+"""
+import math
+
+import numpy as np
+
+from .._jit import kernel
+from .gravity import ALL, PASSIVE, PULLING, accelerations
+from .integrate import _scratch
+
+_PC_TOLERANCE = 1e-16      # corrector converged: the sweep changed b7 by < this fraction of |a|
+_PC_ROUNDOFF = 1e-10       # below this, an error that stops shrinking is round-off: also converged
+_PC_MAX_SWEEPS = 12
+_SAFETY = 0.25             # redo a step if the criterion asks for < 1/4 of it; grow at most 4x
+
+# stats slots
+STEPS, REJECTED, AT_MIN_STEP, NOT_CONVERGED, FAILED = 0, 1, 2, 3, 4
+
+
+@kernel
+def _newton_form(b, d_bg, g):
+    """g_j = sum_k d_bg[k, j] b_k for every body and component."""
+    for i in range(b.shape[0]):
+        for c in range(3):
+            for j in range(7):
+                s = 0.0
+                for k in range(j, 7):
+                    s += d_bg[k, j] * b[i, k, c]
+                g[i, j, c] = s
+
+
+@kernel
+def _rescale(b, e, q):
+    """The same polynomials over a step q times as long: b_k -> b_k q^k (and the predictions)."""
+    for k in range(7):
+        f = q ** (k + 1)
+        for i in range(b.shape[0]):
+            for c in range(3):
+                b[i, k, c] *= f
+                e[i, k, c] *= f
+
+
+@kernel
+def _position_at(pos, vel, a0, b, tau, h, x):
+    """x = x0 + tau h v0 + (tau h)^2 [a0/2 + sum_k b_k tau^k / ((k+1)(k+2))]."""
+    for i in range(pos.shape[0]):
+        for c in range(3):
+            s = b[i, 6, c] / 72.0
+            s = s * tau + b[i, 5, c] / 56.0
+            s = s * tau + b[i, 4, c] / 42.0
+            s = s * tau + b[i, 3, c] / 30.0
+            s = s * tau + b[i, 2, c] / 20.0
+            s = s * tau + b[i, 1, c] / 12.0
+            s = s * tau + b[i, 0, c] / 6.0
+            s = s * tau + a0[i, c] / 2.0
+            x[i, c] = pos[i, c] + tau * h * (vel[i, c] + tau * h * s)
+
+
+@kernel
+def _correct_at_node(rows, node, nodes, a, a0, g, b, c_gb):
+    """Refit g_{node+1} of the bodies in rows to their acceleration a at nodes[node] and carry
+    the change into b."""
+    tau = nodes[node]
+    for q in range(rows.size):
+        i = rows[q]
+        for c in range(3):
+            r = (a[i, c] - a0[i, c]) / tau
+            for j in range(node):
+                r = (r - g[i, j, c]) / (tau - nodes[j])
+            dg = r - g[i, node, c]
+            g[i, node, c] = r
+            for k in range(node + 1):
+                b[i, k, c] += c_gb[node, k] * dg
+
+
+@kernel
+def _step_criterion(b, a0, h, control):
+    """min over control bodies of sqrt(2 |a|^2 / (|j|^2 + |a| |s|)) [time] (Pham et al. 2024),
+    with acceleration a, jerk j and snap s at the end of the step read off the polynomial;
+    inf when no control body accelerates."""
+    best = np.inf
+    for q in range(control.size):
+        i = control[q]
+        a2 = 0.0
+        j2 = 0.0
+        s2 = 0.0
+        for c in range(3):
+            a = a0[i, c]
+            j = 0.0
+            s = 0.0
+            for k in range(7):
+                a += b[i, k, c]
+                j += (k + 1) * b[i, k, c]
+                s += (k + 1) * k * b[i, k, c]
+            a2 += a * a
+            j2 += j * j
+            s2 += s * s
+        den = j2 + math.sqrt(a2 * s2)
+        if a2 > 0.0 and den > 0.0:
+            best = min(best, 2.0 * a2 / den)     # j and s lack their 1/h, 1/h^2: tau in units of h
+    return math.sqrt(best) * h
+
+
+@kernel
+def _kahan_add(s, comp, i, c, delta):
+    y = delta - comp[i, c]
+    t = s[i, c] + y
+    comp[i, c] = (t - s[i, c]) - y
+    s[i, c] = t
+
+
+@kernel
+def _finish_step(pos, vel, csx, csv, a0, b, h):
+    """Move to the end of the step with compensated (Kahan) sums, small terms first."""
+    for i in range(pos.shape[0]):
+        for c in range(3):
+            sx = b[i, 6, c] / 72.0 + b[i, 5, c] / 56.0
+            sx += b[i, 4, c] / 42.0
+            sx += b[i, 3, c] / 30.0
+            sx += b[i, 2, c] / 20.0
+            sx += b[i, 1, c] / 12.0
+            sx += b[i, 0, c] / 6.0
+            sx += a0[i, c] / 2.0
+            sv = b[i, 6, c] / 8.0 + b[i, 5, c] / 7.0
+            sv += b[i, 4, c] / 6.0
+            sv += b[i, 3, c] / 5.0
+            sv += b[i, 2, c] / 4.0
+            sv += b[i, 1, c] / 3.0
+            sv += b[i, 0, c] / 2.0
+            sv += a0[i, c]
+            _kahan_add(pos, csx, i, c, h * h * sx + h * vel[i, c])
+            _kahan_add(vel, csv, i, c, h * sv)
+
+
+@kernel
+def _forget(b, e):
+    for i in range(b.shape[0]):
+        for k in range(7):
+            for c in range(3):
+                b[i, k, c] = 0.0
+                e[i, k, c] = 0.0
+
+
+@kernel
+def _predict(b, e, q, have_predictor):
+    """Everhart's predictor for a next step q times this one: the polynomial continued past
+    tau = 1 and re-expanded, e_k = q^k sum_{j>=k} C(j, k) b_j, plus the error the previous
+    prediction made (b - e), which tends to repeat."""
+    for i in range(b.shape[0]):
+        for c in range(3):
+            for k in range(1, 8):
+                s = 0.0
+                binom = 1.0                          # C(j, k) for j = k, k+1, ...
+                for j in range(k, 8):
+                    s += binom * b[i, j - 1, c]
+                    binom = binom * (j + 1) / (j + 1 - k)
+                new = s * q ** k
+                correction = b[i, k - 1, c] - e[i, k - 1, c] if have_predictor else 0.0
+                e[i, k - 1, c] = new
+                b[i, k - 1, c] = new + correction
+
+
+@kernel(parallel=True, inline=True)
+def _sweep(rows, which, pos, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model, mass, src,
+           passive, G, eps2, field, field_mass, scratch):
+    """One predictor-corrector sweep over the seven nodes, updating the bodies in rows (whose
+    accelerations `which` selects, see gravity.accelerations). Returns the change of b7 in this
+    sweep relative to the largest |a| (over rows)."""
+    for q in range(rows.size):
+        for c in range(3):
+            b7[rows[q], c] = b[rows[q], 6, c]
+    for node in range(7):
+        _position_at(pos, vel, a0, b, nodes[node], h, x)
+        accelerations(x, model, mass, src, passive, G, eps2, field, field_mass, scratch, a, which)
+        _correct_at_node(rows, node, nodes, a, a0, g, b, c_gb)
+    max_a = 0.0
+    max_db7 = 0.0
+    for q in range(rows.size):
+        i = rows[q]
+        for c in range(3):
+            max_a = max(max_a, abs(a[i, c]))
+            max_db7 = max(max_db7, abs(b[i, 6, c] - b7[i, c]))
+    return max_db7 / max_a if max_a > 0.0 else max_db7
+
+
+@kernel(parallel=True, inline=True)
+def _converge(rows, which, pos, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model, mass,
+              src, passive, G, eps2, field, field_mass, scratch):
+    """Sweep until b7 stops changing: below _PC_TOLERANCE, or stalled at round-off. Returns
+    whether it converged within _PC_MAX_SWEEPS."""
+    last = np.inf
+    for sweep in range(_PC_MAX_SWEEPS):
+        error = _sweep(rows, which, pos, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model,
+                       mass, src, passive, G, eps2, field, field_mass, scratch)
+        if error < _PC_TOLERANCE or (sweep > 1 and error >= last and error < _PC_ROUNDOFF):
+            return True
+        last = error
+    return False
+
+
+@kernel(parallel=True)
+def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass,
+                      csx, csv, b, e, control, riders, nodes, c_gb, d_bg, dt_out, nsteps,
+                      params, stats):
+    """Advance nsteps intervals of dt_out, landing exactly on the end of each.
+
+    pos, vel : (n, 3), updated in place; csx, csv : (n, 3), their Kahan compensations;
+    b, e : (n, 7, 3), the polynomial coefficients and their last prediction, carried over;
+    control : int64 indices of the bodies that set the step and whose convergence is required
+    for it; riders : the passive bodies outside control (empty, or exactly `passive`), iterated
+    to convergence afterwards against the control bodies' final polynomials, so that they
+    never change them; nodes : (7,) Gauss-Radau spacings; c_gb : (7, 7), b_k = sum_j c_gb[j, k]
+    g_j; d_bg : (7, 7), g_j = sum_k d_bg[k, j] b_k.
+    params : float64 [tolerance, max_step, min_step, dt_proposal, dt_of_b, have_predictor];
+             the last three are updated. tolerance 0: fixed steps of min(dt_proposal, max_step).
+    stats : int64 [steps, rejected, at_min_step, not_converged, failed], incremented; failed
+            is set when the step underflows or turns NaN: the kernel then restores the state
+            at the start of the interval and returns.
+    model ... field_mass : the gravity arguments of gravity.accelerations.
+    Returns the number of intervals completed.
+    """
+    n = pos.shape[0]
+    tolerance, max_step, min_step = params[0], params[1], params[2]
+    dt = params[3]
+    dt_b = params[4]
+    have_predictor = params[5] != 0.0
+    scratch = _scratch(model, src)
+    a0 = np.empty((n, 3))
+    a = np.empty((n, 3))
+    x = np.empty((n, 3))
+    g = np.empty((n, 7, 3))
+    b7 = np.empty((n, 3))
+    saved = np.empty((4, n, 3))                       # the state at the interval's start
+    everyone = control.size == n
+    dt_scale = (5040.0 * tolerance) ** (1.0 / 7.0)     # (7! tolerance)^(1/7)
+    reject_above = tolerance / _SAFETY ** 7            # the step was over 4x too long
+    for interval in range(nsteps):
+        saved[0] = pos
+        saved[1] = vel
+        saved[2] = csx
+        saved[3] = csv
+        elapsed = 0.0
+        while True:
+            h = min(dt, max_step)
+            # land when the step covers what is left, bar a sliver that rounding would leave
+            landing = h >= (dt_out - elapsed) * (1.0 - 1e-12)
+            if landing:
+                h = dt_out - elapsed
+            if not (h > 0.0) or (not landing and elapsed + h == elapsed):
+                break                                # NaN, or a step below the clock's resolution
+            if h != dt_b:
+                _rescale(b, e, h / dt_b)
+                dt_b = h
+            accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, scratch,
+                          a0, ALL)
+            _newton_form(b, d_bg, g)
+            converged = _converge(control, ALL if everyone else PULLING, pos, vel, a0, b, g, x, a, b7, h, nodes, c_gb,
+                                  model, mass, src, passive, G, eps2, field, field_mass,
+                                  scratch)
+            if not converged:
+                stats[NOT_CONVERGED] += 1
+                if h > min_step:
+                    # the fixed-point iteration diverges when the step is far too long
+                    stats[REJECTED] += 1
+                    dt = max(_SAFETY * h, min_step)
+                    continue
+            dt_new = dt
+            if tolerance > 0.0:
+                # The next step comes from the dynamical time of Pham et al. (2024). Whether this
+                # step is redone is decided by the truncation error it actually made, measured
+                # by the last term of the polynomial relative to the largest acceleration
+                # (Rein & Spiegel 2015): the dynamical time alone collapses for a body whose
+                # acceleration passes through zero, and would reject such steps forever.
+                max_a = 0.0
+                max_b7 = 0.0
+                for q in range(control.size):
+                    i = control[q]
+                    for c in range(3):
+                        max_a = max(max_a, abs(a[i, c]))
+                        max_b7 = max(max_b7, abs(b[i, 6, c]))
+                truncation = max_b7 / max_a if max_a > 0.0 else 0.0
+                dt_new = dt_scale * _step_criterion(b, a0, h, control)
+                if not (dt_new > 0.0):
+                    break                            # NaN accelerations
+                basis = max(h, dt) if landing else h   # a landing step is short by choice
+                dt_new = min(dt_new, basis / _SAFETY)
+                if dt_new < min_step:
+                    dt_new = min_step
+                    stats[AT_MIN_STEP] += 1
+                if truncation > reject_above and h > min_step:
+                    stats[REJECTED] += 1
+                    dt = max(min(dt_new, _SAFETY * h), min_step)
+                    continue
+            if not everyone and riders.size:
+                if not _converge(riders, PASSIVE, pos, vel, a0, b, g, x, a, b7, h, nodes, c_gb,
+                                 model, mass, src, passive, G, eps2, field, field_mass, scratch):
+                    stats[NOT_CONVERGED] += 1
+            _finish_step(pos, vel, csx, csv, a0, b, h)
+            stats[STEPS] += 1
+            elapsed = 0.0 if landing else elapsed + h
+            h_next = min(dt_new, max_step, dt_out - elapsed)     # the next step, as far as known
+            if h_next / h > 1.0 / _SAFETY:
+                # a short landing step's fit, extrapolated far past its interval, is mostly
+                # amplified noise: start the next step without a prediction
+                _forget(b, e)
+                have_predictor = False
+            else:
+                _predict(b, e, h_next / h, have_predictor)
+                have_predictor = True
+            dt_b = h_next
+            dt = dt_new
+            if landing:
+                break
+        if not landing:
+            stats[FAILED] = 1
+            pos[:] = saved[0]
+            vel[:] = saved[1]
+            csx[:] = saved[2]
+            csv[:] = saved[3]
+            params[3] = dt
+            params[4] = dt_b
+            params[5] = 1.0 if have_predictor else 0.0
+            return interval
+    params[3] = dt
+    params[4] = dt_b
+    params[5] = 1.0 if have_predictor else 0.0
+    return nsteps
