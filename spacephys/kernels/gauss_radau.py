@@ -24,6 +24,9 @@ _PC_TOLERANCE = 1e-16      # corrector converged: the sweep changed b7 by < this
 _PC_ROUNDOFF = 1e-10       # below this, an error that stops shrinking is round-off: also converged
 _PC_MAX_SWEEPS = 12
 _SAFETY = 0.25             # redo a step if the criterion asks for < 1/4 of it; grow at most 4x
+# b7 / |a| below this is round-off, never a reason to redo a step: b7 is a seventh divided
+# difference of nearly equal accelerations, whose rounding it amplifies (seen up to 5e-10)
+_TRUNCATION_FLOOR = 1e-8
 
 # stats slots
 STEPS, REJECTED, AT_MIN_STEP, NOT_CONVERGED, FAILED = 0, 1, 2, 3, 4
@@ -53,8 +56,9 @@ def _rescale(b, e, q):
 
 
 @kernel
-def _position_at(pos, vel, a0, b, tau, h, x):
-    """x = x0 + tau h v0 + (tau h)^2 [a0/2 + sum_k b_k tau^k / ((k+1)(k+2))]."""
+def _position_at(pos, csx, vel, a0, b, tau, h, x):
+    """x = x0 + tau h v0 + (tau h)^2 [a0/2 + sum_k b_k tau^k / ((k+1)(k+2))], with x0 the
+    compensated position (pos - csx): the compensation enters before the one rounding."""
     for i in range(pos.shape[0]):
         for c in range(3):
             s = b[i, 6, c] / 72.0
@@ -65,7 +69,7 @@ def _position_at(pos, vel, a0, b, tau, h, x):
             s = s * tau + b[i, 1, c] / 12.0
             s = s * tau + b[i, 0, c] / 6.0
             s = s * tau + a0[i, c] / 2.0
-            x[i, c] = pos[i, c] + tau * h * (vel[i, c] + tau * h * s)
+            x[i, c] = pos[i, c] + (tau * h * (vel[i, c] + tau * h * s) - csx[i, c])
 
 
 @kernel
@@ -173,7 +177,7 @@ def _predict(b, e, q, have_predictor):
 
 
 @kernel(parallel=True, inline=True)
-def _sweep(rows, which, pos, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model, mass, src,
+def _sweep(rows, which, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model, mass, src,
            passive, G, eps2, field, field_mass, scratch):
     """One predictor-corrector sweep over the seven nodes, updating the bodies in rows (whose
     accelerations `which` selects, see gravity.accelerations). Returns the change of b7 in this
@@ -182,7 +186,7 @@ def _sweep(rows, which, pos, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model, mas
         for c in range(3):
             b7[rows[q], c] = b[rows[q], 6, c]
     for node in range(7):
-        _position_at(pos, vel, a0, b, nodes[node], h, x)
+        _position_at(pos, csx, vel, a0, b, nodes[node], h, x)
         accelerations(x, model, mass, src, passive, G, eps2, field, field_mass, scratch, a, which)
         _correct_at_node(rows, node, nodes, a, a0, g, b, c_gb)
     max_a = 0.0
@@ -196,13 +200,13 @@ def _sweep(rows, which, pos, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model, mas
 
 
 @kernel(parallel=True, inline=True)
-def _converge(rows, which, pos, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model, mass,
+def _converge(rows, which, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model, mass,
               src, passive, G, eps2, field, field_mass, scratch):
     """Sweep until b7 stops changing: below _PC_TOLERANCE, or stalled at round-off. Returns
     whether it converged within _PC_MAX_SWEEPS."""
     last = np.inf
     for sweep in range(_PC_MAX_SWEEPS):
-        error = _sweep(rows, which, pos, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model,
+        error = _sweep(rows, which, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model,
                        mass, src, passive, G, eps2, field, field_mass, scratch)
         if error < _PC_TOLERANCE or (sweep > 1 and error >= last and error < _PC_ROUNDOFF):
             return True
@@ -245,7 +249,9 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
     saved = np.empty((4, n, 3))                       # the state at the interval's start
     everyone = control.size == n
     dt_scale = (5040.0 * tolerance) ** (1.0 / 7.0)     # (7! tolerance)^(1/7)
-    reject_above = tolerance / _SAFETY ** 7            # the step was over 4x too long
+    # the step was over 4x too long (b7 ~ dt^7); but never within the round-off of b7 / |a|,
+    # or tiny tolerances would reject every step
+    reject_above = max(tolerance / _SAFETY ** 7, _TRUNCATION_FLOOR)
     for interval in range(nsteps):
         saved[0] = pos
         saved[1] = vel
@@ -266,7 +272,7 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, scratch,
                           a0, ALL)
             _newton_form(b, d_bg, g)
-            converged = _converge(control, ALL if everyone else PULLING, pos, vel, a0, b, g, x, a, b7, h, nodes, c_gb,
+            converged = _converge(control, ALL if everyone else PULLING, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb,
                                   model, mass, src, passive, G, eps2, field, field_mass,
                                   scratch)
             if not converged:
@@ -304,7 +310,7 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
                     dt = max(min(dt_new, _SAFETY * h), min_step)
                     continue
             if not everyone and riders.size:
-                if not _converge(riders, PASSIVE, pos, vel, a0, b, g, x, a, b7, h, nodes, c_gb,
+                if not _converge(riders, PASSIVE, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb,
                                  model, mass, src, passive, G, eps2, field, field_mass, scratch):
                     stats[NOT_CONVERGED] += 1
             _finish_step(pos, vel, csx, csv, a0, b, h)
