@@ -147,11 +147,116 @@ def gravity(quick=False):
             "cases": cases, "compile": _compile_times()}
 
 
+def _rebound_copy(w, integrator, **settings):
+    rebound = _rebound()
+    sim = rebound.Simulation()
+    sim.G = w.G
+    sim.softening = w.softening
+    sim.integrator = integrator
+    sim.dt = w.dt
+    for key, value in settings.items():
+        setattr(sim.integrator, key, value)
+    pos = np.zeros((w.n, 3))
+    vel = np.zeros((w.n, 3))
+    pos[:, :w.dim], vel[:, :w.dim] = w.pos, w.vel
+    for m, p, v in zip(w.mass, pos, vel):
+        sim.add(m=float(m), x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
+    return sim
+
+
+def _positions(sim):
+    xyz = np.empty((sim.N, 3))
+    sim.serialize_particle_data(xyz=xyz)
+    return xyz
+
+
+def _gauss_radau_case(n, duration, repeats):
+    """Gauss-Radau and IAS15 over the same interval of the same cluster: time per step."""
+    from .scenes import uniform_sphere
+    make = lambda: uniform_sphere(n, seed=1, softening=0.01, integrator="gauss_radau",
+                                  dt=duration)
+    make().step(1)                                      # compile outside the timing
+    best_ours = best_theirs = float("inf")
+    for _ in range(repeats):
+        w = make()
+        sim = _rebound_copy(w, "ias15")
+        start = time.perf_counter()
+        w.step(1)
+        ours = time.perf_counter() - start
+        start = time.perf_counter()
+        sim.integrate(duration)
+        theirs = time.perf_counter() - start
+        steps, rsteps = w.integrator_stats["steps"], int(sim.steps_done)
+        best_ours = min(best_ours, ours / steps)
+        best_theirs = min(best_theirs, theirs / rsteps)
+    diff = float(np.max(np.abs(w.pos - _positions(sim))) / np.max(np.abs(w.pos)))
+    return {"case": f"gauss_radau vs IAS15, N={n}, t={duration:g}", "bodies": n,
+            "steps": steps, "rebound_steps": rsteps,
+            "spacephys_s_per_step": best_ours, "rebound_s_per_step": best_theirs,
+            "ratio": best_theirs / best_ours, "max_relative_difference": diff}
+
+
+def _wisdom_holman_case(corrector, steps, repeats):
+    """Sun + 8 planets, 5-day steps: WH and WHFast (safe mode off: both synchronise at the
+    end of the batch only)."""
+    from .scenes import solar_system
+    name = "wisdom_holman_corrected" if corrector else "wisdom_holman"
+    w = solar_system(integrator=name, dt=5 / 365.25)
+    sim = _rebound_copy(w, "whfast", corrector=corrector, safe_mode=0)
+    E0, E0r = w.energy(), sim.energy()
+    w.step(1)
+    sim.steps(1)
+    t_ours = t_theirs = float("inf")
+    for _ in range(repeats):
+        start = time.perf_counter()
+        w.step(steps)
+        t_ours = min(t_ours, (time.perf_counter() - start) / steps)
+        start = time.perf_counter()
+        sim.steps(steps)
+        t_theirs = min(t_theirs, (time.perf_counter() - start) / steps)
+    sim.synchronize()
+    diff = float(np.max(np.abs(w.pos - _positions(sim))) / np.max(np.abs(w.pos)))
+    return {"case": f"{name} vs WHFast{' (corrector 3)' if corrector else ''}, Sun + 8 "
+                    f"planets, dt = 5 d", "bodies": w.n, "steps": 1 + repeats * steps,
+            "spacephys_s_per_step": t_ours, "rebound_s_per_step": t_theirs,
+            "ratio": t_theirs / t_ours, "max_relative_difference": diff,
+            "energy_error": float(abs(w.energy() / E0 - 1)),
+            "rebound_energy_error": float(abs(sim.energy() / E0r - 1))}
+
+
+def integrators(quick=False):
+    """The high-accuracy integrators against REBOUND's: IAS15 and WHFast, same problems."""
+    import numba
+    rebound = _rebound()
+    repeats = 2 if quick else 3
+    cases = [_gauss_radau_case(16, 0.5 if quick else 2.0, repeats),
+             _gauss_radau_case(256 if quick else 1024, 0.01 if quick else 0.05, 1)]
+    for corrector in (0, 3):
+        cases.append(_wisdom_holman_case(corrector, 10_000 if quick else 33_333, repeats))
+    return {"benchmark": "integrators", "quick": quick,
+            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
+            "numba_threads": numba.get_num_threads(),
+            "versions": {"numba": numba.__version__, "numpy": np.__version__,
+                         "rebound": rebound.__version__},
+            "cases": cases}
+
+
 def format_table(results):
     lines = [f"{results['benchmark']} benchmark on {results['machine']} "
              f"({results['numba_threads']} numba threads; {results['versions']})",
              f"{'case':40s} {'spacephys':>14s} {'REBOUND':>14s} {'speed-up':>9s} "
              f"{'pairs/s (ours)':>15s} {'max rel. diff':>14s}"]
+    if results["benchmark"] == "integrators":
+        lines[1] = (f"{'case':62s} {'spacephys':>12s} {'REBOUND':>12s} {'speed-up':>9s} "
+                    f"{'steps (ours/theirs)':>20s} {'max rel. diff':>14s}")
+        for c in results["cases"]:
+            steps = f"{c['steps']}/{c.get('rebound_steps', c['steps'])}"
+            extra = (f"  energy error {c['energy_error']:.1e} (REBOUND {c['rebound_energy_error']:.1e})"
+                     if "energy_error" in c else "")
+            lines.append(f"{c['case']:62s} {c['spacephys_s_per_step'] * 1e6:9.2f} us "
+                         f"{c['rebound_s_per_step'] * 1e6:9.2f} us {c['ratio']:8.2f}x "
+                         f"{steps:>20s} {c['max_relative_difference']:14.1e}{extra}")
+        return "\n".join(lines)
     for c in results["cases"]:
         lines.append(f"{c['case']:40s} {c['spacephys_s_per_step'] * 1e6:11.2f} us "
                      f"{c['rebound_s_per_step'] * 1e6:11.2f} us {c['ratio']:8.1f}x "
@@ -164,4 +269,4 @@ def format_table(results):
     return "\n".join(lines)
 
 
-BENCHMARKS = {"gravity": gravity}
+BENCHMARKS = {"gravity": gravity, "integrators": integrators}

@@ -1,10 +1,15 @@
-"""The `spacephys` command: run a scene, benchmark against REBOUND."""
+"""The `spacephys` command: run a scene, benchmark and validate against REBOUND."""
 import argparse
 import json
 import sys
 
 from .integrators import INTEGRATORS
 from .scenes import SCENES
+
+
+def _problem_names():
+    from .validate import PROBLEMS
+    return list(PROBLEMS)
 
 
 def _run(args):
@@ -26,6 +31,22 @@ def _bench(args):
     return 0
 
 
+def _validate(args):
+    from . import validate
+    results = validate.validate(args.problems, args.integrator)
+    table = validate.format_markdown(results)
+    print(table)
+    if args.markdown:
+        with open(args.markdown, "w") as f:
+            f.write(validate.MARKDOWN_HEADER + table + "\n")
+        print(f"wrote {args.markdown}")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(results, f, indent=2)
+        print(f"wrote {args.json}")
+    return 0
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="spacephys", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -39,10 +60,20 @@ def main(argv=None):
     run.set_defaults(func=_run)
 
     bench = sub.add_parser("bench", help="benchmark side by side with REBOUND")
-    bench.add_argument("what", choices=["gravity"])
+    bench.add_argument("what", choices=["gravity", "integrators"])
     bench.add_argument("--quick", action="store_true", help="fewer repeats, smaller cases")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.set_defaults(func=_bench)
+
+    val = sub.add_parser("validate", help="every integrator on the reference problems, "
+                                          "against REBOUND IAS15")
+    val.add_argument("problems", nargs="*", metavar="PROBLEM",
+                     help="problems to run (default: all): " + ", ".join(_problem_names()))
+    val.add_argument("--integrator", action="append", choices=list(INTEGRATORS),
+                     help="only this integrator (repeatable)")
+    val.add_argument("--markdown", metavar="PATH", help="also write the table (docs page)")
+    val.add_argument("--json", metavar="PATH", help="also write the results as JSON")
+    val.set_defaults(func=_validate)
 
     args = parser.parse_args(argv)
     try:

@@ -122,6 +122,7 @@ def kepler_drift(x, v, k, mu, dt):
     lo = 0.0 if dt >= 0.0 else -np.inf
     hi = np.inf if dt >= 0.0 else 0.0
     s = _initial_s(r0, eta0, v2sq, beta, mu, dt)
+    short = dt * dt * v2sq < 0.09 * r0 * r0             # the Taylor start of _initial_s
     if not (lo < s < hi):
         s = 0.5 * dt / r0 if dt != 0.0 else 0.0
     iterations = -1
@@ -148,6 +149,29 @@ def kepler_drift(x, v, k, mu, dt):
             hi = s
         # Halley's method, cubic near the root; far from it the bracket below takes over
         new = s - 2.0 * f * fp / (2.0 * fp * fp - f * fpp)
+        ds = new - s
+        # Halley's error after this step is about (f3 / (6 f1) - f2^2 / (4 f1^2)) ds^3 (f1, f2,
+        # f3: derivatives of f): when that is below round-off the root is found. Then carry
+        # G1, G2 to the new s by their Taylor series (G_n' = G_{n-1}, G0' = -beta G1) instead
+        # of evaluating the Stumpff functions again (the next terms are ds^3 small): one
+        # evaluation instead of two.
+        fppp = zeta0 * G0 - beta * eta0 * G1
+        ds3 = abs(ds) ** 3
+        left = (abs(fppp / (6.0 * fp)) + fpp * fpp / (4.0 * fp * fp)) * ds3
+        # the Taylor remainders: |G1'''| ds^3 / 6 = |beta G0| ds^3 / 6, |G2'''| = |beta G1|
+        # only from the short-step Taylor start, where that error estimate holds (after
+        # bisections it need not)
+        shortcut = (it == 0 and short and lo < new < hi and left <= 1e-18 * abs(s)
+                    and abs(beta * G0) * ds3 <= 6e-18 * abs(G1)
+                    and abs(beta * G1) * ds3 <= 6e-18 * abs(G2))
+        if shortcut:
+            G1, G2 = (G1 + ds * (G0 - 0.5 * beta * ds * G1),
+                      G2 + ds * (G1 + 0.5 * ds * G0))
+            fp = r0 + eta0 * G1 + zeta0 * G2
+            s = new
+            iterations = it + 1
+            exact = True
+            break
         if not (lo < new < hi):
             if math.isinf(lo):
                 new = hi - 2.0 * (abs(hi) + 1.0)     # walk out until the root is bracketed

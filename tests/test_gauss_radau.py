@@ -1,0 +1,156 @@
+"""Adaptive Gauss-Radau: the accuracy targets, its controls (tolerance, max/min step, which
+bodies set the step), compensated summation, and failure handling."""
+import numpy as np
+import pytest
+import rebound
+
+import spacephys as sp
+from spacephys.scenes import figure_eight, kepler, outer_solar_system, pythagorean
+
+
+def _rebound_ias15(w, T):
+    sim = rebound.Simulation()
+    sim.G = w.G
+    sim.integrator = "ias15"
+    for m, p, v in zip(w.mass, w.pos, w.vel):
+        p, v = list(p) + [0.0] * (3 - w.dim), list(v) + [0.0] * (3 - w.dim)
+        sim.add(m=float(m), x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
+    sim.integrate(T)
+    xyz = np.empty((sim.N, 3))
+    sim.serialize_particle_data(xyz=xyz)
+    return xyz[:, :w.dim], sim
+
+
+# ----------------------------------------------------------------------------- targets
+
+def test_outer_solar_system_energy_over_ten_thousand_years():
+    w = outer_solar_system(integrator="gauss_radau", dt=100.0)
+    E0 = w.energy()
+    w.step(100)
+    assert abs(w.energy() / E0 - 1) <= 1e-14          # measured 6.4e-15 (REBOUND: 4.7e-15)
+
+
+def test_outer_solar_system_positions_match_rebound_after_a_thousand_years():
+    w = outer_solar_system(integrator="gauss_radau", dt=1000.0)
+    ref, sim = _rebound_ias15(w, 1000.0)
+    w.step(1)
+    assert np.max(np.abs(w.pos - ref)) / np.max(np.abs(ref)) <= 1e-9     # measured 2.6e-13
+    assert w.integrator_stats["steps"] == pytest.approx(sim.steps_done, rel=0.02)
+
+
+def test_figure_eight_energy_over_a_hundred_periods():
+    w = figure_eight(integrator="gauss_radau", dt=6.32591398)
+    E0 = w.energy()
+    w.step(100)
+    assert abs(w.energy() / E0 - 1) <= 1e-15          # measured 6.7e-16 (REBOUND: 4.4e-16)
+
+
+def test_kepler_e0999_energy_over_a_hundred_orbits():
+    w = kepler(0.999, planet_mass=1e-3, integrator="gauss_radau", dt=2 * np.pi)
+    E0 = w.energy()
+    w.step(100)
+    assert abs(w.energy() / E0 - 1) <= 1e-11          # measured 8.9e-13 (REBOUND: 8.3e-12)
+
+
+def test_pythagorean_escaper_against_rebound():
+    # The issue's target was 1e-4. Not reachable by any double-precision integration: the
+    # closest encounters (separation ~1e-4) leave an energy error of ~1e-11 set by round-off,
+    # which the chaos amplifies ~4e9 times by t = 70; REBOUND's own escaper moves by 6e-3
+    # between tolerances 1e-9 and 1e-13, ours by 3e-3. Measured here: 2.8e-3 from REBOUND's.
+    w = pythagorean(integrator="gauss_radau", dt=70.0)
+    ref, _ = _rebound_ias15(w, 70.0)
+    E0 = w.energy()
+    w.step(1)
+    assert np.linalg.norm(ref[0] - (6.93538, 20.26600)) < 1e-4       # REBOUND, as in the issue
+    assert np.linalg.norm(w.pos[0] - ref[0]) < 5e-3
+    assert w.pos[0, 1] > 20                                          # the mass-3 body escapes
+    assert abs(w.energy() / E0 - 1) < 3e-11                          # measured 1.1e-11
+
+
+# ----------------------------------------------------------------------------- controls
+
+def test_tolerance_trades_steps_for_accuracy():
+    errors, steps = [], []
+    for tol in (1e-5, 1e-7, 1e-9):
+        w = kepler(0.9, planet_mass=1e-3, integrator="gauss_radau", dt=2 * np.pi, tolerance=tol)
+        E0 = w.energy()
+        w.step(10)
+        errors.append(abs(w.energy() / E0 - 1))
+        steps.append(w.integrator_stats["steps"])
+    assert steps[0] < steps[1] < steps[2]
+    assert errors[0] > errors[2] * 100
+
+
+def test_max_step_caps_every_substep():
+    w = kepler(0.5, planet_mass=1e-3, integrator="gauss_radau", dt=1.0, max_step=0.01)
+    w.step(3)
+    assert w.integrator_stats["steps"] == 300           # 3 intervals of 1.0, steps of 0.01
+    free = kepler(0.5, planet_mass=1e-3, integrator="gauss_radau", dt=1.0)
+    free.step(3)
+    assert free.integrator_stats["steps"] < 100
+
+
+def test_min_step_warns_and_holds():
+    w = kepler(0.99, planet_mass=1e-3, integrator="gauss_radau", dt=2 * np.pi, min_step=0.05)
+    with pytest.warns(RuntimeWarning, match="held at min_step = 0.05"):
+        w.step(1)
+    assert w.integrator_stats["at_min_step"] > 0
+
+
+def test_compensated_summation_is_not_optimised_away():
+    # free motion by 1e-17 per step from x = 1: below half an ulp of 1, so an uncompensated
+    # sum never moves; compensated, 1e5 steps move it by 1e-12
+    w = sp.World(dim=2, gravity="none", integrator="gauss_radau", dt=1.0, tolerance=0.0)
+    w.add_body(1.0, (1.0, 0.0), (1e-17, 0.0))
+    w.step(100_000)
+    assert w.pos[0, 0] == pytest.approx(1.0 + 1e-12, abs=3e-16)
+    assert w.pos[0, 0] != 1.0
+
+
+def test_step_n_equals_n_single_steps_bit_for_bit():
+    a = kepler(0.7, planet_mass=1e-3, integrator="gauss_radau", dt=0.37)
+    b = a.copy()
+    a.step(40)
+    for _ in range(40):
+        b.step()
+    assert np.array_equal(a.pos, b.pos) and np.array_equal(a.vel, b.vel)
+
+
+def test_test_particles_ride_along_converged_and_accurate():
+    # two planets set the step ("auto" = "pulling"); a test particle on a Kepler orbit inside
+    # them is still iterated to convergence within those steps
+    w = sp.World(dim=2, integrator="gauss_radau", dt=2 * np.pi)
+    w.add_body(1.0, (0, 0))
+    for a in (3.0, 4.5):
+        p, v = sp.elements_to_state(1.0, a, 0.0, f=a)
+        w.add_body(1e-9, p[:2], v[:2])
+    p, v = sp.elements_to_state(1.0, 1.0, 0.3, f=0.0)
+    probe = w.add_body(0.0, p[:2], v[:2])
+    w.step(5)
+    r, _ = sp.kepler_state(1.0, 1.0, 0.3, w.t)
+    assert np.linalg.norm(w.get(probe).pos - r[:2]) < 1e-6    # planets pull it by ~1e-9
+    every = w.copy()
+    every.step_control = "all"
+    assert w.step_control == "auto"
+
+
+def test_a_lone_star_lets_its_test_particles_set_the_step():
+    w = kepler(0.5, integrator="gauss_radau", dt=2 * np.pi)     # test particle, mass 0
+    w.step(3)
+    r, v = sp.kepler_state(1.0, 1.0, 0.5, w.t)
+    assert np.linalg.norm(w.pos[1] - r[:2]) < 1e-12
+    pulling = kepler(0.5, integrator="gauss_radau", dt=2 * np.pi, step_control="pulling")
+    pulling.step(3)                                      # nobody accelerates: giant steps
+    assert pulling.integrator_stats["steps"] < w.integrator_stats["steps"] / 5
+
+
+def test_collision_is_reported_and_the_state_kept():
+    # head-on fall from rest, no softening: the bodies meet at t = pi/4 = 0.785
+    w = sp.World(dim=2, integrator="gauss_radau", dt=0.25)
+    w.add_bodies([1.0, 1.0], [[-0.5, 0.0], [0.5, 0.0]])
+    ref = w.copy()
+    ref.step(3)                                               # to t = 0.75, still apart
+    with pytest.raises(FloatingPointError, match="The state is that at t = 0.75"):
+        w.step(5)
+    assert w.t == 0.75
+    assert np.array_equal(w.pos, ref.pos) and np.array_equal(w.vel, ref.vel)
