@@ -177,18 +177,30 @@ def _predict(b, e, q, have_predictor):
 
 
 @kernel(parallel=True, inline=True)
-def _sweep(rows, which, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model, mass, src,
-           passive, G, eps2, field, field_mass, scratch):
+def _sweep(rows, which, first, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model, mass,
+           src, passive, G, eps2, field, field_mass, scratch):
     """One predictor-corrector sweep over the seven nodes, updating the bodies in rows (whose
-    accelerations `which` selects, see gravity.accelerations). Returns the change of b7 in this
-    sweep relative to the largest |a| (over rows)."""
+    accelerations `which` selects, see gravity.accelerations). first = -1 evaluates a0, the
+    acceleration at the step's start (of every body), before the nodes. Returns the change of
+    b7 in this sweep relative to the largest |a| (over rows)."""
     for q in range(rows.size):
         for c in range(3):
             b7[rows[q], c] = b[rows[q], 6, c]
-    for node in range(7):
-        _position_at(pos, csx, vel, a0, b, nodes[node], h, x)
-        accelerations(x, model, mass, src, passive, G, eps2, field, field_mass, scratch, a, which)
-        _correct_at_node(rows, node, nodes, a, a0, g, b, c_gb)
+    for node in range(first, 7):
+        # the only call of the force code in the kernel: each call site of an inlined
+        # parallel loop is compiled anew
+        if node >= 0:
+            _position_at(pos, csx, vel, a0, b, nodes[node], h, x)
+        else:
+            # the start: no polynomial needed (and a0, not yet known, must not enter: 0 * an
+            # uninitialised NaN is NaN)
+            for i in range(pos.shape[0]):
+                for c in range(3):
+                    x[i, c] = pos[i, c] - csx[i, c]
+        accelerations(x, model, mass, src, passive, G, eps2, field, field_mass, scratch,
+                      a if node >= 0 else a0, which if node >= 0 else ALL)
+        if node >= 0:
+            _correct_at_node(rows, node, nodes, a, a0, g, b, c_gb)
     max_a = 0.0
     max_db7 = 0.0
     for q in range(rows.size):
@@ -200,14 +212,15 @@ def _sweep(rows, which, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model
 
 
 @kernel(parallel=True, inline=True)
-def _converge(rows, which, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model, mass,
-              src, passive, G, eps2, field, field_mass, scratch):
+def _converge(rows, which, with_a0, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model,
+              mass, src, passive, G, eps2, field, field_mass, scratch):
     """Sweep until b7 stops changing: below _PC_TOLERANCE, or stalled at round-off. Returns
-    whether it converged within _PC_MAX_SWEEPS."""
+    whether it converged within _PC_MAX_SWEEPS. with_a0: evaluate a0 first."""
     last = np.inf
     for sweep in range(_PC_MAX_SWEEPS):
-        error = _sweep(rows, which, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model,
-                       mass, src, passive, G, eps2, field, field_mass, scratch)
+        first = -1 if with_a0 and sweep == 0 else 0
+        error = _sweep(rows, which, first, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb,
+                       model, mass, src, passive, G, eps2, field, field_mass, scratch)
         if error < _PC_TOLERANCE or (sweep > 1 and error >= last and error < _PC_ROUNDOFF):
             return True
         last = error
@@ -265,54 +278,69 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             if landing:
                 h = dt_out - elapsed
             if not (h > 0.0) or (not landing and elapsed + h == elapsed):
-                break                                # NaN, or a step below the clock's resolution
+                landing = False                      # NaN, or a step below the clock's resolution
+                break
             if h != dt_b:
                 _rescale(b, e, h / dt_b)
                 dt_b = h
-            accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, scratch,
-                          a0, ALL)
             _newton_form(b, d_bg, g)
-            converged = _converge(control, ALL if everyone else PULLING, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb,
-                                  model, mass, src, passive, G, eps2, field, field_mass,
-                                  scratch)
-            if not converged:
-                stats[NOT_CONVERGED] += 1
-                if h > min_step:
+            # phase 0: the bodies that set the step; phase 1: the riders, against the control
+            # bodies' final polynomials (so they never change them)
+            redo = False
+            failed = False
+            dt_new = dt
+            for phase in range(2):
+                if phase == 1 and (everyone or riders.size == 0):
+                    break
+                rows = control if phase == 0 else riders
+                which = (ALL if everyone else PULLING) if phase == 0 else PASSIVE
+                converged = _converge(rows, which, phase == 0, pos, csx, vel, a0, b, g, x, a, b7,
+                                      h, nodes, c_gb, model, mass, src, passive, G, eps2, field,
+                                      field_mass, scratch)
+                if not converged:
+                    stats[NOT_CONVERGED] += 1
+                if phase == 1:
+                    break
+                if not converged and h > min_step:
                     # the fixed-point iteration diverges when the step is far too long
                     stats[REJECTED] += 1
                     dt = max(_SAFETY * h, min_step)
-                    continue
-            dt_new = dt
-            if tolerance > 0.0:
-                # The next step comes from the dynamical time of Pham et al. (2024). Whether this
-                # step is redone is decided by the truncation error it actually made, measured
-                # by the last term of the polynomial relative to the largest acceleration
-                # (Rein & Spiegel 2015): the dynamical time alone collapses for a body whose
-                # acceleration passes through zero, and would reject such steps forever.
-                max_a = 0.0
-                max_b7 = 0.0
-                for q in range(control.size):
-                    i = control[q]
-                    for c in range(3):
-                        max_a = max(max_a, abs(a[i, c]))
-                        max_b7 = max(max_b7, abs(b[i, 6, c]))
-                truncation = max_b7 / max_a if max_a > 0.0 else 0.0
-                dt_new = dt_scale * _step_criterion(b, a0, h, control)
-                if not (dt_new > 0.0):
-                    break                            # NaN accelerations
-                basis = max(h, dt) if landing else h   # a landing step is short by choice
-                dt_new = min(dt_new, basis / _SAFETY)
-                if dt_new < min_step:
-                    dt_new = min_step
-                    stats[AT_MIN_STEP] += 1
-                if truncation > reject_above and h > min_step:
-                    stats[REJECTED] += 1
-                    dt = max(min(dt_new, _SAFETY * h), min_step)
-                    continue
-            if not everyone and riders.size:
-                if not _converge(riders, PASSIVE, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb,
-                                 model, mass, src, passive, G, eps2, field, field_mass, scratch):
-                    stats[NOT_CONVERGED] += 1
+                    redo = True
+                    break
+                if tolerance > 0.0:
+                    # The next step comes from the dynamical time of Pham et al. (2024). Whether
+                    # this step is redone is decided by the truncation error it actually made,
+                    # measured by the last term of the polynomial relative to the largest
+                    # acceleration (Rein & Spiegel 2015): the dynamical time alone collapses for
+                    # a body whose acceleration passes through zero, and would reject such steps
+                    # forever.
+                    max_a = 0.0
+                    max_b7 = 0.0
+                    for q in range(control.size):
+                        i = control[q]
+                        for c in range(3):
+                            max_a = max(max_a, abs(a[i, c]))
+                            max_b7 = max(max_b7, abs(b[i, 6, c]))
+                    truncation = max_b7 / max_a if max_a > 0.0 else 0.0
+                    dt_new = dt_scale * _step_criterion(b, a0, h, control)
+                    if not (dt_new > 0.0):
+                        failed = True                    # NaN accelerations
+                        break
+                    basis = max(h, dt) if landing else h   # a landing step is short by choice
+                    dt_new = min(dt_new, basis / _SAFETY)
+                    if dt_new < min_step:
+                        dt_new = min_step
+                        stats[AT_MIN_STEP] += 1
+                    if truncation > reject_above and h > min_step:
+                        stats[REJECTED] += 1
+                        dt = max(min(dt_new, _SAFETY * h), min_step)
+                        redo = True
+                        break
+            if failed:
+                landing = False
+                break
+            if redo:
+                continue
             _finish_step(pos, vel, csx, csv, a0, b, h)
             stats[STEPS] += 1
             elapsed = 0.0 if landing else elapsed + h
@@ -329,7 +357,7 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             dt = dt_new
             if landing:
                 break
-        if not landing:
+        if not landing:                              # the interval was abandoned
             stats[FAILED] = 1
             pos[:] = saved[0]
             vel[:] = saved[1]

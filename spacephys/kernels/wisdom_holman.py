@@ -261,6 +261,8 @@ def _from_jacobi(xj, vj, order, m, M, pos, vel):
 def _drift_all(xj, vj, M, G, dt):
     """Kepler drift of every Jacobi body (k >= 1, mu = G M_k) and free drift of the centre of
     mass; returns False if a Kepler solve failed."""
+    if dt == 0.0:
+        return True
     for c in range(3):
         xj[0, c] += dt * vj[0, c]
     ok = True
@@ -299,6 +301,42 @@ def _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_
         Mprev = Mk
 
 
+# Third-order corrector (Wisdom, Holman & Touma 1996): C = X(a, b) X(-a, -b) with
+# X(a, b) = drift(-a) kick(b) drift(a), a = sqrt(7/40) dt, so that C = exp(2 a b [A, B] + ..)
+# to leading order (A: Kepler, B: interaction). The drift-kick-drift map's leading error is
+# -dt^3/24 [A, [A, B]] (the Strang splitting's), which conjugation by C cancels when
+# 2 a b = dt^2/24, i.e. b = dt / (48 sqrt(7/40)). Measured: 116x smaller energy error on two
+# planets at 50 steps per orbit; half that kick (the kick-drift-kick form's) gains only 2x.
+_CORRECTOR_A = math.sqrt(7.0 / 40.0)
+_CORRECTOR_B = 1.0 / (48.0 * _CORRECTOR_A)
+
+
+@kernel
+def _schedule(q, nsteps, dt, corrector):
+    """(drift, kick) before and of the q-th kick of a call, in time units.
+
+    Plain: drift dt/2, then kick dt / drift dt, ..., ending with a drift dt/2 (outside).
+    Corrected: C = [drift -a, kick b, drift 2a, kick -b, drift -a] first, C^-1 = [drift a,
+    kick b, drift -2a, kick -b, drift a] last (X(a, b)^-1 = X(a, -b)); a = _CORRECTOR_A dt,
+    b = _CORRECTOR_B dt.
+    """
+    a = _CORRECTOR_A * dt
+    b = _CORRECTOR_B * dt
+    if corrector:
+        if q == 0:
+            return -a, b
+        if q == 1:
+            return 2.0 * a, -b
+        if q == 2:
+            return 0.5 * dt - a, dt
+        if q == nsteps + 2:
+            return 0.5 * dt + a, b
+        if q == nsteps + 3:
+            return -2.0 * a, -b
+        return dt, dt
+    return (0.5 * dt if q == 0 else dt), dt
+
+
 @kernel(parallel=True)
 def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass,
                         order, m, dt, nsteps, corrector):
@@ -319,30 +357,15 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
     scratch = _scratch(model, src)
     _to_jacobi(pos, vel, order, m, xj, vj)
     ok = True
-    # Third-order corrector (Wisdom, Holman & Touma 1996): C = X(a, b) X(-a, -b) with
-    # X(a, b) = drift(-a) kick(b) drift(a), a = sqrt(7/40) dt, so that C = exp(2 a b [A, B] + ..)
-    # to leading order (A: Kepler, B: interaction). The drift-kick-drift map's leading error is
-    # -dt^3/24 [A, [A, B]] (the Strang splitting's), which conjugation by C cancels when
-    # 2 a b = dt^2/24, i.e. b = dt / (48 sqrt(7/40)). Measured: 116x smaller energy error on
-    # two planets at 50 steps per orbit; half that kick (the kick-drift-kick form's) gives 2x.
-    alpha = math.sqrt(7.0 / 40.0)
-    beta = 1.0 / (48.0 * alpha)
-    if corrector:
-        for sgn in (1.0, -1.0):
-            ok = _drift_all(xj, vj, M, G, -sgn * alpha * dt) & ok
-            _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_mass,
-                  scratch, pos, vel, acc, sgn * beta * dt)
-            ok = _drift_all(xj, vj, M, G, sgn * alpha * dt) & ok
-    ok = _drift_all(xj, vj, M, G, 0.5 * dt) & ok
-    for step in range(nsteps):
+    # One loop of drift-then-kick over the whole schedule, so that the force code appears
+    # once in the compiled kernel (each call site of an inlined parallel loop is compiled
+    # again). Corrector drifts merge with their neighbours: Kepler flows compose exactly.
+    kicks = nsteps + (4 if corrector else 0)
+    for q in range(kicks):
+        d, k = _schedule(q, nsteps, dt, corrector)
+        ok = _drift_all(xj, vj, M, G, d) & ok
         _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_mass,
-              scratch, pos, vel, acc, dt)
-        ok = _drift_all(xj, vj, M, G, dt if step < nsteps - 1 else 0.5 * dt) & ok
-    if corrector:
-        for sgn in (-1.0, 1.0):
-            ok = _drift_all(xj, vj, M, G, -sgn * alpha * dt) & ok
-            _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_mass,
-                  scratch, pos, vel, acc, -sgn * beta * dt)
-            ok = _drift_all(xj, vj, M, G, sgn * alpha * dt) & ok
+              scratch, pos, vel, acc, k)
+    ok = _drift_all(xj, vj, M, G, _CORRECTOR_A * dt if corrector else 0.5 * dt) & ok
     _from_jacobi(xj, vj, order, m, M, pos, vel)
     return ok
