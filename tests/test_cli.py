@@ -43,6 +43,11 @@ def test_run_overrides_integrator_and_dt():
     (["run", "jupiter"], "invalid choice: 'jupiter'"),
     (["run", "--integrator", "ias15"], "invalid choice: 'ias15'"),
     (["bench", "everything"], "invalid choice: 'everything'"),
+    (["run", "kepler", "--duration", "1e-9"],
+     "spacephys run: error: duration = 1e-09 is shorter than one step (dt = 0.001)"),
+    (["run", "kepler", "--dt", "1e-320"], "spacephys run: error: duration / dt = "),
+    (["validate", "mars"], "spacephys validate: error: problem 'mars' is not known"),
+    (["validate", "--integrator", "ias15"], "invalid choice: 'ias15'"),
 ])
 def test_bad_arguments_exit_2_without_traceback(args, message):
     res = spacephys(*args)
@@ -65,3 +70,14 @@ def test_readme_commands_are_what_ci_runs():
     ci = (ROOT / ".ci" / "run").read_text()
     assert "python3.11 dev.py test" in ci and "python3.11 dev.py test" in readme
     assert "python3.11 dev.py run" in readme
+
+
+def test_validate_prints_the_table_and_writes_it():
+    res = spacephys("validate", "kepler_e0", "hyperbolic", "--integrator", "leapfrog",
+                    "--integrator", "gauss_radau", "--markdown", "/tmp/spacephys-validate.md")
+    assert res.returncode == 0, res.stderr
+    rows = [line for line in res.stdout.splitlines() if line.startswith("| |")]
+    assert [r.split("|")[2].strip() for r in rows] == ["leapfrog", "gauss_radau"] * 2
+    assert "| **kepler_e0**" in res.stdout and "REBOUND IAS15" in res.stdout
+    with open("/tmp/spacephys-validate.md") as f:
+        assert f.read().startswith("# Validation against REBOUND")
