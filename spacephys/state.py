@@ -20,6 +20,9 @@ _COLUMNS = {
     "radius": ((), np.float64),
     "kind": ((), np.int16),
     "active": ((), np.bool_),
+    "fixed": ((), np.bool_),        # immovable: infinite inertial mass, never moves
+    "category": ((), np.int64),     # collision filter: the bits a body is...
+    "mask": ((), np.int64),         # ...and the bits it collides with
 }
 
 

@@ -8,6 +8,8 @@ import numpy as np
 from . import _validate as check
 from .integrators import get_integrator
 from .kernels import diagnostics
+from .events import EVENT_DTYPE
+from .kernels import collide
 from .kernels import gauss_radau as gr
 from .kernels.gravity import CENTRAL, DIRECT, NONE, UNIFORM
 from .kernels.integrate import rk_steps, splitting_steps
@@ -17,6 +19,11 @@ from .units import get_units
 
 GRAVITY_MODELS = {"none": NONE, "direct": DIRECT, "uniform": UNIFORM, "central": CENTRAL}
 STEP_CONTROLS = ("auto", "pulling", "all")
+RESPONSES = {"ignore": collide.IGNORE, "sensor": collide.SENSOR, "elastic": collide.ELASTIC,
+             "bounce": collide.BOUNCE, "merge": collide.MERGE, "destroy_a": collide.DESTROY_A,
+             "destroy_b": collide.DESTROY_B, "destroy_both": collide.DESTROY_BOTH}
+BOUNDARIES = {"open": collide.OPEN, "reflect": collide.REFLECT, "periodic": collide.PERIODIC}
+_MIRRORED = {collide.DESTROY_A: collide.DESTROY_B, collide.DESTROY_B: collide.DESTROY_A}
 # kinds whose bodies feel gravity but do not pull unless told to (active=True): their mass is
 # for thrust and collisions, and their pull on planets would only cost time
 PASSIVE_KINDS = ("ship", "missile", "debris")
@@ -25,6 +32,24 @@ DEFAULT_KINDS = ("body", "star", "planet", "moon", "asteroid", "ship", "missile"
 Body = namedtuple("Body", "id pos vel mass radius kind active pulls")
 Body.__doc__ = ("A copy of one body's state: id, pos/vel (dim,), mass, radius, kind name, "
                 "active (may pull) and pulls (active and massive).")
+
+
+def _bools(name, value, k):
+    """None-free bool or (k,) bools as a (k,) array (no 0/1 ints: a typo guard)."""
+    arr = np.asarray(value)
+    if arr.dtype != np.bool_ or arr.shape not in ((), (k,)):
+        raise ValueError(f"{name} = {value!r}: must be a bool or {k} bools")
+    return np.broadcast_to(arr, (k,))
+
+
+def _bits(name, value, k):
+    """An int or (k,) ints fitting int64, as a (k,) int64 array."""
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "iu" or arr.shape not in ((), (k,)):
+        raise ValueError(f"{name} = {value!r}: must be an integer or {k} integers (bits)")
+    if arr.dtype.kind == "u" and arr.size and arr.max() > np.iinfo(np.int64).max:
+        raise ValueError(f"{name} = {value!r}: bits beyond 63 do not fit")
+    return np.broadcast_to(arr.astype(np.int64), (k,))
 
 
 def _readonly(arr):
@@ -114,6 +139,16 @@ class World:
         self._field_mass = field_mass
         self._b = Bodies(capacity)
         self._kinds = list(DEFAULT_KINDS)
+        # collisions: the kind x kind matrix (all ignore until set), walls, the boundary
+        self._response = np.zeros((len(DEFAULT_KINDS),) * 2, dtype=np.int64)
+        self._restitution = np.ones((len(DEFAULT_KINDS),) * 2)
+        self._walls = np.zeros((0, 8))
+        self._boundary = collide.OPEN
+        self._box = np.zeros((2, 3))
+        self._box_restitution = 1.0
+        self._cell = None
+        self._events = np.zeros(256, dtype=EVENT_DTYPE)
+        self._event_count = np.zeros(2, dtype=np.int64)
         self._sources = None            # (src, passive) index arrays, rebuilt when stale
         self._dt = dt
         self._t_base = 0.0              # t = t_base + steps * dt: no rounding build-up in t
@@ -260,10 +295,17 @@ class World:
         """Declare a kind (idempotent); returns its code."""
         if not isinstance(name, str) or not name:
             raise ValueError(f"kind name = {name!r}: must be a non-empty string")
+        if name == "*":
+            raise ValueError("kind name = '*': reserved for 'every kind' in set_collision")
         if name not in self._kinds:
             if len(self._kinds) >= np.iinfo(np.int16).max:
                 raise ValueError(f"kind {name!r}: too many kinds ({len(self._kinds)})")
             self._kinds.append(name)
+            k = len(self._kinds)
+            response, restitution = np.zeros((k, k), np.int64), np.ones((k, k))
+            response[:-1, :-1] = self._response
+            restitution[:-1, :-1] = self._restitution
+            self._response, self._restitution = response, restitution
         return self._kinds.index(name)
 
     def kind_code(self, name):
@@ -342,12 +384,16 @@ class World:
         b = self._b
         return b.active[:b.n] & (b.mass[:b.n] > 0)
 
-    def add_body(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None):
+    def add_body(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None,
+                 fixed=False, category=1, mask=-1):
         """Add one body; returns its id.
 
         mass [mass] >= 0 (0: a test particle); pos, vel : (dim,); radius [length] >= 0;
         kind : a declared kind name or code; active : may pull others (it does when it has
-        mass); default True, except for the kinds ship, missile and debris.
+        mass); default True, except for the kinds ship, missile and debris; fixed : immovable
+        (it stays put, and collisions treat its mass as infinite); category, mask : collision
+        filter bits: two bodies interact only if each one's category meets the other's mask
+        (default: category 1, mask all bits).
         """
         pos = check.floats("pos", pos, (self._dim,))
         vel = np.zeros(self._dim) if vel is None else check.floats("vel", vel, (self._dim,))
@@ -356,14 +402,17 @@ class World:
         if active is not None and not isinstance(active, (bool, np.bool_)):
             raise ValueError(f"active = {active!r}: must be True, False or None")
         return int(self.add_bodies(mass, pos[None], vel[None], radius=radius, kind=kind,
-                                   active=active)[0])
+                                   active=active, fixed=fixed, category=category,
+                                   mask=mask)[0])
 
-    def add_bodies(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None):
+    def add_bodies(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None,
+                   fixed=False, category=1, mask=-1):
         """Add k bodies at once; returns their (k,) int64 ids.
 
         mass : number or (k,); pos, vel : (k, dim); radius : number or (k,);
-        kind : one name/code or k of them; active : None (by kind, see add_body), a bool or
-        (k,) bools. Everything is checked before anything is added.
+        kind : one name/code or k of them; active, fixed : None/bool or (k,) bools (see
+        add_body); category, mask : int or (k,) ints. Everything is checked before anything
+        is added.
         """
         pos = check.floats("pos", pos, (None, self._dim))
         k = pos.shape[0]
@@ -375,16 +424,17 @@ class World:
             passive_codes = [self._kinds.index(k) for k in PASSIVE_KINDS if k in self._kinds]
             act = ~np.isin(codes, passive_codes)
         else:
-            act = np.asarray(active)
-            if act.dtype != np.bool_ or act.shape not in ((), (k,)):  # no 0/1 ints: typo guard
-                raise ValueError(f"active = {active!r}: must be None, a bool or {k} bools")
-            act = np.broadcast_to(act, (k,))
+            act = _bools("active", active, k)
+        still = _bools("fixed", fixed, k)
+        category = _bits("category", category, k)
+        mask = _bits("mask", mask, k)
         p3 = np.zeros((k, 3))
         v3 = np.zeros((k, 3))
         p3[:, :self._dim] = pos
-        v3[:, :self._dim] = vel
+        v3[:, :self._dim] = np.where(still[:, None], 0.0, vel)    # a fixed body never moves
         ids = self._b.add({"pos": p3, "vel": v3, "mass": mass, "radius": radius,
-                           "kind": codes, "active": act})
+                           "kind": codes, "active": act, "fixed": still, "category": category,
+                           "mask": mask})
         self._sources = None
         return ids
 
@@ -417,7 +467,7 @@ class World:
                     bool(b.active[i]), bool(b.active[i] and b.mass[i] > 0))
 
     def set_body(self, body_id, *, pos=None, vel=None, mass=None, radius=None, kind=None,
-                 active=None):
+                 active=None, fixed=None, category=None, mask=None):
         """Change one body between steps; everything is checked before anything changes.
 
         A new pos also resets the body's render interpolation (a teleport, not a smear).
@@ -434,11 +484,17 @@ class World:
             new["radius"] = check.scalar("radius", radius, minimum=0.0)
         if kind is not None:
             new["kind"] = self._kind_codes(kind, 1, "kind")[0]
-        if active is not None:
-            if not isinstance(active, (bool, np.bool_)):
-                raise ValueError(f"active = {active!r}: must be True or False")
-            new["active"] = active
+        for name, value in (("active", active), ("fixed", fixed)):
+            if value is not None:
+                if not isinstance(value, (bool, np.bool_)):
+                    raise ValueError(f"{name} = {value!r}: must be True or False")
+                new[name] = value
+        for name, value in (("category", category), ("mask", mask)):
+            if value is not None:
+                new[name] = _bits(name, value, 1)[0]
         b = self._b
+        if new.get("fixed", b.fixed[i]):
+            new["vel"] = np.zeros(self._dim)          # a fixed body never moves
         for name, value in new.items():
             col = getattr(b, name)
             if name in ("pos", "vel"):
@@ -451,7 +507,7 @@ class World:
         for name, key in (("csx", "pos"), ("csv", "vel")):
             if key in new and name in b.columns:
                 getattr(b, name)[i] = 0.0
-        if "mass" in new or "active" in new:
+        if "mass" in new or "active" in new or "fixed" in new:
             self._sources = None
 
     def remove(self, ids):
@@ -466,44 +522,217 @@ class World:
         # numba compile the kernels a second time for a different array type
         return copy.deepcopy(self, memo={id(self._spec): self._spec})
 
+    # ---------------------------------------------------------------- collisions
+    def _kind_list(self, kind, field):
+        if kind == "*":
+            return list(range(len(self._kinds)))
+        return [int(self._kind_codes(kind, 1, field)[0])]
+
+    def set_collision(self, kind_a, kind_b, response, restitution=None):
+        """What happens when a body of kind_a meets one of kind_b (either order).
+
+        response : "ignore" (the default for every pair), "sensor" (an event only),
+        "elastic", "bounce" (with restitution in [0, 1]: 1 elastic, 0 no rebound), "merge"
+        (one body with the pair's mass, momentum and centre of mass; radius from the summed
+        volume in 3D, area in 2D), "destroy_a", "destroy_b", "destroy_both" (a: the body of
+        kind_a). A kind may be "*" for every kind.
+        """
+        codes_a = self._kind_list(kind_a, "kind_a")
+        codes_b = self._kind_list(kind_b, "kind_b")
+        if not isinstance(response, str) or response not in RESPONSES:
+            raise ValueError(f"response={response!r} is not known; valid: {', '.join(RESPONSES)}")
+        code = RESPONSES[response]
+        if code == collide.BOUNCE:
+            if restitution is None:
+                raise ValueError("response='bounce' needs restitution, in [0, 1]")
+            restitution = check.scalar("restitution", restitution, minimum=0.0)
+            if restitution > 1.0:
+                raise ValueError(f"restitution = {restitution}: must be <= 1")
+        elif restitution is not None:
+            raise ValueError(f"restitution = {restitution!r} is only used with response='bounce'")
+        for a in codes_a:
+            for b in codes_b:
+                self._response[a, b] = code
+                self._response[b, a] = _MIRRORED.get(code, code) if a != b else code
+                if restitution is not None:
+                    self._restitution[a, b] = self._restitution[b, a] = restitution
+
+    def collision(self, kind_a, kind_b):
+        """The response set for (kind_a, kind_b), and its restitution."""
+        a = self.kind_code(kind_a)
+        b = self.kind_code(kind_b)
+        name = next(k for k, v in RESPONSES.items() if v == self._response[a, b])
+        return name, float(self._restitution[a, b])
+
+    def add_plane(self, point, normal, restitution=1.0):
+        """An immovable wall: the plane (a line in 2D) through point, bodies on the side the
+        normal points to. Returns its index in w.walls."""
+        point = check.floats("point", point, (self._dim,))
+        normal = check.floats("normal", normal, (self._dim,))
+        length = float(np.linalg.norm(normal))
+        if length == 0:
+            raise ValueError("normal = 0: a plane needs a direction")
+        return self._add_wall(collide.PLANE, point, normal / length, restitution)
+
+    def add_segment(self, a, b, restitution=1.0):
+        """An immovable wall segment from a to b (with round ends): the seed's circle-on-wall.
+        Returns its index in w.walls."""
+        a = check.floats("a", a, (self._dim,))
+        b = check.floats("b", b, (self._dim,))
+        if np.array_equal(a, b):
+            raise ValueError(f"a = b = {a.tolist()}: a segment needs two distinct ends")
+        return self._add_wall(collide.SEGMENT, a, b, restitution)
+
+    def _add_wall(self, kind, p, q, restitution):
+        restitution = check.scalar("restitution", restitution, minimum=0.0)
+        if restitution > 1.0:
+            raise ValueError(f"restitution = {restitution}: must be <= 1")
+        row = np.zeros(8)
+        row[0] = kind
+        row[1:1 + self._dim] = p
+        row[4:4 + self._dim] = q
+        row[7] = restitution
+        self._walls = np.vstack([self._walls, row])
+        return len(self._walls) - 1
+
+    @property
+    def walls(self):
+        """(W, 8) rows [type (0 plane, 1 segment), x0, y0, z0, x1, y1, z1, restitution]."""
+        return _readonly(self._walls)
+
+    def clear_walls(self):
+        self._walls = np.zeros((0, 8))
+
+    def set_boundary(self, mode, lo=None, hi=None, restitution=1.0):
+        """The world's edge: "open" (none), "reflect" (walls of the box lo..hi) or "periodic"
+        (Asteroids-style: leaving one side enters the opposite one; contacts across the seam
+        count; gravity itself is not periodic)."""
+        if not isinstance(mode, str) or mode not in BOUNDARIES:
+            raise ValueError(f"boundary={mode!r} is not known; valid: {', '.join(BOUNDARIES)}")
+        box = np.zeros((2, 3))
+        if mode != "open":
+            if lo is None or hi is None:
+                raise ValueError(f"boundary={mode!r} needs lo and hi, the box's corners")
+            box[0, :self._dim] = check.floats("lo", lo, (self._dim,))
+            box[1, :self._dim] = check.floats("hi", hi, (self._dim,))
+            bad = np.flatnonzero(box[1, :self._dim] <= box[0, :self._dim])
+            if bad.size:
+                raise ValueError(f"hi[{bad[0]}] = {box[1, bad[0]]} is not above "
+                                 f"lo[{bad[0]}] = {box[0, bad[0]]}")
+        restitution = check.scalar("restitution", restitution, minimum=0.0)
+        if restitution > 1.0:
+            raise ValueError(f"restitution = {restitution}: must be <= 1")
+        self._boundary, self._box, self._box_restitution = BOUNDARIES[mode], box, restitution
+
+    @property
+    def boundary(self):
+        """(mode, lo, hi, restitution)."""
+        mode = next(k for k, v in BOUNDARIES.items() if v == self._boundary)
+        return mode, self._box[0, :self._dim].copy(), self._box[1, :self._dim].copy(), \
+            self._box_restitution
+
+    @property
+    def collision_cell(self):
+        """The broad phase's grid cell [length]; None (default): the largest diameter."""
+        return self._cell
+
+    @collision_cell.setter
+    def collision_cell(self, value):
+        self._cell = None if value is None else check.scalar("collision_cell", value,
+                                                             positive=True)
+
+    @property
+    def events(self):
+        """Structured array (spacephys.EVENT_DTYPE) of what happened in the last step() or
+        advance(): kind, ids a and b, time, time within its step, contact point, normal,
+        closing speed and kinetic energy lost."""
+        return self._events[:self._event_count[0]].copy()
+
+    def _collision_setup(self):
+        b = self._b
+        n = b.n
+        enabled = bool(self._response.any() or len(self._walls) or self._boundary != collide.OPEN)
+        if self._cell is not None:
+            cell = self._cell
+        else:
+            biggest = float(b.radius[:n].max()) if n else 0.0
+            cell = 2.0 * biggest if biggest > 0 else 1.0
+        if enabled:
+            room = collide.EVENT_ROOM_PER_BODY * n + 64
+            if self._events.size - self._event_count[0] < room:
+                grown = np.zeros(max(2 * self._events.size, self._event_count[0] + room),
+                                 dtype=EVENT_DTYPE)
+                grown[:self._event_count[0]] = self._events[:self._event_count[0]]
+                self._events = grown
+        return collide.Setup(enabled, b.ids[:n], b.kind[:n].astype(np.int64), b.radius[:n],
+                             np.ones(n, dtype=np.bool_), self._events, self._event_count,
+                             self.t, self._response, self._restitution, b.category[:n],
+                             b.mask[:n], b.fixed[:n], self._walls, self._boundary, self._box,
+                             self._box_restitution, cell, self._dim)
+
     # ---------------------------------------------------------------- stepping
     def _source_lists(self):
+        """(src, passive, still): the bodies that pull, the others, the immovable ones."""
         if self._sources is None:
             b = self._b
             pulls = b.active[:b.n] & (b.mass[:b.n] > 0)
             self._sources = (np.flatnonzero(pulls).astype(np.int64),
-                             np.flatnonzero(~pulls).astype(np.int64))
+                             np.flatnonzero(~pulls).astype(np.int64),
+                             np.flatnonzero(b.fixed[:b.n]).astype(np.int64))
         return self._sources
 
     def _gravity_args(self):
         """The gravity arguments of the kernels, after pos (see kernels/gravity.py)."""
         b = self._b
-        src, passive = self._source_lists()
+        src, passive, still = self._source_lists()
         return (self._model, b.mass[:b.n], src, passive, self._G, self._softening ** 2,
-                self._field, self._field_mass)
+                self._field, self._field_mass, still)
 
     def _run(self, nsteps):
+        """Take nsteps steps; a kernel call ends early after a collision removed or merged
+        bodies (or filled the event buffer), and is resumed once World has caught up."""
+        while nsteps:
+            setup = self._collision_setup()
+            try:
+                done = self._run_kernel(nsteps, setup)
+            finally:
+                # bodies destroyed or merged away leave, even if the integration then failed
+                dead = np.flatnonzero(~setup.alive)
+                if dead.size:
+                    self._b.remove(dead)
+                    self._sources = None
+            self._steps += done
+            nsteps -= done
+            if setup.count[1]:
+                warnings.warn("collision events dropped: one step wrote more than the room "
+                              "kept for it (2 per body)", RuntimeWarning, stacklevel=3)
+                setup.count[1] = 0
+            # a kernel that stopped for room in the event buffer gets it in the next setup
+
+    def _run_kernel(self, nsteps, setup):
         b = self._b
         spec = self._spec
         if spec.family == "splitting":
-            splitting_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.drift,
-                            spec.kick, self._dt, nsteps)
-        elif spec.family == "rk":
-            rk_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.a, spec.b,
-                     self._dt, nsteps)
-        elif spec.family == "gauss_radau":
-            self._run_gauss_radau(nsteps)
-        else:
-            self._run_wisdom_holman(nsteps)
+            return splitting_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.drift,
+                                   spec.kick, self._dt, nsteps, setup)
+        if spec.family == "rk":
+            return rk_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.a, spec.b,
+                            self._dt, nsteps, setup)
+        if spec.family == "gauss_radau":
+            return self._run_gauss_radau(nsteps, setup)
+        return self._run_wisdom_holman(nsteps, setup)
 
-    def _run_wisdom_holman(self, nsteps):
+    def _run_wisdom_holman(self, nsteps, setup):
         if self._model != DIRECT:
             raise ValueError(f"integrator {self._spec.name!r} needs gravity='direct' with a "
                              f"dominant body among the bodies (gravity={self._gravity!r})")
         b = self._b
         n = b.n
         args = self._gravity_args()
-        src, passive = args[2], args[3]
+        src, passive, still = args[2], args[3], args[8]
+        if still.size:
+            raise ValueError(f"integrator {self._spec.name!r} cannot hold bodies fixed "
+                             f"({still.size} are): use a fixed-step or the adaptive integrator")
         if src.size == 0:
             order = np.arange(n, dtype=np.int64)
             m = np.zeros(n)
@@ -515,16 +744,19 @@ class World:
             order = np.concatenate([[central], src[src != central], passive]).astype(np.int64)
             m = np.where(np.isin(order, src), b.mass[order], 0.0)
         saved = b.pos[:n].copy(), b.vel[:n].copy()
-        if not wisdom_holman_steps(b.pos[:n], b.vel[:n], *args, order, m, self._dt, nsteps,
-                                   self._spec.corrector > 0):
+        done, ok = wisdom_holman_steps(b.pos[:n], b.vel[:n], *args, order, m, self._dt, nsteps,
+                                       self._spec.corrector > 0, setup)
+        if not ok:
             b.pos[:n], b.vel[:n] = saved
+            setup.alive[:] = True
             raise FloatingPointError(
                 f"{self._spec.name}: a Kepler drift did not converge: a body sits at the centre "
                 f"of mass of the bodies before it (its Jacobi orbit is singular), or the state "
                 f"is NaN. The state is that at t = {self.t:g}. Wisdom-Holman is for scenes "
                 f"with one dominant mass; use gauss_radau or yoshida6 otherwise.")
+        return done
 
-    def _run_gauss_radau(self, nsteps):
+    def _run_gauss_radau(self, nsteps, setup):
         b = self._b
         n = b.n
         cols = [b.ensure_column(name, shape)[:n] for name, shape in
@@ -543,7 +775,7 @@ class World:
         before = stats.copy()
         done = gr.gauss_radau_steps(b.pos[:n], b.vel[:n], *args, *cols, control, riders,
                                     spec.nodes, spec.c_gb, spec.d_bg, self._dt, nsteps,
-                                    self._adaptive, stats)
+                                    self._adaptive, stats, setup)
         if stats[gr.FAILED]:
             stats[gr.FAILED] = 0
             self._steps += done          # the state is that of the last completed interval
@@ -555,21 +787,22 @@ class World:
         if stats[gr.AT_MIN_STEP] > before[gr.AT_MIN_STEP]:
             warnings.warn(f"gauss_radau: {stats[gr.AT_MIN_STEP] - before[gr.AT_MIN_STEP]} "
                           f"substeps were held at min_step = {self._adaptive[2]:g}; the error "
-                          f"is no longer controlled there", RuntimeWarning, stacklevel=3)
+                          f"is no longer controlled there", RuntimeWarning, stacklevel=4)
+        return done
 
     def step(self, n=1):
-        """Advance n steps of dt, the loop inside numba; returns the new time."""
+        """Advance n steps of dt, the loop inside numba; returns the new time. w.events then
+        holds what happened during these steps."""
         n = check.count("n", n)
+        self._event_count[:] = 0
         b = self._b
         if not (n and b.n):
             self._steps += n
             return self.t
         if n > 1:
             self._run(n - 1)
-            self._steps += n - 1
         b.prev[:b.n] = b.pos[:b.n]
         self._run(1)
-        self._steps += 1
         return self.t
 
     def advance(self, frame_time):

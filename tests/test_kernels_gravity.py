@@ -19,14 +19,16 @@ def _scene(rng, n, frac_pulling):
     return pos, mass, pulls
 
 
-def _run(pos, mass, pulls, model, G=1.7, eps2=0.0, field=np.zeros(3), field_mass=0.0):
+def _run(pos, mass, pulls, model, G=1.7, eps2=0.0, field=np.zeros(3), field_mass=0.0,
+         still=np.zeros(0, np.int64)):
     src = np.flatnonzero(pulls).astype(np.int64)
     passive = np.flatnonzero(~pulls).astype(np.int64)
     out = np.full((len(mass), 3), np.nan)
     scratch = np.empty((4, src.size if model == DIRECT else 1))
-    accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, scratch, out)
+    accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, still, scratch,
+                  out)
     energy = diagnostics.potential_energy(pos, model, mass, src, passive, G, eps2, field,
-                                          field_mass)
+                                          field_mass, still)
     return out, energy
 
 
@@ -123,3 +125,13 @@ def test_potential_energy_is_compensated():
     exact = math.fsum([-1.0] + [-5e-17 / r[0]] * n + [-5e-17 / r[1]] * n)
     assert energy != -1.0
     assert abs(energy - exact) <= 2.3e-16
+
+
+def test_immovable_bodies_have_no_acceleration(rng):
+    pos, mass, pulls = _scene(rng, 30, 0.7)
+    still = np.array([2, 7, 11], dtype=np.int64)
+    acc, _ = _run(pos, mass, pulls, DIRECT, still=still)
+    free, _ = _run(pos, mass, pulls, DIRECT)
+    assert np.all(acc[still] == 0)
+    others = np.setdiff1d(np.arange(30), still)
+    assert np.array_equal(acc[others], free[others])     # they still pull the others

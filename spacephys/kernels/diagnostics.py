@@ -41,12 +41,12 @@ def _pair_potential(xi, yi, zi, mi, xj, yj, zj, mj, eps2):
 
 
 @kernel
-def potential_energy(pos, model, mass, src, passive, G, eps2, field, field_mass):
+def potential_energy(pos, model, mass, src, passive, G, eps2, field, field_mass, still):
     """Potential energy of the state under the model (arguments as gravity.accelerations).
 
     DIRECT: -G m_i m_j / sqrt(r^2 + eps2) over pairs of sources, and over (passive, source)
     pairs: a passive body sits in the sources' field. CENTRAL: each body in the fixed body's
-    field. UNIFORM: -m g.x. NONE: 0.
+    field. UNIFORM: -m g.x. NONE: 0. still: unused (the immovable bodies' potential counts).
     """
     s = 0.0
     c = 0.0

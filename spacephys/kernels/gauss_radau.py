@@ -17,6 +17,7 @@ import math
 import numpy as np
 
 from .._jit import kernel
+from .collide import collide_step, room_for_a_step
 from .gravity import ALL, PASSIVE, PULLING, accelerations
 from .integrate import _scratch
 
@@ -178,7 +179,7 @@ def _predict(b, e, q, have_predictor):
 
 @kernel(parallel=True, inline=True)
 def _sweep(rows, which, first, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model, mass,
-           src, passive, G, eps2, field, field_mass, scratch):
+           src, passive, G, eps2, field, field_mass, still, scratch):
     """One predictor-corrector sweep over the seven nodes, updating the bodies in rows (whose
     accelerations `which` selects, see gravity.accelerations). first = -1 evaluates a0, the
     acceleration at the step's start (of every body), before the nodes. Returns the change of
@@ -197,7 +198,7 @@ def _sweep(rows, which, first, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb
             for i in range(pos.shape[0]):
                 for c in range(3):
                     x[i, c] = pos[i, c] - csx[i, c]
-        accelerations(x, model, mass, src, passive, G, eps2, field, field_mass, scratch,
+        accelerations(x, model, mass, src, passive, G, eps2, field, field_mass, still, scratch,
                       a if node >= 0 else a0, which if node >= 0 else ALL)
         if node >= 0:
             _correct_at_node(rows, node, nodes, a, a0, g, b, c_gb)
@@ -213,14 +214,14 @@ def _sweep(rows, which, first, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb
 
 @kernel(parallel=True, inline=True)
 def _converge(rows, which, with_a0, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model,
-              mass, src, passive, G, eps2, field, field_mass, scratch):
+              mass, src, passive, G, eps2, field, field_mass, still, scratch):
     """Sweep until b7 stops changing: below _PC_TOLERANCE, or stalled at round-off. Returns
     whether it converged within _PC_MAX_SWEEPS. with_a0: evaluate a0 first."""
     last = np.inf
     for sweep in range(_PC_MAX_SWEEPS):
         first = -1 if with_a0 and sweep == 0 else 0
         error = _sweep(rows, which, first, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb,
-                       model, mass, src, passive, G, eps2, field, field_mass, scratch)
+                       model, mass, src, passive, G, eps2, field, field_mass, still, scratch)
         if error < _PC_TOLERANCE or (sweep > 1 and error >= last and error < _PC_ROUNDOFF):
             return True
         last = error
@@ -228,9 +229,9 @@ def _converge(rows, which, with_a0, pos, csx, vel, a0, b, g, x, a, b7, h, nodes,
 
 
 @kernel(parallel=True)
-def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass,
+def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
                       csx, csv, b, e, control, riders, nodes, c_gb, d_bg, dt_out, nsteps,
-                      params, stats):
+                      params, stats, setup):
     """Advance nsteps intervals of dt_out, landing exactly on the end of each.
 
     pos, vel : (n, 3), updated in place; csx, csv : (n, 3), their Kahan compensations;
@@ -245,8 +246,10 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
     stats : int64 [steps, rejected, at_min_step, not_converged, failed], incremented; failed
             is set when the step underflows or turns NaN: the kernel then restores the state
             at the start of the interval and returns.
-    model ... field_mass : the gravity arguments of gravity.accelerations.
-    Returns the number of intervals completed.
+    model ... still : the gravity arguments of gravity.accelerations; setup : collide.Setup,
+    whose pass runs at the end of each interval (so dt_out caps the collision step).
+    Returns the number of intervals completed: fewer than nsteps after a failure, or when a
+    collision removed or merged bodies.
     """
     n = pos.shape[0]
     tolerance, max_step, min_step = params[0], params[1], params[2]
@@ -266,6 +269,11 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
     # or tiny tolerances would reject every step
     reject_above = max(tolerance / _SAFETY ** 7, _TRUNCATION_FLOOR)
     for interval in range(nsteps):
+        if setup.enabled and not room_for_a_step(setup):
+            params[3] = dt
+            params[4] = dt_b
+            params[5] = 1.0 if have_predictor else 0.0
+            return interval
         saved[0] = pos
         saved[1] = vel
         saved[2] = csx
@@ -296,7 +304,7 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
                 which = (ALL if everyone else PULLING) if phase == 0 else PASSIVE
                 converged = _converge(rows, which, phase == 0, pos, csx, vel, a0, b, g, x, a, b7,
                                       h, nodes, c_gb, model, mass, src, passive, G, eps2, field,
-                                      field_mass, scratch)
+                                      field_mass, still, scratch)
                 if not converged:
                     stats[NOT_CONVERGED] += 1
                 if phase == 1:
@@ -367,6 +375,12 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             params[4] = dt_b
             params[5] = 1.0 if have_predictor else 0.0
             return interval
+        if setup.enabled and collide_step(saved[0], pos, vel, mass, setup, dt_out,
+                                          setup.t0 + interval * dt_out) == 2:
+            params[3] = dt
+            params[4] = dt_b
+            params[5] = 1.0 if have_predictor else 0.0
+            return interval + 1
     params[3] = dt
     params[4] = dt_b
     params[5] = 1.0 if have_predictor else 0.0

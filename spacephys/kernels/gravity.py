@@ -64,8 +64,8 @@ def _pull_all(targets, pos, s, G, eps2, out):
 
 
 @kernel(parallel=True, inline=True)
-def accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, scratch, out,
-                  which=ALL):
+def accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, still, scratch,
+                  out, which=ALL):
     """Write the gravitational acceleration of every body into out.
 
     pos : (n, 3) float64 [length]
@@ -74,6 +74,7 @@ def accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, sc
     G : float [length^3 / (mass time^2)]; eps2 : float, Plummer softening squared [length^2]
     field : (3,) float64, the uniform acceleration (UNIFORM) or the fixed body's position (CENTRAL)
     field_mass : float, the fixed body's mass (CENTRAL)
+    still : (k,) int64, immovable bodies: their acceleration is zero, so they stay put
     scratch : (4, ns) float64 for DIRECT, (4, 1) for CENTRAL: the sources' x, y, z, m
               (exactly that wide, so its rows are contiguous and the inner loop vectorises)
     out : (n, 3) float64 [length / time^2]
@@ -108,3 +109,8 @@ def accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, sc
             out[i, 0] = 0.0
             out[i, 1] = 0.0
             out[i, 2] = 0.0
+    for a in range(still.size):
+        k = still[a]
+        out[k, 0] = 0.0
+        out[k, 1] = 0.0
+        out[k, 2] = 0.0

@@ -8,6 +8,7 @@ Positions and velocities are updated in place; gravity comes from gravity.accele
 import numpy as np
 
 from .._jit import kernel
+from .collide import collide_step, room_for_a_step
 from .gravity import DIRECT, accelerations
 
 
@@ -18,18 +19,24 @@ def _scratch(model, src):
 
 
 @kernel(parallel=True)
-def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass,
-                    drift, kick, dt, nsteps):
+def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
+                    drift, kick, dt, nsteps, setup):
     """Advance nsteps steps of dt with the drift/kick sequence (drift[s], kick[s]).
 
     Stage s: pos += drift[s] dt vel, then vel += kick[s] dt a(pos) (skipped where kick[s] == 0).
     pos, vel : (n, 3) float64, updated in place; mass : (n,) float64; drift, kick : (S,) float64.
-    model ... field_mass : the gravity arguments of gravity.accelerations.
+    model ... still : the gravity arguments of gravity.accelerations; setup : collide.Setup.
+    Returns the steps taken: fewer than nsteps when a collision removed or merged bodies.
     """
     n = pos.shape[0]
     acc = np.empty((n, 3))
+    pos0 = np.empty((n, 3))
     scratch = _scratch(model, src)
-    for _ in range(nsteps):
+    for step in range(nsteps):
+        if setup.enabled:
+            if not room_for_a_step(setup):
+                return step
+            pos0[:] = pos
         for s in range(drift.size):
             h = drift[s] * dt
             if h != 0.0:
@@ -40,28 +47,38 @@ def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_m
             h = kick[s] * dt
             if h != 0.0:
                 accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass,
-                              scratch, acc)
+                              still, scratch, acc)
                 for i in range(n):
                     vel[i, 0] += h * acc[i, 0]
                     vel[i, 1] += h * acc[i, 1]
                     vel[i, 2] += h * acc[i, 2]
+        if setup.enabled and collide_step(pos0, pos, vel, mass, setup, dt,
+                                          setup.t0 + step * dt) == 2:
+            return step + 1
+    return nsteps
 
 
 @kernel(parallel=True)
-def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass,
-             a, b, dt, nsteps):
+def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
+             a, b, dt, nsteps, setup):
     """Advance nsteps steps of dt with the explicit Runge-Kutta tableau (a, b).
 
     a : (S, S) float64, strictly lower triangular; b : (S,) float64 weights.
     Stage s evaluates x_s = x + dt sum_j a[s, j] v_j, v_s = v + dt sum_j a[s, j] a_j, a_s = a(x_s).
+    Collisions and the return value as in splitting_steps.
     """
     n = pos.shape[0]
     S = b.size
     kx = np.empty((S, n, 3))     # stage velocities (the derivative of position)
     kv = np.empty((S, n, 3))     # stage accelerations (the derivative of velocity)
     x = np.empty((n, 3))
+    pos0 = np.empty((n, 3))
     scratch = _scratch(model, src)
-    for _ in range(nsteps):
+    for step in range(nsteps):
+        if setup.enabled:
+            if not room_for_a_step(setup):
+                return step
+            pos0[:] = pos
         for s in range(S):
             for i in range(n):
                 for c in range(3):
@@ -74,7 +91,7 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass,
                     x[i, c] = xs
                     kx[s, i, c] = vs
             accelerations(x, model, mass, src, passive, G, eps2, field, field_mass,
-                          scratch, kv[s])
+                          still, scratch, kv[s])
         for i in range(n):
             for c in range(3):
                 dx = 0.0
@@ -84,3 +101,7 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass,
                     dv += b[s] * kv[s, i, c]
                 pos[i, c] += dt * dx
                 vel[i, c] += dt * dv
+        if setup.enabled and collide_step(pos0, pos, vel, mass, setup, dt,
+                                          setup.t0 + step * dt) == 2:
+            return step + 1
+    return nsteps

@@ -20,6 +20,7 @@ import math
 import numpy as np
 
 from .._jit import kernel
+from .collide import collide_step, room_for_a_step
 from .gravity import accelerations
 from .integrate import _scratch
 
@@ -273,11 +274,12 @@ def _drift_all(xj, vj, M, G, dt):
 
 
 @kernel(parallel=True, inline=True)
-def _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_mass, scratch,
-          pos, vel, acc, dt):
+def _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_mass, still,
+          scratch, pos, vel, acc, dt):
     """v'_k += dt (J(a) + G M_k x'_k / r'^3): the interaction part of the N-body acceleration."""
     _from_jacobi(xj, vj, order, m, M, pos, vel)
-    accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, scratch, acc)
+    accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, still, scratch,
+                  acc)
     # Jacobi transform of the accelerations: a'_k = a_k - (mass-weighted mean of a over 0..k-1)
     Mprev = m[0]
     A0 = acc[order[0], 0]
@@ -338,34 +340,52 @@ def _schedule(q, nsteps, dt, corrector):
 
 
 @kernel(parallel=True)
-def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass,
-                        order, m, dt, nsteps, corrector):
-    """Advance nsteps steps of dt with the Wisdom-Holman map; returns False if a Kepler solve
-    did not converge (the state is then unreliable).
+def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
+                        order, m, dt, nsteps, corrector, setup):
+    """Advance nsteps steps of dt with the Wisdom-Holman map. Returns (steps taken, ok): ok
+    False if a Kepler solve did not converge (the state is then unreliable); fewer steps when
+    a collision removed or merged bodies.
 
     pos, vel : (n, 3), updated in place; order : (n,) int64, the central body first, then the
     other pulling bodies, then the passive ones; m : (n,) masses in that order, 0 for passive
     bodies (they do not move the Jacobi frames); corrector : apply the third-order symplectic
     corrector at the start and its inverse at the end.
-    model ... field_mass : the gravity arguments of gravity.accelerations (model must be DIRECT).
+    model ... still : the gravity arguments of gravity.accelerations (model must be DIRECT);
+    setup : collide.Setup. With collisions the state is synchronised (and the corrector
+    applied) every step, so that the collision pass sees positions and velocities.
     """
     n = order.size
     xj = np.empty((n, 3))
     vj = np.empty((n, 3))
     acc = np.empty((pos.shape[0], 3))
+    pos0 = np.empty((pos.shape[0], 3))
     M = np.cumsum(m)
     scratch = _scratch(model, src)
-    _to_jacobi(pos, vel, order, m, xj, vj)
     ok = True
-    # One loop of drift-then-kick over the whole schedule, so that the force code appears
-    # once in the compiled kernel (each call site of an inlined parallel loop is compiled
-    # again). Corrector drifts merge with their neighbours: Kepler flows compose exactly.
-    kicks = nsteps + (4 if corrector else 0)
-    for q in range(kicks):
-        d, k = _schedule(q, nsteps, dt, corrector)
-        ok = _drift_all(xj, vj, M, G, d) & ok
-        _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_mass,
-              scratch, pos, vel, acc, k)
-    ok = _drift_all(xj, vj, M, G, _CORRECTOR_A * dt if corrector else 0.5 * dt) & ok
-    _from_jacobi(xj, vj, order, m, M, pos, vel)
-    return ok
+    # In chunks of steps between synchronisations: all of them at once, or one at a time when
+    # collisions need the state after every step. Within a chunk, one loop of drift-then-kick
+    # over the whole schedule, so that the force code appears once in the compiled kernel
+    # (each call site of an inlined parallel loop is compiled again). Corrector drifts merge
+    # with their neighbours: Kepler flows compose exactly.
+    chunk = 1 if setup.enabled else max(nsteps, 1)
+    done = 0
+    while done < nsteps:
+        if setup.enabled:
+            if not room_for_a_step(setup):
+                return done, ok
+            pos0[:] = pos
+        steps = min(chunk, nsteps - done)
+        _to_jacobi(pos, vel, order, m, xj, vj)
+        kicks = steps + (4 if corrector else 0)
+        for q in range(kicks):
+            d, k = _schedule(q, steps, dt, corrector)
+            ok = _drift_all(xj, vj, M, G, d) & ok
+            _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_mass,
+                  still, scratch, pos, vel, acc, k)
+        ok = _drift_all(xj, vj, M, G, _CORRECTOR_A * dt if corrector else 0.5 * dt) & ok
+        _from_jacobi(xj, vj, order, m, M, pos, vel)
+        done += steps
+        if setup.enabled and collide_step(pos0, pos, vel, mass, setup, dt,
+                                          setup.t0 + (done - 1) * dt) == 2:
+            return done, ok
+    return done, ok

@@ -1,0 +1,713 @@
+"""Swept circle/sphere collisions within a step: broad phase, time of impact, responses, walls.
+
+The seed's steps of analysis, for every pair at once. Over a step each body moves on the
+straight line from its start to its end position, p(t) = A + B t, t in [0, 1] of the step.
+1. Broad phase: the box each body sweeps goes into every cell of a uniform grid it touches;
+   cells are hashed into buckets by a counting sort (linear in N), and a pair is reported only
+   in the cell holding the low corner of the overlap of its two boxes, so never twice.
+2. Narrow phase: the earliest t with |dA + dB t| = r1 + r2, from squared distances (one square
+   root per real contact, none per rejected pair).
+3. Contacts are resolved in time order: back up to contact, respond, move on along the new
+   line for the rest of the step. A body takes one contact per pass; passes repeat until no
+   contact is left, and a last pass makes sure no pair ends the step overlapping and
+   approaching.
+Responses work with mass fractions m_j / (m_i + m_j) computed from the ratio of the masses,
+so very different masses do not lose the light body's velocity to round-off. Compiled without
+fastmath: the time-of-impact roots and the exact velocity swap of equal masses need exact
+rounding.
+"""
+import math
+from collections import namedtuple
+
+import numpy as np
+
+from .._jit import kernel
+
+# responses of the kind x kind matrix
+IGNORE, SENSOR, ELASTIC, BOUNCE, MERGE, DESTROY_A, DESTROY_B, DESTROY_BOTH = range(8)
+# world boundaries
+OPEN, REFLECT, PERIODIC = 0, 1, 2
+# wall rows: [type, x0, y0, z0, x1, y1, z1, restitution]; a plane through (x0, y0, z0) with
+# unit normal (x1, y1, z1) toward the side bodies live on, or a segment from point 0 to point 1
+PLANE, SEGMENT = 0, 1
+# event kinds (spacephys.events)
+_BOUNCE, _MERGE, _DESTROY, _SENSOR, _WALL = 1, 2, 3, 4, 5
+
+_MAX_PASSES = 32
+
+Setup = namedtuple("Setup", [
+    "enabled",       # bool: run the collision pass after each step
+    "ids",           # (n,) int64 body ids, for the events
+    "kind",          # (n,) int64 kind codes
+    "radius",        # (n,) float64, updated by merges
+    "alive",         # (n,) bool, set False for bodies destroyed or merged away
+    "events",        # EVENT_DTYPE buffer the pass appends to
+    "count",         # (2,) int64: events written, and a flag set if the buffer ran full
+    "t0",            # float: the simulation time at the start of the kernel call
+    "response",      # (K, K) int64, the kind x kind matrix of responses
+    "restitution",   # (K, K) float64, for BOUNCE
+    "category",      # (n,) int64 bits a body is
+    "mask",          # (n,) int64 bits a body collides with
+    "fixed",         # (n,) bool: immovable (infinite mass)
+    "walls",         # (W, 8) float64, see PLANE and SEGMENT
+    "boundary",      # int: OPEN | REFLECT | PERIODIC
+    "box",           # (2, 3) float64: the boundary's low and high corners
+    "box_restitution",  # float
+    "cell",          # float > 0: grid cell size [length]
+    "dim",           # 2 or 3: merged radii keep area (2D) or volume (3D)
+])
+"""What the collision pass needs besides positions, velocities and masses; built by World."""
+
+# room kept in the event buffer before a step: a body rarely has more than two events in one
+# step; should a step write more, the rest are dropped and the overflow flag set
+EVENT_ROOM_PER_BODY = 2
+
+
+@kernel
+def room_for_a_step(setup):
+    """Whether the event buffer has room for a step (otherwise the kernel returns and World
+    grows the buffer)."""
+    return setup.events.shape[0] - setup.count[0] >= EVENT_ROOM_PER_BODY * setup.alive.size + 64
+
+
+@kernel
+def _wrap(d, length):
+    """The image of a difference d nearest to zero on a periodic axis of the given length."""
+    if length > 0.0:
+        return d - length * math.floor(d / length + 0.5)
+    return d
+
+
+@kernel
+def _periods(setup):
+    """Box lengths per axis when wrapping, else zeros."""
+    L = np.zeros(3)
+    if setup.boundary == PERIODIC:
+        for c in range(setup.dim):
+            L[c] = setup.box[1, c] - setup.box[0, c]
+    return L
+
+
+@kernel
+def _pair_time(A, B, i, j, R, t_lo, L):
+    """Earliest t in [t_lo, 1] at which bodies i and j, on p = A + B t, are R apart; -1 if
+    they do not touch, or touch only while separating. Squared distances until a root is
+    certain."""
+    d0 = _wrap(A[j, 0] - A[i, 0], L[0])
+    d1 = _wrap(A[j, 1] - A[i, 1], L[1])
+    d2 = _wrap(A[j, 2] - A[i, 2], L[2])
+    e0 = B[j, 0] - B[i, 0]
+    e1 = B[j, 1] - B[i, 1]
+    e2 = B[j, 2] - B[i, 2]
+    # relative position at t_lo, and the quadratic |p + e s|^2 = R^2 in s = t - t_lo
+    p0 = d0 + e0 * t_lo
+    p1 = d1 + e1 * t_lo
+    p2 = d2 + e2 * t_lo
+    a = e0 * e0 + e1 * e1 + e2 * e2
+    b = p0 * e0 + p1 * e1 + p2 * e2
+    c = p0 * p0 + p1 * p1 + p2 * p2 - R * R
+    if b >= 0.0:
+        return -1.0                       # not approaching: no contact ahead
+    if c <= 0.0:
+        return t_lo                       # overlapping and approaching: contact now
+    disc = b * b - a * c
+    if disc < 0.0:
+        return -1.0
+    s = c / (-b + math.sqrt(disc))        # the smaller root, without cancellation
+    if t_lo + s > 1.0:
+        return -1.0
+    return t_lo + s
+
+
+@kernel
+def _wall_time(A, B, i, r, wall, t_lo):
+    """Earliest t in [t_lo, 1] at which body i (radius r) touches the wall row; -1 if never.
+    Returns (t, nx, ny, nz) with n the wall's normal toward the body at contact."""
+    if wall[0] == PLANE:
+        q0, q1, q2 = wall[1], wall[2], wall[3]
+        n0, n1, n2 = wall[4], wall[5], wall[6]
+        s0 = (A[i, 0] + B[i, 0] * t_lo - q0) * n0 + (A[i, 1] + B[i, 1] * t_lo - q1) * n1 \
+            + (A[i, 2] + B[i, 2] * t_lo - q2) * n2 - r
+        rate = B[i, 0] * n0 + B[i, 1] * n1 + B[i, 2] * n2
+        if rate >= 0.0:
+            return -1.0, n0, n1, n2
+        if s0 <= 0.0:
+            return t_lo, n0, n1, n2
+        t = t_lo - s0 / rate
+        return (t if t <= 1.0 else -1.0), n0, n1, n2
+    # segment: the earliest touch of the capsule of radius r around it, from its side faces
+    # (a moving point against a cylinder: a quadratic) or its two end caps (point vs sphere)
+    best = -1.0
+    bn0 = 0.0
+    bn1 = 0.0
+    bn2 = 0.0
+    u0, u1, u2 = wall[4] - wall[1], wall[5] - wall[2], wall[6] - wall[3]
+    uu = u0 * u0 + u1 * u1 + u2 * u2
+    for end in range(3):
+        if end < 2:
+            # end caps: body centre vs a sphere of radius r at the end point
+            o = 1 if end == 0 else 4
+            d0 = A[i, 0] - wall[o]
+            d1 = A[i, 1] - wall[o + 1]
+            d2 = A[i, 2] - wall[o + 2]
+            e0, e1, e2 = B[i, 0], B[i, 1], B[i, 2]
+        else:
+            # side: the components perpendicular to the segment
+            d0 = A[i, 0] - wall[1]
+            d1 = A[i, 1] - wall[2]
+            d2 = A[i, 2] - wall[3]
+            e0, e1, e2 = B[i, 0], B[i, 1], B[i, 2]
+            k = (d0 * u0 + d1 * u1 + d2 * u2) / uu
+            d0, d1, d2 = d0 - k * u0, d1 - k * u1, d2 - k * u2
+            k = (e0 * u0 + e1 * u1 + e2 * u2) / uu
+            e0, e1, e2 = e0 - k * u0, e1 - k * u1, e2 - k * u2
+        p0 = d0 + e0 * t_lo
+        p1 = d1 + e1 * t_lo
+        p2 = d2 + e2 * t_lo
+        a = e0 * e0 + e1 * e1 + e2 * e2
+        b = p0 * e0 + p1 * e1 + p2 * e2
+        c = p0 * p0 + p1 * p1 + p2 * p2 - r * r
+        if b >= 0.0:
+            continue
+        if c <= 0.0:
+            s = 0.0
+        else:
+            disc = b * b - a * c
+            if disc < 0.0:
+                continue
+            s = c / (-b + math.sqrt(disc))
+        t = t_lo + s
+        if t > 1.0:
+            continue
+        # where along the segment is the contact? the side only counts between the ends
+        x0 = A[i, 0] + B[i, 0] * t - wall[1]
+        x1 = A[i, 1] + B[i, 1] * t - wall[2]
+        x2 = A[i, 2] + B[i, 2] * t - wall[3]
+        k = (x0 * u0 + x1 * u1 + x2 * u2) / uu
+        if end == 2 and not (0.0 <= k <= 1.0):
+            continue
+        if best < 0.0 or t < best:
+            k = min(max(k, 0.0), 1.0)
+            m0, m1, m2 = x0 - k * u0, x1 - k * u1, x2 - k * u2
+            norm = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
+            if norm > 0.0:
+                best = t
+                bn0, bn1, bn2 = m0 / norm, m1 / norm, m2 / norm
+    return best, bn0, bn1, bn2
+
+
+@kernel
+def _allowed(setup, kind, i, j):
+    """The response for the pair, IGNORE when the category/mask bits filter it out."""
+    if (setup.category[i] & setup.mask[j]) == 0 or (setup.category[j] & setup.mask[i]) == 0:
+        return IGNORE
+    return setup.response[kind[i], kind[j]]
+
+
+@kernel
+def _bounds(A, B, tb, radius, alive, lo, hi):
+    """The box each live body sweeps over [tb, 1] of the step."""
+    for i in range(A.shape[0]):
+        if not alive[i]:
+            continue
+        for c in range(3):
+            x0 = A[i, c] + B[i, c] * tb[i]
+            x1 = A[i, c] + B[i, c]
+            lo[i, c] = min(x0, x1) - radius[i]
+            hi[i, c] = max(x0, x1) + radius[i]
+
+
+@kernel
+def _cell_range(lo, hi, i, origin, cell, ncell):
+    """First and last cell index per axis covered by box i; periodic axes wrap later."""
+    first = np.empty(3, np.int64)
+    last = np.empty(3, np.int64)
+    for c in range(3):
+        first[c] = int(math.floor((lo[i, c] - origin[c]) / cell[c]))
+        last[c] = int(math.floor((hi[i, c] - origin[c]) / cell[c]))
+        if ncell[c] > 0 and last[c] - first[c] >= ncell[c]:
+            last[c] = first[c] + ncell[c] - 1        # a box around the whole period
+    return first, last
+
+
+@kernel
+def _hash(cx, cy, cz, mask):
+    return ((cx * 73856093) ^ (cy * 19349663) ^ (cz * 83492791)) & mask
+
+
+@kernel
+def _wrap_index(k, n):
+    return k % n if n > 0 else k
+
+
+@kernel
+def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
+    """Pairs (i < j) whose swept boxes share a cell and whose response is not IGNORE.
+
+    Returns (pairs (m, 2) int64, entries): each pair once, in a deterministic order.
+    """
+    n = A.shape[0]
+    L = _periods(setup)
+    origin = np.zeros(3)
+    cell = np.full(3, setup.cell)
+    ncell = np.zeros(3, np.int64)
+    for c in range(3):
+        if L[c] > 0.0:
+            origin[c] = setup.box[0, c]
+            ncell[c] = max(1, int(L[c] // setup.cell))
+            cell[c] = L[c] / ncell[c]                  # whole cells around the period
+        elif c >= setup.dim:
+            cell[c] = 1.0                              # the flat axis: one layer of cells
+    _bounds(A, B, tb, radius, alive, lo, hi)
+    # count the entries (body, cell), then place them by bucket (counting sort)
+    total = 0
+    for i in range(n):
+        if alive[i]:
+            first, last = _cell_range(lo, hi, i, origin, cell, ncell)
+            total += (last[0] - first[0] + 1) * (last[1] - first[1] + 1) * (last[2] - first[2] + 1)
+    nb = 1
+    while nb < 2 * total:
+        nb *= 2
+    bucket_mask = nb - 1
+    start = np.zeros(nb + 1, np.int64)
+    ent_body = np.empty(total, np.int64)
+    ent_cell = np.empty((total, 3), np.int64)
+    ent_bucket = np.empty(total, np.int64)
+    e = 0
+    for i in range(n):
+        if not alive[i]:
+            continue
+        first, last = _cell_range(lo, hi, i, origin, cell, ncell)
+        for x in range(first[0], last[0] + 1):
+            for y in range(first[1], last[1] + 1):
+                for z in range(first[2], last[2] + 1):
+                    cx = _wrap_index(x, ncell[0])
+                    cy = _wrap_index(y, ncell[1])
+                    cz = _wrap_index(z, ncell[2])
+                    ent_body[e] = i
+                    ent_cell[e, 0] = cx
+                    ent_cell[e, 1] = cy
+                    ent_cell[e, 2] = cz
+                    ent_bucket[e] = _hash(cx, cy, cz, bucket_mask)
+                    start[ent_bucket[e] + 1] += 1
+                    e += 1
+    for k in range(nb):
+        start[k + 1] += start[k]
+    fill = start[:-1].copy()
+    order = np.empty(total, np.int64)
+    for e in range(total):
+        order[fill[ent_bucket[e]]] = e
+        fill[ent_bucket[e]] += 1
+    # pairs within each bucket, in the cell that holds the low corner of their boxes' overlap
+    pairs = np.empty((max(16, total), 2), np.int64)
+    m = 0
+    for k in range(nb):
+        for u in range(start[k], start[k + 1]):
+            eu = order[u]
+            for w in range(u + 1, start[k + 1]):
+                ew = order[w]
+                if ent_cell[eu, 0] != ent_cell[ew, 0] or ent_cell[eu, 1] != ent_cell[ew, 1] \
+                        or ent_cell[eu, 2] != ent_cell[ew, 2]:
+                    continue
+                i = min(ent_body[eu], ent_body[ew])
+                j = max(ent_body[eu], ent_body[ew])
+                if i == j or _allowed(setup, kind, i, j) == IGNORE:
+                    continue
+                home = True
+                for c in range(3):
+                    # j's box shifted to its image nearest i's (periodic axes)
+                    shift = 0.0
+                    if L[c] > 0.0:
+                        ci = 0.5 * (lo[i, c] + hi[i, c])
+                        cj = 0.5 * (lo[j, c] + hi[j, c])
+                        shift = (cj - ci) - _wrap(cj - ci, L[c])
+                    low = max(lo[i, c], lo[j, c] - shift)
+                    high = min(hi[i, c], hi[j, c] - shift)
+                    if low > high:
+                        home = False                   # the boxes do not even overlap
+                        break
+                    k0 = _wrap_index(int(math.floor((low - origin[c]) / cell[c])), ncell[c])
+                    if k0 != ent_cell[eu, c]:
+                        home = False
+                        break
+                if home:
+                    if m == pairs.shape[0]:
+                        grown = np.empty((2 * m, 2), np.int64)
+                        grown[:m] = pairs
+                        pairs = grown
+                    pairs[m, 0] = i
+                    pairs[m, 1] = j
+                    m += 1
+    return pairs[:m], total
+
+
+@kernel
+def brute_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
+    """Every pair (i < j) whose swept boxes overlap (minimum image when wrapping) and whose
+    response is not IGNORE: the O(N^2) reference the grid is tested against."""
+    n = A.shape[0]
+    L = _periods(setup)
+    _bounds(A, B, tb, radius, alive, lo, hi)
+    pairs = np.empty((16, 2), np.int64)
+    m = 0
+    for i in range(n):
+        if not alive[i]:
+            continue
+        for j in range(i + 1, n):
+            if not alive[j] or _allowed(setup, kind, i, j) == IGNORE:
+                continue
+            overlap = True
+            for c in range(3):
+                shift = 0.0
+                if L[c] > 0.0:
+                    ci = 0.5 * (lo[i, c] + hi[i, c])
+                    cj = 0.5 * (lo[j, c] + hi[j, c])
+                    shift = (cj - ci) - _wrap(cj - ci, L[c])
+                if max(lo[i, c], lo[j, c] - shift) > min(hi[i, c], hi[j, c] - shift):
+                    overlap = False
+                    break
+            if overlap:
+                if m == pairs.shape[0]:
+                    grown = np.empty((2 * m, 2), np.int64)
+                    grown[:m] = pairs
+                    pairs = grown
+                pairs[m, 0] = i
+                pairs[m, 1] = j
+                m += 1
+    return pairs[:m]
+
+
+@kernel
+def _fractions(m_i, m_j, fixed_i, fixed_j):
+    """Shares of the exchanged normal velocity taken by i and j: m_j/(m_i+m_j), m_i/(m_i+m_j),
+    from the mass ratio so that 1e-12 against 1e12 keeps both; immovable = infinite mass."""
+    if fixed_i and fixed_j:
+        return 0.0, 0.0
+    if fixed_i:
+        return 0.0, 1.0
+    if fixed_j:
+        return 1.0, 0.0
+    if m_i == 0.0 and m_j == 0.0:
+        return 0.5, 0.5
+    if m_i >= m_j:
+        q = m_j / m_i
+        return q / (1.0 + q), 1.0 / (1.0 + q)
+    q = m_i / m_j
+    return 1.0 / (1.0 + q), q / (1.0 + q)
+
+
+@kernel
+def _record(events, count, kind, a, b, time, t_in_step, point, normal, speed, lost):
+    """Append an event; returns False (and writes nothing) when the buffer is full."""
+    k = count[0]
+    if k >= events.shape[0]:
+        count[1] = 1
+        return False
+    ev = events[k]
+    ev.kind = kind
+    ev.a = a
+    ev.b = b
+    ev.time = time
+    ev.t_in_step = t_in_step
+    ev.x = point[0]
+    ev.y = point[1]
+    ev.z = point[2]
+    ev.nx = normal[0]
+    ev.ny = normal[1]
+    ev.nz = normal[2]
+    ev.speed = speed
+    ev.energy_lost = lost
+    count[0] = k + 1
+    return True
+
+
+@kernel
+def _respond(i, j, t, resp, e, A, B, tb, vel, mass, radius, alive, ids, setup, dt, t0, L,
+             events, count):
+    """Apply response resp to the contact of i and j at time t of the step. Returns 0 when
+    nothing changed a trajectory, 1 when velocities changed, 2 when a body was removed or
+    merged (the caller must refresh what depends on the set of bodies)."""
+    pi = np.empty(3)
+    pj = np.empty(3)
+    n = np.empty(3)
+    for c in range(3):
+        pi[c] = A[i, c] + B[i, c] * t
+        pj[c] = pi[c] + _wrap(A[j, c] + B[j, c] * t - pi[c], L[c])
+        n[c] = pj[c] - pi[c]
+    dist = math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+    if dist > 0.0:
+        for c in range(3):
+            n[c] /= dist
+    else:
+        # centres coincide: push along the relative motion, else along x
+        rel = np.empty(3)
+        for c in range(3):
+            rel[c] = B[j, c] - B[i, c]
+        rn = math.sqrt(rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2])
+        for c in range(3):
+            n[c] = -rel[c] / rn if rn > 0.0 else (1.0 if c == 0 else 0.0)
+    point = np.empty(3)
+    for c in range(3):
+        point[c] = pi[c] + n[c] * radius[i]
+    # path velocities (the straight lines of this step) carry the contact
+    closing = 0.0
+    for c in range(3):
+        closing += (B[j, c] - B[i, c]) * n[c]
+    closing /= dt                                      # < 0 when approaching
+    fixed_i = setup.fixed[i]
+    fixed_j = setup.fixed[j]
+    when = t0 + t * dt
+    if resp == SENSOR:
+        _record(events, count, _SENSOR, ids[i], ids[j], when, t * dt, point, n, -closing, 0.0)
+        return 0
+    if resp == ELASTIC or resp == BOUNCE:
+        if closing >= 0.0:
+            return 0
+        fi, fj = _fractions(mass[i], mass[j], fixed_i, fixed_j)
+        if resp == ELASTIC:
+            e = 1.0
+        if resp == ELASTIC and mass[i] == mass[j] and not fixed_i and not fixed_j:
+            # equal masses swap their normal velocities exactly (the seed: identical balls
+            # swap velocities); the tangential parts stay
+            ni = 0.0
+            nj = 0.0
+            for c in range(3):
+                ni += B[i, c] * n[c]
+                nj += B[j, c] * n[c]
+            ni /= dt
+            nj /= dt
+            for c in range(3):
+                di = (nj - ni) * n[c]
+                vel[i, c] = vel[i, c] - ni * n[c] + nj * n[c]
+                vel[j, c] = vel[j, c] - nj * n[c] + ni * n[c]
+                B[i, c] = B[i, c] + di * dt
+                B[j, c] = B[j, c] - di * dt
+        else:
+            for c in range(3):
+                di = (1.0 + e) * fi * closing * n[c]
+                dj = -(1.0 + e) * fj * closing * n[c]
+                vel[i, c] += di
+                vel[j, c] += dj
+                B[i, c] += di * dt
+                B[j, c] += dj * dt
+        for c in range(3):
+            A[i, c] = pi[c] - B[i, c] * t
+            A[j, c] = pj[c] - B[j, c] * t
+        tb[i] = t
+        tb[j] = t
+        if fixed_i or fixed_j:
+            reduced = mass[j] if fixed_i else mass[i]
+        else:
+            reduced = mass[i] * fj          # m_i m_j / (m_i + m_j)
+        lost = 0.5 * (1.0 - e * e) * reduced * closing * closing
+        _record(events, count, _BOUNCE, ids[i], ids[j], when, t * dt, point, n, -closing, lost)
+        return 1
+    if resp == MERGE:
+        # the heavier (or the immovable) one survives, with the pair's mass and momentum
+        s, o = i, j
+        if fixed_j and not fixed_i or (fixed_i == fixed_j and mass[j] > mass[i]):
+            s, o = j, i
+        M = mass[s] + mass[o]
+        ws = mass[s] / M if M > 0.0 else 0.5
+        wo = 1.0 - ws
+        ps = pi if s == i else pj
+        po = pj if s == i else pi
+        rel2 = 0.0
+        for c in range(3):
+            du = (B[o, c] - B[s, c]) / dt
+            rel2 += du * du
+        if setup.fixed[s]:
+            ws, wo = 1.0, 0.0
+        for c in range(3):
+            centre = ws * ps[c] + wo * po[c]
+            vel[s, c] = ws * vel[s, c] + wo * vel[o, c]
+            B[s, c] = ws * B[s, c] + wo * B[o, c]
+            A[s, c] = centre - B[s, c] * t
+            A[o, c] = po[c] - B[o, c] * t
+        tb[s] = t
+        if setup.dim == 3:
+            radius[s] = (radius[s] ** 3 + radius[o] ** 3) ** (1.0 / 3.0)
+        else:
+            radius[s] = math.sqrt(radius[s] ** 2 + radius[o] ** 2)
+        # the kinetic energy of the relative motion, m_s m_o / M |u_o - u_s|^2 / 2, is lost
+        lost = 0.5 * (mass[s] * mass[o] / M if M > 0.0 else 0.0) * rel2
+        mass[s] = M
+        mass[o] = 0.0
+        alive[o] = False
+        for c in range(3):
+            B[o, c] = 0.0
+            A[o, c] = po[c]
+        _record(events, count, _MERGE, ids[s], ids[o], when, t * dt, point, n, -closing, lost)
+        return 2
+    # destroy one or both: frozen where they met, no mass, out of the game
+    lost = 0.0
+    for which in range(2):
+        k = i if which == 0 else j
+        other = j if which == 0 else i
+        if (which == 0 and resp in (DESTROY_A, DESTROY_BOTH)) or \
+                (which == 1 and resp in (DESTROY_B, DESTROY_BOTH)):
+            p = pi if k == i else pj
+            ke = 0.0
+            for c in range(3):
+                ke += vel[k, c] * vel[k, c]
+            lost = 0.5 * mass[k] * ke
+            for c in range(3):
+                A[k, c] = p[c]
+                B[k, c] = 0.0
+            alive[k] = False
+            mass[k] = 0.0
+            _record(events, count, _DESTROY, ids[k], ids[other], when, t * dt, point, n,
+                    -closing, lost)
+    return 2
+
+
+@kernel
+def _respond_wall(i, t, n0, n1, n2, e, A, B, tb, vel, mass, radius, ids, setup, dt, t0,
+                  events, count):
+    """Reflect body i off a wall (immovable) with restitution e: v -= (1 + e) (v . n) n."""
+    n = np.array([n0, n1, n2])
+    un = 0.0
+    for c in range(3):
+        un += B[i, c] * n[c]
+    un /= dt
+    if un >= 0.0 or setup.fixed[i]:
+        return 0
+    p = np.empty(3)
+    for c in range(3):
+        p[c] = A[i, c] + B[i, c] * t
+        d = -(1.0 + e) * un * n[c]
+        vel[i, c] += d
+        B[i, c] += d * dt
+        A[i, c] = p[c] - B[i, c] * t
+    tb[i] = t
+    point = np.empty(3)
+    normal = np.empty(3)
+    for c in range(3):
+        point[c] = p[c] - radius[i] * n[c]
+        normal[c] = -n[c]
+    # the wall does not move: a restitution e takes (1 - e^2) of the normal kinetic energy
+    lost = 0.5 * (1.0 - e * e) * mass[i] * un * un
+    _record(events, count, _WALL, ids[i], -1, t0 + t * dt, t * dt, point, normal, -un, lost)
+    return 1
+
+
+@kernel
+def collide_step(pos0, pos, vel, mass, setup, dt, t0):
+    """Find and resolve every contact of one step, in time order.
+
+    pos0 : (n, 3) positions at the start of the step; pos, vel : (n, 3) at its end, updated;
+    mass : (n,), updated by merges (bodies destroyed or merged away get mass 0 and are marked
+    dead in setup.alive); setup : Setup; dt : the step [time]; t0 : the simulation time at
+    its start. Events are appended to setup.events.
+    Returns 2 if a body was removed or merged, 1 if only velocities changed, 0 if nothing.
+    """
+    radius, kind, alive, ids = setup.radius, setup.kind, setup.alive, setup.ids
+    events, count = setup.events, setup.count
+    n = pos.shape[0]
+    L = _periods(setup)
+    A = pos0.copy()
+    B = np.empty((n, 3))
+    for i in range(n):
+        for c in range(3):
+            # where periodic, the start is unwrapped next to the end the integrator reached
+            B[i, c] = _wrap(pos[i, c] - pos0[i, c], L[c]) if L[c] > 0.0 else pos[i, c] - pos0[i, c]
+    tb = np.zeros(n)
+    lo = np.empty((n, 3))
+    hi = np.empty((n, 3))
+    walls = setup.walls
+    nbox = 2 * setup.dim if setup.boundary == REFLECT else 0
+    box_walls = np.zeros((nbox, 8))
+    for c in range(nbox // 2):
+        for side in range(2):
+            row = box_walls[2 * c + side]
+            row[0] = PLANE
+            row[1 + c] = setup.box[side, c]
+            row[4 + c] = 1.0 if side == 0 else -1.0
+            row[7] = setup.box_restitution
+    changed = 0
+    touched = np.zeros(n, np.bool_)
+    for sweep in range(_MAX_PASSES + 1):
+        last = sweep == _MAX_PASSES
+        pairs, _ = candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi)
+        # contacts: (time, i, j) with j < 0 for walls (-1 - row; box walls after the walls)
+        m = pairs.shape[0]
+        ct = np.empty(m + n * (walls.shape[0] + nbox))
+        ci = np.empty(ct.size, np.int64)
+        cj = np.empty(ct.size, np.int64)
+        cn = np.empty((ct.size, 3))
+        k = 0
+        for q in range(m):
+            i = pairs[q, 0]
+            j = pairs[q, 1]
+            t = _pair_time(A, B, i, j, radius[i] + radius[j], max(tb[i], tb[j]), L)
+            if t >= 0.0:
+                ct[k] = t
+                ci[k] = i
+                cj[k] = j
+                k += 1
+        for i in range(n):
+            if not alive[i]:
+                continue
+            for w in range(walls.shape[0] + nbox):
+                row = walls[w] if w < walls.shape[0] else box_walls[w - walls.shape[0]]
+                t, n0, n1, n2 = _wall_time(A, B, i, radius[i], row, tb[i])
+                if t >= 0.0:
+                    ct[k] = t
+                    ci[k] = i
+                    cj[k] = -1 - w
+                    cn[k, 0] = n0
+                    cn[k, 1] = n1
+                    cn[k, 2] = n2
+                    k += 1
+        if k == 0:
+            break
+        order = np.argsort(ct[:k], kind="mergesort")   # stable: ties keep a fixed order
+        touched[:] = False
+        moved = False
+        for q in range(k):
+            c = order[q]
+            i = ci[c]
+            j = cj[c]
+            if not alive[i] or touched[i] or (j >= 0 and (not alive[j] or touched[j])):
+                continue
+            t = ct[c]
+            if last:
+                t = 1.0                  # out of passes: respond at the end, no more lines
+            if j < 0:
+                w = -1 - j
+                row = walls[w] if w < walls.shape[0] else box_walls[w - walls.shape[0]]
+                r = _respond_wall(i, t, cn[c, 0], cn[c, 1], cn[c, 2], row[7], A, B, tb, vel,
+                                  mass, radius, ids, setup, dt, t0, events, count)
+            else:
+                resp = _allowed(setup, kind, i, j)
+                if resp == SENSOR and sweep > 0 and _seen(events, count, ids[i], ids[j], t0):
+                    continue
+                r = _respond(i, j, t, resp, setup.restitution[kind[i], kind[j]], A, B, tb,
+                             vel, mass, radius, alive, ids, setup, dt, t0, L, events, count)
+            if r > 0:
+                touched[i] = True
+                if j >= 0:
+                    touched[j] = True
+                moved = True
+                changed = max(changed, r)
+        if not moved:
+            break
+    for i in range(n):
+        for c in range(3):
+            x = A[i, c] + B[i, c]
+            if L[c] > 0.0:
+                x = setup.box[0, c] + (x - setup.box[0, c]) % L[c]
+            pos[i, c] = x
+    return changed
+
+
+@kernel
+def _seen(events, count, a, b, t0):
+    """Whether a sensor event of this pair was already recorded in this step."""
+    for k in range(count[0] - 1, -1, -1):
+        ev = events[k]
+        if ev.time < t0:
+            break
+        if ev.kind == _SENSOR and ((ev.a == a and ev.b == b) or (ev.a == b and ev.b == a)):
+            return True
+    return False
