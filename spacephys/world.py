@@ -4,6 +4,7 @@ import warnings
 from collections import namedtuple
 
 import numpy as np
+from numba import typed
 
 from . import _validate as check
 from .integrators import get_integrator
@@ -147,8 +148,9 @@ class World:
         self._box = np.zeros((2, 3))
         self._box_restitution = 1.0
         self._cell = None
-        self._events = np.zeros(256, dtype=EVENT_DTYPE)
-        self._event_count = np.zeros(2, dtype=np.int64)
+        # the event buffer, in a typed list so that the kernels can grow it mid-step
+        self._event_box = typed.List([np.zeros(256, dtype=EVENT_DTYPE)])
+        self._event_count = np.zeros(1, dtype=np.int64)
         self._sources = None            # (src, passive) index arrays, rebuilt when stale
         self._dt = dt
         self._t_base = 0.0              # t = t_base + steps * dt: no rounding build-up in t
@@ -516,6 +518,16 @@ class World:
         self._b.remove(rows)
         self._sources = None
 
+    # copies and pickles carry the event buffer as a plain array (typed lists do not copy)
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        state["_event_box"] = self._event_box[0]
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._event_box = typed.List([state["_event_box"]])
+
     def copy(self):
         """An independent deep copy (same ids, state, time and settings)."""
         # the integrator spec is immutable and shared: a copied (writeable) table would make
@@ -646,7 +658,7 @@ class World:
         """Structured array (spacephys.EVENT_DTYPE) of what happened in the last step() or
         advance(): kind, ids a and b, time, time within its step, contact point, normal,
         closing speed and kinetic energy lost."""
-        return self._events[:self._event_count[0]].copy()
+        return self._event_box[0][:self._event_count[0]].copy()
 
     def _collision_setup(self):
         b = self._b
@@ -657,15 +669,8 @@ class World:
         else:
             biggest = float(b.radius[:n].max()) if n else 0.0
             cell = 2.0 * biggest if biggest > 0 else 1.0
-        if enabled:
-            room = collide.EVENT_ROOM_PER_BODY * n + 64
-            if self._events.size - self._event_count[0] < room:
-                grown = np.zeros(max(2 * self._events.size, self._event_count[0] + room),
-                                 dtype=EVENT_DTYPE)
-                grown[:self._event_count[0]] = self._events[:self._event_count[0]]
-                self._events = grown
         return collide.Setup(enabled, b.ids[:n], b.kind[:n].astype(np.int64), b.radius[:n],
-                             np.ones(n, dtype=np.bool_), self._events, self._event_count,
+                             np.ones(n, dtype=np.bool_), self._event_box, self._event_count,
                              self.t, self._response, self._restitution, b.category[:n],
                              b.mask[:n], b.fixed[:n], self._walls, self._boundary, self._box,
                              self._box_restitution, cell, self._dim)
@@ -703,11 +708,6 @@ class World:
                     self._sources = None
             self._steps += done
             nsteps -= done
-            if setup.count[1]:
-                warnings.warn("collision events dropped: one step wrote more than the room "
-                              "kept for it (2 per body)", RuntimeWarning, stacklevel=3)
-                setup.count[1] = 0
-            # a kernel that stopped for room in the event buffer gets it in the next setup
 
     def _run_kernel(self, nsteps, setup):
         b = self._b

@@ -41,8 +41,8 @@ Setup = namedtuple("Setup", [
     "kind",          # (n,) int64 kind codes
     "radius",        # (n,) float64, updated by merges
     "alive",         # (n,) bool, set False for bodies destroyed or merged away
-    "events",        # EVENT_DTYPE buffer the pass appends to
-    "count",         # (2,) int64: events written, and a flag set if the buffer ran full
+    "events",        # numba typed List holding one EVENT_DTYPE array, grown as needed
+    "count",         # (1,) int64: events written
     "t0",            # float: the simulation time at the start of the kernel call
     "response",      # (K, K) int64, the kind x kind matrix of responses
     "restitution",   # (K, K) float64, for BOUNCE
@@ -58,16 +58,7 @@ Setup = namedtuple("Setup", [
 ])
 """What the collision pass needs besides positions, velocities and masses; built by World."""
 
-# room kept in the event buffer before a step: a body rarely has more than two events in one
-# step; should a step write more, the rest are dropped and the overflow flag set
-EVENT_ROOM_PER_BODY = 2
 
-
-@kernel
-def room_for_a_step(setup):
-    """Whether the event buffer has room for a step (otherwise the kernel returns and World
-    grows the buffer)."""
-    return setup.events.shape[0] - setup.count[0] >= EVENT_ROOM_PER_BODY * setup.alive.size + 64
 
 
 @kernel
@@ -398,12 +389,15 @@ def _fractions(m_i, m_j, fixed_i, fixed_j):
 
 @kernel
 def _record(events, count, kind, a, b, time, t_in_step, point, normal, speed, lost):
-    """Append an event; returns False (and writes nothing) when the buffer is full."""
+    """Append an event to the buffer events[0], doubling it when full."""
     k = count[0]
-    if k >= events.shape[0]:
-        count[1] = 1
-        return False
-    ev = events[k]
+    buf = events[0]
+    if k >= buf.shape[0]:
+        grown = np.zeros(2 * buf.shape[0] + 16, dtype=buf.dtype)
+        grown[:buf.shape[0]] = buf
+        events[0] = grown
+        buf = grown
+    ev = buf[k]
     ev.kind = kind
     ev.a = a
     ev.b = b
@@ -418,12 +412,19 @@ def _record(events, count, kind, a, b, time, t_in_step, point, normal, speed, lo
     ev.speed = speed
     ev.energy_lost = lost
     count[0] = k + 1
-    return True
 
 
 @kernel
-def _respond(i, j, t, resp, e, A, B, tb, vel, mass, radius, alive, ids, setup, dt, t0, L,
-             events, count):
+def _velocity_at(V0, V1, D, k, t, out):
+    """Body k's velocity at fraction t of the step: the integrator's, interpolated between the
+    step's start and end, plus the impulses of this step's earlier contacts."""
+    for c in range(3):
+        out[c] = V0[k, c] + t * (V1[k, c] - V0[k, c]) + D[k, c]
+
+
+@kernel
+def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, setup, dt, t0,
+             L, events, count):
     """Apply response resp to the contact of i and j at time t of the step. Returns 0 when
     nothing changed a trajectory, 1 when velocities changed, 2 when a body was removed or
     merged (the caller must refresh what depends on the set of bodies)."""
@@ -449,11 +450,13 @@ def _respond(i, j, t, resp, e, A, B, tb, vel, mass, radius, alive, ids, setup, d
     point = np.empty(3)
     for c in range(3):
         point[c] = pi[c] + n[c] * radius[i]
-    # path velocities (the straight lines of this step) carry the contact
+    ui = np.empty(3)
+    uj = np.empty(3)
+    _velocity_at(V0, V1, D, i, t, ui)
+    _velocity_at(V0, V1, D, j, t, uj)
     closing = 0.0
     for c in range(3):
-        closing += (B[j, c] - B[i, c]) * n[c]
-    closing /= dt                                      # < 0 when approaching
+        closing += (uj[c] - ui[c]) * n[c]             # < 0 when approaching
     fixed_i = setup.fixed[i]
     fixed_j = setup.fixed[j]
     when = t0 + t * dt
@@ -466,30 +469,21 @@ def _respond(i, j, t, resp, e, A, B, tb, vel, mass, radius, alive, ids, setup, d
         fi, fj = _fractions(mass[i], mass[j], fixed_i, fixed_j)
         if resp == ELASTIC:
             e = 1.0
-        if resp == ELASTIC and mass[i] == mass[j] and not fixed_i and not fixed_j:
-            # equal masses swap their normal velocities exactly (the seed: identical balls
-            # swap velocities); the tangential parts stay
-            ni = 0.0
-            nj = 0.0
-            for c in range(3):
-                ni += B[i, c] * n[c]
-                nj += B[j, c] * n[c]
-            ni /= dt
-            nj /= dt
-            for c in range(3):
-                di = (nj - ni) * n[c]
-                vel[i, c] = vel[i, c] - ni * n[c] + nj * n[c]
-                vel[j, c] = vel[j, c] - nj * n[c] + ni * n[c]
-                B[i, c] = B[i, c] + di * dt
-                B[j, c] = B[j, c] - di * dt
-        else:
-            for c in range(3):
+        for c in range(3):
+            if resp == ELASTIC and mass[i] == mass[j] and not fixed_i and not fixed_j:
+                # equal masses swap their normal velocities exactly (the seed: identical balls
+                # swap velocities): u_i - (u_i.n) n + (u_j.n) n, which is u_j itself head-on
+                ni = ui[0] * n[0] + ui[1] * n[1] + ui[2] * n[2]
+                nj = uj[0] * n[0] + uj[1] * n[1] + uj[2] * n[2]
+                di = (ui[c] - ni * n[c] + nj * n[c]) - ui[c]
+                dj = (uj[c] - nj * n[c] + ni * n[c]) - uj[c]
+            else:
                 di = (1.0 + e) * fi * closing * n[c]
                 dj = -(1.0 + e) * fj * closing * n[c]
-                vel[i, c] += di
-                vel[j, c] += dj
-                B[i, c] += di * dt
-                B[j, c] += dj * dt
+            D[i, c] += di
+            D[j, c] += dj
+            B[i, c] += di * dt
+            B[j, c] += dj * dt
         for c in range(3):
             A[i, c] = pi[c] - B[i, c] * t
             A[j, c] = pj[c] - B[j, c] * t
@@ -514,13 +508,15 @@ def _respond(i, j, t, resp, e, A, B, tb, vel, mass, radius, alive, ids, setup, d
         po = pj if s == i else pi
         rel2 = 0.0
         for c in range(3):
-            du = (B[o, c] - B[s, c]) / dt
-            rel2 += du * du
+            rel2 += (uj[c] - ui[c]) ** 2
         if setup.fixed[s]:
             ws, wo = 1.0, 0.0
         for c in range(3):
             centre = ws * ps[c] + wo * po[c]
-            vel[s, c] = ws * vel[s, c] + wo * vel[o, c]
+            # momentum-weighted: every part of the velocity (start, end, impulses) alike
+            V0[s, c] = ws * V0[s, c] + wo * V0[o, c]
+            V1[s, c] = ws * V1[s, c] + wo * V1[o, c]
+            D[s, c] = ws * D[s, c] + wo * D[o, c]
             B[s, c] = ws * B[s, c] + wo * B[o, c]
             A[s, c] = centre - B[s, c] * t
             A[o, c] = po[c] - B[o, c] * t
@@ -547,10 +543,8 @@ def _respond(i, j, t, resp, e, A, B, tb, vel, mass, radius, alive, ids, setup, d
         if (which == 0 and resp in (DESTROY_A, DESTROY_BOTH)) or \
                 (which == 1 and resp in (DESTROY_B, DESTROY_BOTH)):
             p = pi if k == i else pj
-            ke = 0.0
-            for c in range(3):
-                ke += vel[k, c] * vel[k, c]
-            lost = 0.5 * mass[k] * ke
+            u = ui if k == i else uj
+            lost = 0.5 * mass[k] * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
             for c in range(3):
                 A[k, c] = p[c]
                 B[k, c] = 0.0
@@ -562,21 +556,20 @@ def _respond(i, j, t, resp, e, A, B, tb, vel, mass, radius, alive, ids, setup, d
 
 
 @kernel
-def _respond_wall(i, t, n0, n1, n2, e, A, B, tb, vel, mass, radius, ids, setup, dt, t0,
+def _respond_wall(i, t, n0, n1, n2, e, A, B, tb, V0, V1, D, mass, radius, ids, setup, dt, t0,
                   events, count):
     """Reflect body i off a wall (immovable) with restitution e: v -= (1 + e) (v . n) n."""
     n = np.array([n0, n1, n2])
-    un = 0.0
-    for c in range(3):
-        un += B[i, c] * n[c]
-    un /= dt
+    u = np.empty(3)
+    _velocity_at(V0, V1, D, i, t, u)
+    un = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]
     if un >= 0.0 or setup.fixed[i]:
         return 0
     p = np.empty(3)
     for c in range(3):
         p[c] = A[i, c] + B[i, c] * t
         d = -(1.0 + e) * un * n[c]
-        vel[i, c] += d
+        D[i, c] += d
         B[i, c] += d * dt
         A[i, c] = p[c] - B[i, c] * t
     tb[i] = t
@@ -592,10 +585,12 @@ def _respond_wall(i, t, n0, n1, n2, e, A, B, tb, vel, mass, radius, ids, setup, 
 
 
 @kernel
-def collide_step(pos0, pos, vel, mass, setup, dt, t0):
+def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
     """Find and resolve every contact of one step, in time order.
 
-    pos0 : (n, 3) positions at the start of the step; pos, vel : (n, 3) at its end, updated;
+    pos0, vel0 : (n, 3) positions and velocities at the start of the step; pos, vel : (n, 3)
+    at its end, updated (a contact at fraction t of the step sees the velocity interpolated
+    between the two);
     mass : (n,), updated by merges (bodies destroyed or merged away get mass 0 and are marked
     dead in setup.alive); setup : Setup; dt : the step [time]; t0 : the simulation time at
     its start. Events are appended to setup.events.
@@ -612,6 +607,9 @@ def collide_step(pos0, pos, vel, mass, setup, dt, t0):
             # where periodic, the start is unwrapped next to the end the integrator reached
             B[i, c] = _wrap(pos[i, c] - pos0[i, c], L[c]) if L[c] > 0.0 else pos[i, c] - pos0[i, c]
     tb = np.zeros(n)
+    V0 = vel0.copy()
+    V1 = vel.copy()
+    D = np.zeros((n, 3))                               # impulses of this step, per body
     lo = np.empty((n, 3))
     hi = np.empty((n, 3))
     walls = setup.walls
@@ -676,14 +674,15 @@ def collide_step(pos0, pos, vel, mass, setup, dt, t0):
             if j < 0:
                 w = -1 - j
                 row = walls[w] if w < walls.shape[0] else box_walls[w - walls.shape[0]]
-                r = _respond_wall(i, t, cn[c, 0], cn[c, 1], cn[c, 2], row[7], A, B, tb, vel,
-                                  mass, radius, ids, setup, dt, t0, events, count)
+                r = _respond_wall(i, t, cn[c, 0], cn[c, 1], cn[c, 2], row[7], A, B, tb, V0, V1,
+                                  D, mass, radius, ids, setup, dt, t0, events, count)
             else:
                 resp = _allowed(setup, kind, i, j)
                 if resp == SENSOR and sweep > 0 and _seen(events, count, ids[i], ids[j], t0):
                     continue
                 r = _respond(i, j, t, resp, setup.restitution[kind[i], kind[j]], A, B, tb,
-                             vel, mass, radius, alive, ids, setup, dt, t0, L, events, count)
+                             V0, V1, D, mass, radius, alive, ids, setup, dt, t0, L, events,
+                             count)
             if r > 0:
                 touched[i] = True
                 if j >= 0:
@@ -698,14 +697,16 @@ def collide_step(pos0, pos, vel, mass, setup, dt, t0):
             if L[c] > 0.0:
                 x = setup.box[0, c] + (x - setup.box[0, c]) % L[c]
             pos[i, c] = x
+            vel[i, c] = V1[i, c] + D[i, c]
     return changed
 
 
 @kernel
 def _seen(events, count, a, b, t0):
     """Whether a sensor event of this pair was already recorded in this step."""
+    buf = events[0]
     for k in range(count[0] - 1, -1, -1):
-        ev = events[k]
+        ev = buf[k]
         if ev.time < t0:
             break
         if ev.kind == _SENSOR and ((ev.a == a and ev.b == b) or (ev.a == b and ev.b == a)):

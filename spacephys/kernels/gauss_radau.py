@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from .._jit import kernel
-from .collide import collide_step, room_for_a_step
+from .collide import collide_step
 from .gravity import ALL, PASSIVE, PULLING, accelerations
 from .integrate import _scratch
 
@@ -268,12 +268,9 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
     # the step was over 4x too long (b7 ~ dt^7); but never within the round-off of b7 / |a|,
     # or tiny tolerances would reject every step
     reject_above = max(tolerance / _SAFETY ** 7, _TRUNCATION_FLOOR)
+    vel0 = np.empty((n, 3))
     for interval in range(nsteps):
-        if setup.enabled and not room_for_a_step(setup):
-            params[3] = dt
-            params[4] = dt_b
-            params[5] = 1.0 if have_predictor else 0.0
-            return interval
+        vel0[:] = vel
         saved[0] = pos
         saved[1] = vel
         saved[2] = csx
@@ -375,7 +372,7 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             params[4] = dt_b
             params[5] = 1.0 if have_predictor else 0.0
             return interval
-        if setup.enabled and collide_step(saved[0], pos, vel, mass, setup, dt_out,
+        if setup.enabled and collide_step(saved[0], vel0, pos, vel, mass, setup, dt_out,
                                           setup.t0 + interval * dt_out) == 2:
             params[3] = dt
             params[4] = dt_b

@@ -8,7 +8,7 @@ Positions and velocities are updated in place; gravity comes from gravity.accele
 import numpy as np
 
 from .._jit import kernel
-from .collide import collide_step, room_for_a_step
+from .collide import collide_step
 from .gravity import DIRECT, accelerations
 
 
@@ -31,12 +31,12 @@ def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_m
     n = pos.shape[0]
     acc = np.empty((n, 3))
     pos0 = np.empty((n, 3))
+    vel0 = np.empty((n, 3))
     scratch = _scratch(model, src)
     for step in range(nsteps):
         if setup.enabled:
-            if not room_for_a_step(setup):
-                return step
             pos0[:] = pos
+            vel0[:] = vel
         for s in range(drift.size):
             h = drift[s] * dt
             if h != 0.0:
@@ -52,7 +52,7 @@ def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_m
                     vel[i, 0] += h * acc[i, 0]
                     vel[i, 1] += h * acc[i, 1]
                     vel[i, 2] += h * acc[i, 2]
-        if setup.enabled and collide_step(pos0, pos, vel, mass, setup, dt,
+        if setup.enabled and collide_step(pos0, vel0, pos, vel, mass, setup, dt,
                                           setup.t0 + step * dt) == 2:
             return step + 1
     return nsteps
@@ -73,12 +73,12 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, st
     kv = np.empty((S, n, 3))     # stage accelerations (the derivative of velocity)
     x = np.empty((n, 3))
     pos0 = np.empty((n, 3))
+    vel0 = np.empty((n, 3))
     scratch = _scratch(model, src)
     for step in range(nsteps):
         if setup.enabled:
-            if not room_for_a_step(setup):
-                return step
             pos0[:] = pos
+            vel0[:] = vel
         for s in range(S):
             for i in range(n):
                 for c in range(3):
@@ -101,7 +101,7 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, st
                     dv += b[s] * kv[s, i, c]
                 pos[i, c] += dt * dx
                 vel[i, c] += dt * dv
-        if setup.enabled and collide_step(pos0, pos, vel, mass, setup, dt,
+        if setup.enabled and collide_step(pos0, vel0, pos, vel, mass, setup, dt,
                                           setup.t0 + step * dt) == 2:
             return step + 1
     return nsteps

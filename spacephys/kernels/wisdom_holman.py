@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from .._jit import kernel
-from .collide import collide_step, room_for_a_step
+from .collide import collide_step
 from .gravity import accelerations
 from .integrate import _scratch
 
@@ -359,6 +359,7 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
     vj = np.empty((n, 3))
     acc = np.empty((pos.shape[0], 3))
     pos0 = np.empty((pos.shape[0], 3))
+    vel0 = np.empty((pos.shape[0], 3))
     M = np.cumsum(m)
     scratch = _scratch(model, src)
     ok = True
@@ -371,9 +372,8 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
     done = 0
     while done < nsteps:
         if setup.enabled:
-            if not room_for_a_step(setup):
-                return done, ok
             pos0[:] = pos
+            vel0[:] = vel
         steps = min(chunk, nsteps - done)
         _to_jacobi(pos, vel, order, m, xj, vj)
         kicks = steps + (4 if corrector else 0)
@@ -385,7 +385,7 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
         ok = _drift_all(xj, vj, M, G, _CORRECTOR_A * dt if corrector else 0.5 * dt) & ok
         _from_jacobi(xj, vj, order, m, M, pos, vel)
         done += steps
-        if setup.enabled and collide_step(pos0, pos, vel, mass, setup, dt,
+        if setup.enabled and collide_step(pos0, vel0, pos, vel, mass, setup, dt,
                                           setup.t0 + (done - 1) * dt) == 2:
             return done, ok
     return done, ok

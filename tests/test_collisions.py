@@ -1,0 +1,356 @@
+"""Circle/sphere collisions: broad phase against brute force, time of impact, every response,
+walls, boundaries, events; hypothesis properties on random scenes and the textbook cases."""
+import itertools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import spacephys as sp
+from spacephys.kernels import collide
+
+# ----------------------------------------------------------------------------- helpers
+
+
+def arena(n, seed, dim=2, response="elastic", restitution=None, box=10.0, speed=3.0,
+          radius=(0.1, 0.6), mass=(0.5, 2.0), dt=0.1, **world):
+    """n balls of random sizes and masses in a box, no gravity, all colliding."""
+    rng = np.random.default_rng(seed)
+    w = sp.World(dim=dim, gravity="none", dt=dt, **world)
+    w.add_kind("ball")
+    w.set_collision("ball", "ball", response, restitution=restitution)
+    w.add_bodies(rng.uniform(*mass, n), rng.uniform(0, box, (n, dim)),
+                 rng.normal(scale=speed, size=(n, dim)), radius=rng.uniform(*radius, n),
+                 kind="ball")
+    return w
+
+
+def overlapping_and_approaching(w, slack=1e-9):
+    """Pairs closer than their radii' sum whose distance is still shrinking."""
+    bad = []
+    for i, j in itertools.combinations(range(w.n), 2):
+        d = w.pos[j] - w.pos[i]
+        if np.linalg.norm(d) < (w.radius[i] + w.radius[j]) * (1 - slack) \
+                and np.dot(d, w.vel[j] - w.vel[i]) < 0:
+            bad.append((i, j))
+    return bad
+
+
+def kinetic(w):
+    return 0.5 * np.sum(w.mass * np.sum(w.vel ** 2, axis=1))
+
+
+# ----------------------------------------------------------------------------- properties
+
+@settings(deadline=None, max_examples=40)
+@given(seed=st.integers(0, 10_000), n=st.integers(2, 60), dim=st.sampled_from([2, 3]),
+       cell=st.floats(0.05, 5.0), periodic=st.booleans())
+def test_grid_finds_exactly_the_pairs_brute_force_finds(seed, n, dim, cell, periodic):
+    w = arena(n, seed, dim=dim, box=4.0, speed=5.0)
+    if periodic:
+        w.set_boundary("periodic", lo=[0] * dim, hi=[4.0] * dim)
+    w.collision_cell = cell
+    setup = w._collision_setup()
+    rng = np.random.default_rng(seed + 1)
+    A = np.zeros((n, 3))
+    B = np.zeros((n, 3))
+    A[:, :dim] = w.pos
+    B[:, :dim] = w.vel * 0.3                        # sweeps of up to a few cells
+    tb = rng.uniform(0, 0.5, n) * (rng.random(n) < 0.3)
+    lo, hi = np.empty((n, 3)), np.empty((n, 3))
+    grid, _ = collide.candidate_pairs(A, B, tb, setup.radius, setup.alive, setup.kind, setup,
+                                      lo, hi)
+    brute = collide.brute_pairs(A, B, tb, setup.radius, setup.alive, setup.kind, setup, lo, hi)
+    as_set = lambda pairs: {tuple(p) for p in pairs.tolist()}
+    assert len(as_set(grid)) == len(grid)            # never reported twice
+    assert as_set(grid) == as_set(brute)
+
+
+@settings(deadline=None, max_examples=30)
+@given(seed=st.integers(0, 10_000), dim=st.sampled_from([2, 3]),
+       response=st.sampled_from(["elastic", "bounce", "merge"]),
+       restitution=st.floats(0.0, 1.0))
+def test_momentum_is_conserved_by_every_response(seed, dim, response, restitution):
+    w = arena(40, seed, dim=dim, response=response,
+              restitution=restitution if response == "bounce" else None, box=3.0)
+    P0, M0 = w.momentum(), w.total_mass()
+    w.step(5)
+    assert len(w.events) > 0                         # a dense box: something collided
+    np.testing.assert_allclose(w.momentum(), P0, rtol=0, atol=1e-12 * np.abs(P0).max() + 1e-13)
+    assert w.total_mass() == pytest.approx(M0, rel=1e-14)
+
+
+@settings(deadline=None, max_examples=30)
+@given(seed=st.integers(0, 10_000), dim=st.sampled_from([2, 3]))
+def test_kinetic_energy_is_conserved_by_elastic_collisions(seed, dim):
+    w = arena(40, seed, dim=dim, box=3.0)
+    K0 = kinetic(w)
+    w.step(5)
+    assert (w.events["kind"] == 1).sum() > 0
+    assert kinetic(w) == pytest.approx(K0, rel=1e-12)
+    assert np.all(w.events["energy_lost"] == 0)
+
+
+@settings(deadline=None, max_examples=25)
+@given(seed=st.integers(0, 10_000), dim=st.sampled_from([2, 3]),
+       response=st.sampled_from(["elastic", "bounce", "merge"]))
+def test_no_pair_ends_a_step_overlapping_and_approaching(seed, dim, response):
+    w = arena(60, seed, dim=dim, response=response,
+              restitution=0.5 if response == "bounce" else None, box=2.5, speed=8.0)
+    for _ in range(5):
+        w.step(1)
+        assert overlapping_and_approaching(w) == []
+
+
+def test_restitution_takes_its_share_of_the_energy():
+    # head-on, equal masses 1, closing speed 4: lost = (1 - e^2) m_red v^2 / 2, m_red = 1/2
+    for e in (0.0, 0.3, 1.0):
+        w = arena(0, 0, response="bounce", restitution=e)
+        w.add_bodies([1.0, 1.0], [[0, 0], [3, 0]], [[2, 0], [-2, 0]], radius=0.5, kind="ball")
+        w.step(20)
+        (ev,) = w.events
+        assert ev["energy_lost"] == pytest.approx((1 - e * e) * 4.0, rel=1e-14)
+        assert w.vel[1, 0] - w.vel[0, 0] == pytest.approx(4 * e, abs=1e-14)
+
+
+# ----------------------------------------------------------------------------- textbook
+
+def test_equal_masses_head_on_swap_exactly():
+    w = arena(0, 0)
+    w.add_bodies([2.0, 2.0], [[0.0, 1.0], [5.0, 1.0]], [[1.3, 0.0], [-0.7, 0.0]], radius=0.5,
+                 kind="ball")
+    w.step(50)
+    assert w.vel.tolist() == [[-0.7, 0.0], [1.3, 0.0]]       # exactly, not approximately
+
+
+def test_an_immovable_body_reflects():
+    w = arena(0, 0)
+    w.add_bodies([1.0, 1e3], [[0.0, 0.0], [3.0, 0.0]], [[2.0, 0.0], [0.0, 0.0]], radius=0.5,
+                 kind="ball", fixed=[False, True])
+    w.step(20)
+    assert w.vel.tolist() == [[-2.0, 0.0], [0.0, 0.0]]
+    assert w.pos[1].tolist() == [3.0, 0.0]
+
+
+@pytest.mark.parametrize("m1,m2", [(1.0, 3.0), (5.0, 0.2), (1e-12, 1e12), (1e12, 1e-12)])
+def test_the_seeds_final_velocities(m1, m2):
+    # v1' = (2 m2 v2 + v1 (m1 - m2)) / (m1 + m2), and likewise v2', for a head-on elastic hit
+    v1, v2 = 1.5, -0.5
+    w = arena(0, 0)
+    w.add_bodies([m1, m2], [[0, 0], [3, 0]], [[v1, 0], [v2, 0]], radius=0.5, kind="ball")
+    w.step(30)
+    expect1 = (2 * m2 * v2 + v1 * (m1 - m2)) / (m1 + m2)
+    expect2 = (2 * m1 * v1 + v2 * (m2 - m1)) / (m1 + m2)
+    # the light body keeps its full velocity change despite a mass ratio of 1e24
+    assert w.vel[0, 0] == pytest.approx(expect1, rel=1e-13, abs=1e-13)
+    assert w.vel[1, 0] == pytest.approx(expect2, rel=1e-13, abs=1e-13)
+    assert np.all(np.isfinite(w.vel))
+
+
+def test_oblique_impact_reflects_along_the_normal():
+    # ball 1 at rest; ball 2 comes in along x with an offset: the normal at contact is fixed
+    # by the geometry, the tangential parts stay, the normal parts are exchanged
+    w = arena(0, 0, dt=0.01)
+    w.add_bodies([1.0, 1.0], [[0.0, 0.0], [-3.0, 0.6]], [[0.0, 0.0], [2.0, 0.0]], radius=0.5,
+                 kind="ball")
+    w.step(200)
+    (ev,) = w.events
+    n = np.array([ev["nx"], ev["ny"]])
+    assert np.linalg.norm(n) == pytest.approx(1.0)
+    # the normal points from a (ball 1, at rest) to b (ball 2, coming from the left): at
+    # contact ball 2 is at (-0.8, 0.6) from ball 1
+    assert [n[0], n[1]] == pytest.approx([-0.8, 0.6], abs=1e-12)
+    v_in = np.array([2.0, 0.0])
+    # ball 2 keeps the tangential part, ball 1 takes the normal part
+    np.testing.assert_allclose(w.vel[0], np.dot(v_in, n) * n, atol=1e-12)
+    np.testing.assert_allclose(w.vel[1], v_in - np.dot(v_in, n) * n, atol=1e-12)
+
+
+def test_a_fast_missile_does_not_pass_through_a_thin_target():
+    # 100 radii per step: without the swept test it would jump from in front to behind
+    w = sp.World(dim=2, gravity="none", dt=1.0)
+    w.set_collision("missile", "ship", "destroy_both")
+    missile = w.add_body(1.0, (0.0, 0.0), (1.0, 0.0), radius=0.005, kind="missile")
+    ship = w.add_body(10.0, (0.5, 0.001), radius=0.005, kind="ship")
+    w.step(1)
+    assert missile not in w and ship not in w
+    assert sorted(w.events["kind"].tolist()) == [3, 3]
+    assert w.events[0]["time"] == pytest.approx(0.49, abs=1e-3)
+
+
+def test_merge_chain_in_one_step_conserves_mass_momentum_and_centre_of_mass():
+    w = sp.World(dim=3, gravity="none", dt=1.0)
+    w.add_kind("rock")
+    w.set_collision("rock", "rock", "merge")
+    # (1, 2) close fastest and merge first (t = 0.05); 0 and 3 then reach the grown body
+    w.add_bodies([1.0, 1.0, 1.0, 1.0], [[0, 0, 0], [1.05, 0, 0], [2.1, 0, 0], [3.15, 0, 0]],
+                 [[1.0, 0, 0], [0.5, 0, 0], [-0.5, 0.1, 0], [-1.0, 0, 0]], radius=0.5,
+                 kind="rock")
+    M, P, R = w.total_mass(), w.momentum(), w.center_of_mass()
+    w.step(1)
+    assert w.n == 1 and len(w.events) == 3 and set(w.events["kind"]) == {2}
+    assert w.mass[0] == pytest.approx(M, rel=1e-15)
+    np.testing.assert_allclose(w.momentum(), P, atol=1e-15)
+    np.testing.assert_allclose(w.pos[0], R + P / M * 1.0, atol=1e-14)   # the COM moved on
+    assert w.radius[0] == pytest.approx(4 ** (1 / 3) * 0.5, rel=1e-14)  # summed volume
+    assert w.ids[0] == 1               # the heavier survives: 1, after absorbing 2 first
+    assert w.events["a"].tolist() == [1, 1, 1] and sorted(w.events["b"]) == [0, 2, 3]
+
+
+def test_merged_radius_keeps_area_in_2d_and_gravity_follows_the_mass():
+    w = sp.World(dim=2, dt=0.05)
+    w.set_collision("asteroid", "asteroid", "merge")
+    w.add_bodies([1.0, 1.0], [[0, 0], [1.2, 0]], radius=[0.3, 0.4], kind="asteroid")
+    probe = w.add_body(0.0, (10.0, 0.0))
+    w.step(40)
+    assert w.n == 2
+    assert w.radius[0] == pytest.approx(0.5, rel=1e-14)     # sqrt(0.3^2 + 0.4^2)
+    assert w.mass[0] == 2.0 and w.pulls[0]
+    assert w.get(probe).vel[0] < 0                           # pulled by the merged body
+
+
+def test_destroy_one_of_the_pair_and_the_sensor():
+    w = sp.World(dim=2, gravity="none", dt=0.1)
+    w.set_collision("missile", "planet", "destroy_a")
+    w.set_collision("ship", "planet", "sensor")
+    planet = w.add_body(100.0, (0, 0), radius=1.0, kind="planet", fixed=True)
+    missile = w.add_body(1.0, (3, 0), (-1, 0), radius=0.1, kind="missile")
+    ship = w.add_body(1.0, (0, 3), (0, -1), radius=0.1, kind="ship")
+    w.step(30)
+    assert missile not in w and ship in w and planet in w
+    kinds = {int(e["kind"]): (int(e["a"]), int(e["b"])) for e in w.events}
+    assert kinds[3] == (missile, planet)                     # destroyed, by whom
+    assert kinds[4] == (min(ship, planet), max(ship, planet))
+    assert w.get(ship).vel.tolist() == [0.0, -1.0]           # a sensor changes nothing
+    assert w.collision("planet", "missile") == ("destroy_b", 1.0)   # the mirrored entry
+
+
+def test_category_and_mask_filter_pairs():
+    w = arena(0, 0)
+    w.add_bodies([1.0, 1.0], [[0, 0], [3, 0]], [[1, 0], [-1, 0]], radius=0.5, kind="ball",
+                 category=[1, 2], mask=[1, 1])     # body 2 is category 2, body 1 ignores 2
+    w.step(40)
+    assert len(w.events) == 0 and w.vel.tolist() == [[1.0, 0.0], [-1.0, 0.0]]
+
+
+# ----------------------------------------------------------------------------- walls, boundaries
+
+def test_circle_on_a_wall_segment_the_seeds_steps():
+    # the seed: time of collision, reflect off the surface normal, move the remainder
+    w = sp.World(dim=2, gravity="none", dt=1.0)
+    w.add_segment((2.0, -1.0), (2.0, 1.0), restitution=1.0)
+    ball = w.add_body(1.0, (0.0, 0.0), (1.0, 0.5), radius=0.5)
+    w.set_collision("body", "body", "elastic")
+    w.step(2)
+    (ev,) = w.events
+    assert ev["kind"] == 5 and ev["b"] == -1
+    assert ev["time"] == pytest.approx(1.5)                  # x + r reaches 2 at t = 1.5
+    assert [ev["x"], ev["y"]] == pytest.approx([2.0, 0.75])
+    assert w.get(ball).vel.tolist() == [-1.0, 0.5]
+    assert w.get(ball).pos == pytest.approx([1.5 - 0.5, 1.0])
+
+
+def test_a_ball_hits_a_segment_end_at_the_corner():
+    w = sp.World(dim=2, gravity="none", dt=0.01)
+    w.add_segment((0.0, -5.0), (0.0, 0.0))
+    w.add_body(1.0, (-2.0, 0.3), (1.0, 0.0), radius=0.5)
+    w.step(400)
+    (ev,) = w.events
+    # the end cap at (0, 0): contact when the centre is 0.5 from it, at x = -0.4
+    assert [ev["x"], ev["y"]] == pytest.approx([0.0, 0.0], abs=1e-12)
+    assert [ev["nx"], ev["ny"]] == pytest.approx([0.8, -0.6], abs=1e-12)
+
+
+def test_reflective_box_keeps_everything_inside_and_restitution_slows():
+    w = arena(30, 3, dim=3, box=2.8)                  # radii up to 0.6: start inside [0.6, 3.4]
+    w.set_boundary("reflect", lo=[0, 0, 0], hi=[4, 4, 4], restitution=0.9)
+    for i in w.ids:
+        w.set_body(i, pos=w.get(i).pos + 0.6)
+    K0 = kinetic(w)
+    wall_hits = 0
+    for _ in range(50):
+        w.step(2)
+        wall_hits += int((w.events["kind"] == 5).sum())
+        assert np.all(w.pos >= w.radius[:, None] - 1e-9)
+        assert np.all(w.pos <= 4 - w.radius[:, None] + 1e-9)
+    assert wall_hits > 30
+    assert kinetic(w) < 0.9 * K0
+
+
+def test_periodic_wrap_keeps_momentum_and_collides_across_the_seam():
+    w = sp.World(dim=2, gravity="none", dt=0.1)
+    w.set_boundary("periodic", lo=(0, 0), hi=(10, 10))
+    w.set_collision("body", "body", "elastic")
+    # two balls on either side of the x seam, closing through it
+    w.add_bodies([1.0, 3.0], [[0.3, 5.0], [9.7, 5.0]], [[-1.0, 0.0], [1.0, 0.0]], radius=0.5)
+    P0 = w.momentum()
+    w.step(3)
+    assert len(w.events) == 1                            # they met at the seam
+    np.testing.assert_allclose(w.momentum(), P0, atol=1e-14)
+    assert np.all((w.pos >= 0) & (w.pos < 10))
+    crowd = arena(50, 9, box=10.0)
+    crowd.set_boundary("periodic", lo=(0, 0), hi=(10, 10))
+    P0 = crowd.momentum()
+    crowd.step(100)
+    np.testing.assert_allclose(crowd.momentum(), P0, atol=1e-12)
+    assert np.all((crowd.pos >= 0) & (crowd.pos < 10))
+
+
+# ----------------------------------------------------------------------------- integrators
+
+@pytest.mark.parametrize("name", list(sp.INTEGRATORS))
+def test_collisions_work_with_every_integrator(name):
+    # two small moons falling together near a planet: the bounce must happen, and leave them
+    # apart, whatever integrates the gravity
+    w = sp.World(dim=2, integrator=name, dt=1e-3, G=1.0)
+    w.set_collision("moon", "moon", "elastic")
+    w.add_body(1.0, (0.0, 0.0), kind="planet")
+    w.add_bodies([1e-6, 1e-6], [[1.0, -0.05], [1.0, 0.05]], [[0.0, 0.5], [0.0, -0.5]],
+                 radius=0.01, kind="moon")
+    w.step(100)
+    bounces = w.events[w.events["kind"] == 1]
+    assert len(bounces) == 1
+    assert bounces[0]["time"] == pytest.approx(0.08, rel=0.02)
+    assert w.vel[1, 1] < 0 < w.vel[2, 1]            # turned back
+    assert overlapping_and_approaching(w) == []
+
+
+# ----------------------------------------------------------------------------- bad input
+
+def _snapshot(w):
+    return (w._response.copy(), w._restitution.copy(), w._walls.copy(), w.boundary[0],
+            w.collision_cell)
+
+
+@pytest.mark.parametrize("call,message", [
+    (lambda w: w.set_collision("ship", "rock", "elastic"), "kind_b = 'rock' is not a declared"),
+    (lambda w: w.set_collision("ship", "ship", "explode"), "response='explode' is not known"),
+    (lambda w: w.set_collision("ship", "ship", "bounce"), "needs restitution"),
+    (lambda w: w.set_collision("ship", "ship", "bounce", restitution=1.5),
+     "restitution = 1.5: must be <= 1"),
+    (lambda w: w.set_collision("ship", "ship", "bounce", restitution=-0.1),
+     "restitution = -0.1: must be >= 0"),
+    (lambda w: w.set_collision("ship", "ship", "elastic", restitution=0.5),
+     "only used with response='bounce'"),
+    (lambda w: w.add_segment((0, 0), (0, 0)), "a segment needs two distinct ends"),
+    (lambda w: w.add_plane((0, 0), (0, 0)), "normal = 0"),
+    (lambda w: w.add_plane((0, 0), (1, 0), restitution=2), "restitution = 2.0: must be <= 1"),
+    (lambda w: w.set_boundary("wrap"), "boundary='wrap' is not known"),
+    (lambda w: w.set_boundary("reflect"), "needs lo and hi"),
+    (lambda w: w.set_boundary("periodic", lo=(0, 5), hi=(1, 5)), r"hi\[1\] = 5.0 is not above"),
+    (lambda w: setattr(w, "collision_cell", 0.0), "collision_cell = 0.0: must be > 0"),
+    (lambda w: w.add_body(1.0, (0, 0), fixed=1), "fixed = 1: must be a bool"),
+    (lambda w: w.add_body(1.0, (0, 0), mask=1.5), "mask = 1.5: must be an integer"),
+    (lambda w: w.add_body(1.0, (0, 0), radius=-1), "radius = -1.0: must be >= 0"),
+])
+def test_bad_collision_input_is_named_and_changes_nothing(call, message):
+    w = sp.World(dim=2)
+    w.set_collision("ship", "ship", "bounce", restitution=0.5)
+    n, before = w.n, _snapshot(w)
+    with pytest.raises(ValueError, match=message):
+        call(w)
+    after = _snapshot(w)
+    assert w.n == n
+    assert all(np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y
+               for x, y in zip(before, after))
