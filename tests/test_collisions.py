@@ -354,3 +354,60 @@ def test_bad_collision_input_is_named_and_changes_nothing(call, message):
     assert w.n == n
     assert all(np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y
                for x, y in zip(before, after))
+
+
+def test_bodies_spawned_overlapping_merge_but_do_not_bounce():
+    # touching counts for merges and destroys; a bounce needs the bodies to be approaching
+    merge = sp.World(dim=2, gravity="none", dt=0.1)
+    merge.set_collision("body", "body", "merge")
+    merge.add_bodies([1.0, 1.0], [[0, 0], [0.5, 0]], [[-1, 0], [1, 0]], radius=0.5)
+    merge.step(1)
+    assert merge.n == 1 and merge.events[0]["t_in_step"] == 0.0
+    bounce = arena(0, 0)
+    bounce.add_bodies([1.0, 1.0], [[0, 0], [0.5, 0]], [[-1, 0], [1, 0]], radius=0.5,
+                      kind="ball")
+    bounce.step(1)
+    assert len(bounce.events) == 0 and bounce.vel.tolist() == [[-1.0, 0.0], [1.0, 0.0]]
+
+
+def test_merging_matches_rebound_line_merge():
+    # same initial conditions, leapfrog, merge on contact: the same bodies merge (a scene
+    # whose contacts are all pairs: where three bodies touch at once REBOUND's own result
+    # varies from run to run)
+    import rebound
+    from spacephys.bench import _merging_cluster
+    result = _merging_cluster(1500, 10, 0.01, 1, seed=5)
+    assert result["merges"] == result["rebound_merges"] > 5
+    assert result["same_masses"]
+    assert result["momentum_difference"] < 1e-15
+    assert rebound.__version__.startswith("5.2")
+
+
+def test_broad_phase_work_is_linear():
+    # entries per body stay bounded as the field grows: cells per body, not pairs per body
+    from spacephys.bench import circle_field
+    setup_entries = []
+    for n in (2000, 8000):
+        w = circle_field(n)
+        s = w._collision_setup()
+        A = np.zeros((n, 3))
+        A[:, :2] = w.pos
+        B = np.zeros((n, 3))
+        B[:, :2] = w.vel * w.dt
+        lo, hi = np.empty((n, 3)), np.empty((n, 3))
+        pairs, entries = collide.candidate_pairs(A, B, np.zeros(n), s.radius, s.alive, s.kind,
+                                                 s, lo, hi)
+        setup_entries.append(entries / n)
+        assert len(pairs) < n                        # a sparse field: few candidates
+    assert setup_entries[1] == pytest.approx(setup_entries[0], rel=0.1)
+
+
+def test_a_body_touching_two_others_merges_them_all():
+    # B overlaps A and C, which do not touch each other: one body at the end (REBOUND's
+    # line/merge does this too, on most runs)
+    w = sp.World(dim=3, gravity="none", dt=0.1)
+    w.set_collision("body", "body", "merge")
+    w.add_bodies([1.0, 1.0, 1.0], [[0, 0, 0], [0.9, 0, 0], [1.8, 0, 0]], radius=0.5)
+    w.step(1)
+    assert w.n == 1 and w.mass[0] == 3.0 and len(w.events) == 2
+    np.testing.assert_allclose(w.pos[0], [0.9, 0, 0], atol=1e-15)

@@ -80,10 +80,11 @@ def _periods(setup):
 
 
 @kernel
-def _pair_time(A, B, i, j, R, t_lo, L):
+def _pair_time(A, B, i, j, R, t_lo, L, overlap_counts):
     """Earliest t in [t_lo, 1] at which bodies i and j, on p = A + B t, are R apart; -1 if
-    they do not touch, or touch only while separating. Squared distances until a root is
-    certain."""
+    they do not touch, or touch only while separating. With overlap_counts (merges, destroys)
+    bodies already overlapping at t_lo meet at t_lo whichever way they move. Squared
+    distances until a root is certain."""
     d0 = _wrap(A[j, 0] - A[i, 0], L[0])
     d1 = _wrap(A[j, 1] - A[i, 1], L[1])
     d2 = _wrap(A[j, 2] - A[i, 2], L[2])
@@ -97,10 +98,10 @@ def _pair_time(A, B, i, j, R, t_lo, L):
     a = e0 * e0 + e1 * e1 + e2 * e2
     b = p0 * e0 + p1 * e1 + p2 * e2
     c = p0 * p0 + p1 * p1 + p2 * p2 - R * R
+    if c <= 0.0 and (b < 0.0 or overlap_counts):
+        return t_lo                       # overlapping (and approaching): contact now
     if b >= 0.0:
         return -1.0                       # not approaching: no contact ahead
-    if c <= 0.0:
-        return t_lo                       # overlapping and approaching: contact now
     disc = b * b - a * c
     if disc < 0.0:
         return -1.0
@@ -209,26 +210,53 @@ def _bounds(A, B, tb, radius, alive, lo, hi):
 
 
 @kernel
-def _cell_range(lo, hi, i, origin, cell, ncell):
-    """First and last cell index per axis covered by box i; periodic axes wrap later."""
-    first = np.empty(3, np.int64)
-    last = np.empty(3, np.int64)
-    for c in range(3):
-        first[c] = int(math.floor((lo[i, c] - origin[c]) / cell[c]))
-        last[c] = int(math.floor((hi[i, c] - origin[c]) / cell[c]))
-        if ncell[c] > 0 and last[c] - first[c] >= ncell[c]:
-            last[c] = first[c] + ncell[c] - 1        # a box around the whole period
+def _axis_range(lo, hi, i, c, origin, cell, ncell):
+    """First and last cell index on axis c covered by box i; periodic axes wrap later."""
+    first = int(math.floor((lo[i, c] - origin[c]) / cell[c]))
+    last = int(math.floor((hi[i, c] - origin[c]) / cell[c]))
+    if ncell[c] > 0 and last - first >= ncell[c]:
+        last = first + ncell[c] - 1                   # a box around the whole period
     return first, last
 
 
 @kernel
-def _hash(cx, cy, cz, mask):
-    return ((cx * 73856093) ^ (cy * 19349663) ^ (cz * 83492791)) & mask
+def _cell_key(cx, cy, cz):
+    """A 64-bit hash of a cell: entries are grouped by it. Two cells sharing a key (odds
+    about 1e-8 for a million cells) would only make a pair be tested twice."""
+    h = cx * -7046029254386353131 + cy * -4417276706812531889 + cz * 1609587929392839161
+    h ^= (h >> 31) & 0x1FFFFFFFF
+    h *= -7723592293110705685
+    h ^= (h >> 29) & 0x7FFFFFFFF
+    return h
 
 
 @kernel
 def _wrap_index(k, n):
     return k % n if n > 0 else k
+
+
+@kernel
+def _radix_sort(keys, values, keys_out, values_out):
+    """Sort (keys, values) by the low 33 bits of keys, 11 at a time (LSD radix: linear; each
+    pass streams the arrays once and scatters into 2048 streams). Only a grouping is needed:
+    entries of one cell end up adjacent, with at most a few other cells' entries mixed into
+    the same run of low bits (the scan compares full keys). Returns the sorted arrays."""
+    n = keys.size
+    count = np.zeros(2049, np.int64)
+    src_k, src_v, dst_k, dst_v = keys, values, keys_out, values_out
+    for shift in range(0, 33, 11):
+        count[:] = 0
+        for e in range(n):
+            count[((src_k[e] >> shift) & 2047) + 1] += 1
+        for d in range(2048):
+            count[d + 1] += count[d]
+        for e in range(n):
+            d = (src_k[e] >> shift) & 2047
+            dst_k[count[d]] = src_k[e]
+            dst_v[count[d]] = src_v[e]
+            count[d] += 1
+        src_k, src_v, dst_k, dst_v = dst_k, dst_v, src_k, src_v
+    return src_k, src_v
 
 
 @kernel
@@ -250,61 +278,54 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
         elif c >= setup.dim:
             cell[c] = 1.0                              # the flat axis: one layer of cells
     _bounds(A, B, tb, radius, alive, lo, hi)
-    # count the entries (body, cell), then place them by bucket (counting sort)
+    # the entries (body, cell): counted, then written in body order (sequentially)
     total = 0
     for i in range(n):
         if alive[i]:
-            first, last = _cell_range(lo, hi, i, origin, cell, ncell)
-            total += (last[0] - first[0] + 1) * (last[1] - first[1] + 1) * (last[2] - first[2] + 1)
-    nb = 1
-    while nb < 2 * total:
-        nb *= 2
-    bucket_mask = nb - 1
-    start = np.zeros(nb + 1, np.int64)
-    ent_body = np.empty(total, np.int64)
-    ent_cell = np.empty((total, 3), np.int64)
-    ent_bucket = np.empty(total, np.int64)
+            x0, x1 = _axis_range(lo, hi, i, 0, origin, cell, ncell)
+            y0, y1 = _axis_range(lo, hi, i, 1, origin, cell, ncell)
+            z0, z1 = _axis_range(lo, hi, i, 2, origin, cell, ncell)
+            total += (x1 - x0 + 1) * (y1 - y0 + 1) * (z1 - z0 + 1)
+    keys = np.empty(total, np.int64)
+    bodies = np.empty(total, np.int64)
     e = 0
     for i in range(n):
         if not alive[i]:
             continue
-        first, last = _cell_range(lo, hi, i, origin, cell, ncell)
-        for x in range(first[0], last[0] + 1):
-            for y in range(first[1], last[1] + 1):
-                for z in range(first[2], last[2] + 1):
-                    cx = _wrap_index(x, ncell[0])
-                    cy = _wrap_index(y, ncell[1])
-                    cz = _wrap_index(z, ncell[2])
-                    ent_body[e] = i
-                    ent_cell[e, 0] = cx
-                    ent_cell[e, 1] = cy
-                    ent_cell[e, 2] = cz
-                    ent_bucket[e] = _hash(cx, cy, cz, bucket_mask)
-                    start[ent_bucket[e] + 1] += 1
+        x0, x1 = _axis_range(lo, hi, i, 0, origin, cell, ncell)
+        y0, y1 = _axis_range(lo, hi, i, 1, origin, cell, ncell)
+        z0, z1 = _axis_range(lo, hi, i, 2, origin, cell, ncell)
+        for x in range(x0, x1 + 1):
+            for y in range(y0, y1 + 1):
+                for z in range(z0, z1 + 1):
+                    keys[e] = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
+                                        _wrap_index(z, ncell[2]))
+                    bodies[e] = i
                     e += 1
-    for k in range(nb):
-        start[k + 1] += start[k]
-    fill = start[:-1].copy()
-    order = np.empty(total, np.int64)
-    for e in range(total):
-        order[fill[ent_bucket[e]]] = e
-        fill[ent_bucket[e]] += 1
-    # pairs within each bucket, in the cell that holds the low corner of their boxes' overlap
-    pairs = np.empty((max(16, total), 2), np.int64)
+    keys, bodies = _radix_sort(keys, bodies, np.empty(total, np.int64),
+                               np.empty(total, np.int64))
+    # pairs within each run of one cell, reported in the cell that holds the low corner of
+    # their boxes' overlap (so once, whatever other cells they share)
+    pairs = np.empty((max(16, total // 8), 2), np.int64)
     m = 0
-    for k in range(nb):
-        for u in range(start[k], start[k + 1]):
-            eu = order[u]
-            for w in range(u + 1, start[k + 1]):
-                ew = order[w]
-                if ent_cell[eu, 0] != ent_cell[ew, 0] or ent_cell[eu, 1] != ent_cell[ew, 1] \
-                        or ent_cell[eu, 2] != ent_cell[ew, 2]:
-                    continue
-                i = min(ent_body[eu], ent_body[ew])
-                j = max(ent_body[eu], ent_body[ew])
+    run = 0
+    low_bits = (1 << 33) - 1
+    while run < total:
+        end = run + 1
+        while end < total and (keys[end] & low_bits) == (keys[run] & low_bits):
+            end += 1
+        for eu in range(run, end):
+            for ew in range(eu + 1, end):
+                if keys[eu] != keys[ew]:
+                    continue                           # another cell with the same low bits
+                i = min(bodies[eu], bodies[ew])
+                j = max(bodies[eu], bodies[ew])
                 if i == j or _allowed(setup, kind, i, j) == IGNORE:
                     continue
                 home = True
+                kx = 0
+                ky = 0
+                kz = 0
                 for c in range(3):
                     # j's box shifted to its image nearest i's (periodic axes)
                     shift = 0.0
@@ -313,15 +334,17 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
                         cj = 0.5 * (lo[j, c] + hi[j, c])
                         shift = (cj - ci) - _wrap(cj - ci, L[c])
                     low = max(lo[i, c], lo[j, c] - shift)
-                    high = min(hi[i, c], hi[j, c] - shift)
-                    if low > high:
+                    if low > min(hi[i, c], hi[j, c] - shift):
                         home = False                   # the boxes do not even overlap
                         break
-                    k0 = _wrap_index(int(math.floor((low - origin[c]) / cell[c])), ncell[c])
-                    if k0 != ent_cell[eu, c]:
-                        home = False
-                        break
-                if home:
+                    kc = _wrap_index(int(math.floor((low - origin[c]) / cell[c])), ncell[c])
+                    if c == 0:
+                        kx = kc
+                    elif c == 1:
+                        ky = kc
+                    else:
+                        kz = kc
+                if home and _cell_key(kx, ky, kz) == keys[eu]:
                     if m == pairs.shape[0]:
                         grown = np.empty((2 * m, 2), np.int64)
                         grown[:m] = pairs
@@ -329,6 +352,7 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
                     pairs[m, 0] = i
                     pairs[m, 1] = j
                     m += 1
+        run = end
     return pairs[:m], total
 
 
@@ -585,6 +609,28 @@ def _respond_wall(i, t, n0, n1, n2, e, A, B, tb, V0, V1, D, mass, radius, ids, s
 
 
 @kernel
+def pair_contacts(A, B, tb, pairs, radius, L, setup):
+    """Narrow phase: (times, i, j) of the candidate pairs that touch within the step."""
+    m = pairs.shape[0]
+    ct = np.empty(m)
+    ci = np.empty(m, np.int64)
+    cj = np.empty(m, np.int64)
+    k = 0
+    for q in range(m):
+        i = pairs[q, 0]
+        j = pairs[q, 1]
+        resp = _allowed(setup, setup.kind, i, j)
+        t = _pair_time(A, B, i, j, radius[i] + radius[j], max(tb[i], tb[j]), L,
+                       resp >= MERGE)
+        if t >= 0.0:
+            ct[k] = t
+            ci[k] = i
+            cj[k] = j
+            k += 1
+    return ct[:k], ci[:k], cj[:k]
+
+
+@kernel
 def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
     """Find and resolve every contact of one step, in time order.
 
@@ -624,25 +670,22 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
             row[7] = setup.box_restitution
     changed = 0
     touched = np.zeros(n, np.bool_)
+    # a body merged away hands its remaining contacts of the step to its survivor, so that
+    # everything that touched within the step ends up one body (merges chain transitively)
+    merged_into = np.arange(n)
     for sweep in range(_MAX_PASSES + 1):
         last = sweep == _MAX_PASSES
         pairs, _ = candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi)
+        pt, pi_, pj_ = pair_contacts(A, B, tb, pairs, radius, L, setup)
         # contacts: (time, i, j) with j < 0 for walls (-1 - row; box walls after the walls)
-        m = pairs.shape[0]
-        ct = np.empty(m + n * (walls.shape[0] + nbox))
+        k = pt.size
+        ct = np.empty(k + n * (walls.shape[0] + nbox))
         ci = np.empty(ct.size, np.int64)
         cj = np.empty(ct.size, np.int64)
         cn = np.empty((ct.size, 3))
-        k = 0
-        for q in range(m):
-            i = pairs[q, 0]
-            j = pairs[q, 1]
-            t = _pair_time(A, B, i, j, radius[i] + radius[j], max(tb[i], tb[j]), L)
-            if t >= 0.0:
-                ct[k] = t
-                ci[k] = i
-                cj[k] = j
-                k += 1
+        ct[:k] = pt
+        ci[:k] = pi_
+        cj[:k] = pj_
         for i in range(n):
             if not alive[i]:
                 continue
@@ -664,11 +707,16 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
         moved = False
         for q in range(k):
             c = order[q]
-            i = ci[c]
-            j = cj[c]
-            if not alive[i] or touched[i] or (j >= 0 and (not alive[j] or touched[j])):
+            i = _survivor(merged_into, ci[c])
+            j = cj[c] if cj[c] < 0 else _survivor(merged_into, cj[c])
+            if i == j or not alive[i] or (j >= 0 and not alive[j]):
                 continue
-            t = ct[c]
+            chained = j >= 0 and _allowed(setup, kind, min(i, j), max(i, j)) == MERGE
+            if not chained and (touched[i] or (j >= 0 and touched[j])):
+                continue
+            if j >= 0 and i > j:
+                i, j = j, i
+            t = max(ct[c], tb[i], tb[j] if j >= 0 else 0.0)
             if last:
                 t = 1.0                  # out of passes: respond at the end, no more lines
             if j < 0:
@@ -683,6 +731,8 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
                 r = _respond(i, j, t, resp, setup.restitution[kind[i], kind[j]], A, B, tb,
                              V0, V1, D, mass, radius, alive, ids, setup, dt, t0, L, events,
                              count)
+                if resp == MERGE:
+                    merged_into[i if not alive[i] else j] = j if not alive[i] else i
             if r > 0:
                 touched[i] = True
                 if j >= 0:
@@ -699,6 +749,15 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
             pos[i, c] = x
             vel[i, c] = V1[i, c] + D[i, c]
     return changed
+
+
+@kernel
+def _survivor(merged_into, i):
+    """The body i has merged into, following chains (with path halving)."""
+    while merged_into[i] != i:
+        merged_into[i] = merged_into[merged_into[i]]
+        i = merged_into[i]
+    return i
 
 
 @kernel
