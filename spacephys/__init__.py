@@ -2,16 +2,18 @@
 
 The whole public API, re-exported by name.
 """
+from .events import EVENT_DTYPE, EVENT_KINDS
 from .geometry import polygon_center_of_mass
 from .integrators import INTEGRATORS, Integrator, get_integrator
 from .orbits import elements_to_state, kepler_state, period, solve_kepler
 from .units import UNITS, UnitSystem, get_units
-from .world import DEFAULT_KINDS, GRAVITY_MODELS, Body, World
+from .world import BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, RESPONSES, Body, World
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "World", "Body", "DEFAULT_KINDS", "GRAVITY_MODELS",
+    "World", "Body", "DEFAULT_KINDS", "GRAVITY_MODELS", "RESPONSES", "BOUNDARIES",
+    "EVENT_DTYPE", "EVENT_KINDS",
     "INTEGRATORS", "Integrator", "get_integrator",
     "UNITS", "UnitSystem", "get_units",
     "polygon_center_of_mass",
