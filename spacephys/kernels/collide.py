@@ -357,6 +357,49 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
 
 
 @kernel
+def _boxes_meet(lo, hi, i, j, L):
+    """Whether the boxes of i and j overlap (j's nearest image when wrapping)."""
+    for c in range(3):
+        shift = 0.0
+        if L[c] > 0.0:
+            ci = 0.5 * (lo[i, c] + hi[i, c])
+            cj = 0.5 * (lo[j, c] + hi[j, c])
+            shift = (cj - ci) - _wrap(cj - ci, L[c])
+        if max(lo[i, c], lo[j, c] - shift) > min(hi[i, c], hi[j, c] - shift):
+            return False
+    return True
+
+
+@kernel
+def focused_pairs(A, B, tb, radius, alive, kind, setup, lo, hi, focus, in_focus):
+    """Pairs with at least one body of `focus` (whose lines changed in the last pass) and
+    overlapping boxes: O(len(focus) N), cheaper than a new grid when few bodies changed."""
+    n = A.shape[0]
+    L = _periods(setup)
+    _bounds(A, B, tb, radius, alive, lo, hi)
+    pairs = np.empty((16, 2), np.int64)
+    m = 0
+    for q in range(focus.size):
+        i = focus[q]
+        if not alive[i]:
+            continue
+        for j in range(n):
+            if j == i or not alive[j] or (in_focus[j] and j < i):
+                continue                               # a pair of two focus bodies: once
+            a, b = min(i, j), max(i, j)
+            if _allowed(setup, kind, a, b) == IGNORE or not _boxes_meet(lo, hi, a, b, L):
+                continue
+            if m == pairs.shape[0]:
+                grown = np.empty((2 * m, 2), np.int64)
+                grown[:m] = pairs
+                pairs = grown
+            pairs[m, 0] = a
+            pairs[m, 1] = b
+            m += 1
+    return pairs[:m]
+
+
+@kernel
 def brute_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
     """Every pair (i < j) whose swept boxes overlap (minimum image when wrapping) and whose
     response is not IGNORE: the O(N^2) reference the grid is tested against."""
@@ -371,17 +414,7 @@ def brute_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
         for j in range(i + 1, n):
             if not alive[j] or _allowed(setup, kind, i, j) == IGNORE:
                 continue
-            overlap = True
-            for c in range(3):
-                shift = 0.0
-                if L[c] > 0.0:
-                    ci = 0.5 * (lo[i, c] + hi[i, c])
-                    cj = 0.5 * (lo[j, c] + hi[j, c])
-                    shift = (cj - ci) - _wrap(cj - ci, L[c])
-                if max(lo[i, c], lo[j, c] - shift) > min(hi[i, c], hi[j, c] - shift):
-                    overlap = False
-                    break
-            if overlap:
+            if _boxes_meet(lo, hi, i, j, L):
                 if m == pairs.shape[0]:
                     grown = np.empty((2 * m, 2), np.int64)
                     grown[:m] = pairs
@@ -673,9 +706,20 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
     # a body merged away hands its remaining contacts of the step to its survivor, so that
     # everything that touched within the step ends up one body (merges chain transitively)
     merged_into = np.arange(n)
+    in_focus = np.zeros(n, np.bool_)
     for sweep in range(_MAX_PASSES + 1):
         last = sweep == _MAX_PASSES
-        pairs, _ = candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi)
+        if sweep == 0:
+            pairs, _ = candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi)
+        else:
+            # only pairs with a body whose line changed in the last pass can be new
+            focus = np.flatnonzero(touched)
+            in_focus[:] = touched
+            if focus.size * 32 < n:
+                pairs = focused_pairs(A, B, tb, radius, alive, kind, setup, lo, hi, focus,
+                                      in_focus)
+            else:
+                pairs, _ = candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi)
         pt, pi_, pj_ = pair_contacts(A, B, tb, pairs, radius, L, setup)
         # contacts: (time, i, j) with j < 0 for walls (-1 - row; box walls after the walls)
         k = pt.size
