@@ -151,7 +151,8 @@ class World:
         # the event buffer, in a typed list so that the kernels can grow it mid-step
         self._event_box = typed.List([np.zeros(256, dtype=EVENT_DTYPE)])
         self._event_count = np.zeros(1, dtype=np.int64)
-        self._sources = None            # (src, passive) index arrays, rebuilt when stale
+        self._sources = None            # (src, passive, still) index arrays, rebuilt when stale
+        self._jacobi = None             # Wisdom-Holman's order and masses, with its key
         self._dt = dt
         self._t_base = 0.0              # t = t_base + steps * dt: no rounding build-up in t
         self._steps = 0
@@ -161,7 +162,8 @@ class World:
         # polynomials are scaled to, have a prediction] and counters (see kernels/gauss_radau.py)
         self._adaptive = np.array([tolerance, max_step, min_step, min(dt, max_step),
                                    min(dt, max_step), 0.0])
-        self._adaptive_stats = np.zeros(5, dtype=np.int64)
+        self._adaptive_stats = np.zeros(7, dtype=np.int64)
+        self._pending_warning = None
 
     # ---------------------------------------------------------------- settings
     @property
@@ -204,9 +206,7 @@ class World:
     @integrator.setter
     def integrator(self, name):
         self._spec = get_integrator(name)
-        # switching methods voids the old one's carried state (prediction, step proposal)
-        self._adaptive[3:5] = min(self._dt, self._adaptive[1])
-        self._adaptive[5] = 0.0
+        self._reset_adaptive()           # switching voids the old method's carried state
 
     @property
     def integrator_spec(self):
@@ -273,11 +273,14 @@ class World:
 
     @property
     def integrator_stats(self):
-        """Counters of the adaptive integrator: substeps taken, rejected, at min_step, and
-        corrector sweeps that did not converge."""
+        """Counters of the adaptive integrator: steps taken, steps redone, steps held at
+        min_step, steps whose corrector did not converge, corrector sweeps (each 7 force
+        evaluations), and substeps of test particles that needed shorter steps than the
+        bodies setting the step."""
         s = self._adaptive_stats
         return {"steps": int(s[gr.STEPS]), "rejected": int(s[gr.REJECTED]),
-                "at_min_step": int(s[gr.AT_MIN_STEP]), "not_converged": int(s[gr.NOT_CONVERGED])}
+                "at_min_step": int(s[gr.AT_MIN_STEP]), "not_converged": int(s[gr.NOT_CONVERGED]),
+                "sweeps": int(s[gr.SWEEPS]), "rider_substeps": int(s[gr.RIDER_SUBSTEPS])}
 
     @property
     def softening(self):
@@ -437,7 +440,7 @@ class World:
         ids = self._b.add({"pos": p3, "vel": v3, "mass": mass, "radius": radius,
                            "kind": codes, "active": act, "fixed": still, "category": category,
                            "mask": mask})
-        self._sources = None
+        self._invalidate()
         return ids
 
     def index_of(self, ids, field="id"):
@@ -510,13 +513,13 @@ class World:
             if key in new and name in b.columns:
                 getattr(b, name)[i] = 0.0
         if "mass" in new or "active" in new or "fixed" in new:
-            self._sources = None
+            self._invalidate()
 
     def remove(self, ids):
         """Remove one id or an array of ids (all must be live; duplicates count once)."""
         rows = np.unique(np.atleast_1d(self.index_of(ids)))
         self._b.remove(rows)
-        self._sources = None
+        self._invalidate()
 
     # copies and pickles carry the event buffer as a plain array (typed lists do not copy)
     def __getstate__(self):
@@ -676,6 +679,11 @@ class World:
                              self._box_restitution, cell, self._dim)
 
     # ---------------------------------------------------------------- stepping
+    def _invalidate(self):
+        """The set of bodies, a mass or an active flag changed: derived lists are stale."""
+        self._sources = None
+        self._jacobi = None
+
     def _source_lists(self):
         """(src, passive, still): the bodies that pull, the others, the immovable ones."""
         if self._sources is None:
@@ -705,9 +713,12 @@ class World:
                 dead = np.flatnonzero(~setup.alive)
                 if dead.size:
                     self._b.remove(dead)
-                    self._sources = None
+                    self._invalidate()
             self._steps += done
             nsteps -= done
+            if self._pending_warning:
+                message, self._pending_warning = self._pending_warning, None
+                warnings.warn(message, RuntimeWarning, stacklevel=4)
 
     def _run_kernel(self, nsteps, setup):
         b = self._b
@@ -733,16 +744,7 @@ class World:
         if still.size:
             raise ValueError(f"integrator {self._spec.name!r} cannot hold bodies fixed "
                              f"({still.size} are): use a fixed-step or the adaptive integrator")
-        if src.size == 0:
-            order = np.arange(n, dtype=np.int64)
-            m = np.zeros(n)
-        else:
-            # the heaviest body is the centre; the other pulling bodies follow in their order
-            # (add planets inside out: each Jacobi orbit is about the bodies before it), then
-            # the passive ones, which do not move the Jacobi frames
-            central = src[np.argmax(b.mass[src])]
-            order = np.concatenate([[central], src[src != central], passive]).astype(np.int64)
-            m = np.where(np.isin(order, src), b.mass[order], 0.0)
+        order, m = self._jacobi_order(src, passive)
         saved = b.pos[:n].copy(), b.vel[:n].copy()
         done, ok = wisdom_holman_steps(b.pos[:n], b.vel[:n], *args, order, m, self._dt, nsteps,
                                        self._spec.corrector > 0, setup)
@@ -755,6 +757,23 @@ class World:
                 f"is NaN. The state is that at t = {self.t:g}. Wisdom-Holman is for scenes "
                 f"with one dominant mass; use gauss_radau or yoshida6 otherwise.")
         return done
+
+    def _jacobi_order(self, src, passive):
+        """The bodies in Jacobi order and their Jacobi masses, cached with the source lists:
+        the heaviest pulling body is the centre, the other pulling bodies follow in their
+        order (add planets inside out: each Jacobi orbit is about the bodies before it), then
+        the passive ones, which do not move the Jacobi frames (mass 0)."""
+        b = self._b
+        if self._jacobi is None:
+            if src.size == 0:
+                order = np.arange(b.n, dtype=np.int64)
+            else:
+                central = src[np.argmax(b.mass[src])]
+                order = np.concatenate([[central], src[src != central], passive]).astype(np.int64)
+            m = np.zeros(b.n)
+            m[:src.size] = b.mass[order[:src.size]]
+            self._jacobi = (order, m)
+        return self._jacobi
 
     def _run_gauss_radau(self, nsteps, setup):
         b = self._b
@@ -779,16 +798,30 @@ class World:
         if stats[gr.FAILED]:
             stats[gr.FAILED] = 0
             self._steps += done          # the state is that of the last completed interval
+            self._reset_adaptive()       # the failed step's tiny proposal and wild polynomial
+            b.prev[:n] = b.pos[:n]       # nothing to interpolate across a failure
             raise FloatingPointError(
                 f"gauss_radau: the step shrank below the resolution of time or became NaN "
                 f"after t = {self.t:g} (next step {self._adaptive[3]:.3g}); bodies may have "
                 f"collided. The state is that at t = {self.t:g}. Set min_step, or soften "
                 f"gravity.")
         if stats[gr.AT_MIN_STEP] > before[gr.AT_MIN_STEP]:
-            warnings.warn(f"gauss_radau: {stats[gr.AT_MIN_STEP] - before[gr.AT_MIN_STEP]} "
-                          f"substeps were held at min_step = {self._adaptive[2]:g}; the error "
-                          f"is no longer controlled there", RuntimeWarning, stacklevel=4)
+            # warned by _run once the time is booked (a warning turned error must find the
+            # World consistent)
+            self._pending_warning = (
+                f"gauss_radau: {stats[gr.AT_MIN_STEP] - before[gr.AT_MIN_STEP]} substeps were "
+                f"held at min_step = {self._adaptive[2]:g}; the error is no longer controlled "
+                f"there")
         return done
+
+    def _reset_adaptive(self):
+        """Forget the adaptive integrator's carried state: step proposal, prediction, the
+        per-body polynomials and compensations."""
+        self._adaptive[3:5] = min(self._dt, self._adaptive[1])
+        self._adaptive[5] = 0.0
+        for name in ("gr_b", "gr_e", "csx", "csv"):
+            if name in self._b.columns:
+                getattr(self._b, name)[:] = 0.0
 
     def step(self, n=1):
         """Advance n steps of dt, the loop inside numba; returns the new time. w.events then

@@ -27,14 +27,20 @@ def test_outer_solar_system_energy_over_ten_thousand_years():
     w = outer_solar_system(integrator="gauss_radau", dt=100.0)
     E0 = w.energy()
     w.step(100)
-    assert abs(w.energy() / E0 - 1) <= 1e-14          # measured 6.4e-15 (REBOUND: 4.7e-15)
+    # the target was 1e-14 (REBOUND: 4.7e-15); measured 2.2e-16 with compensated substeps
+    assert abs(w.energy() / E0 - 1) <= 2e-15
+    # the predictor carries each step's polynomial to the next: about 3 corrector sweeps a
+    # step (measured 3.07); without it, or with a wrong continuation, twice as many
+    stats = w.integrator_stats
+    assert stats["sweeps"] / stats["steps"] < 3.5
 
 
 def test_outer_solar_system_positions_match_rebound_after_a_thousand_years():
     w = outer_solar_system(integrator="gauss_radau", dt=1000.0)
     ref, sim = _rebound_ias15(w, 1000.0)
     w.step(1)
-    assert np.max(np.abs(w.pos - ref)) / np.max(np.abs(ref)) <= 1e-9     # measured 2.6e-13
+    # the target was 1e-9; measured 2.6e-13
+    assert np.max(np.abs(w.pos - ref)) / np.max(np.abs(ref)) <= 1e-12
     assert w.integrator_stats["steps"] == pytest.approx(sim.steps_done, rel=0.02)
 
 
@@ -56,13 +62,14 @@ def test_pythagorean_escaper_against_rebound():
     # The issue's target was 1e-4. Not reachable by any double-precision integration: the
     # closest encounters (separation ~1e-4) leave an energy error of ~1e-11 set by round-off,
     # which the chaos amplifies ~4e9 times by t = 70; REBOUND's own escaper moves by 6e-3
-    # between tolerances 1e-9 and 1e-13, ours by 3e-3. Measured here: 2.8e-3 from REBOUND's.
+    # between tolerances 1e-9 and 1e-13, ours by up to 9e-3 between tolerances 0.9e-9 and
+    # 1.5e-9. Measured here: 2.8e-3 from REBOUND's. The bound is the spread, not the luck.
     w = pythagorean(integrator="gauss_radau", dt=70.0)
     ref, _ = _rebound_ias15(w, 70.0)
     E0 = w.energy()
     w.step(1)
     assert np.linalg.norm(ref[0] - (6.93538, 20.26600)) < 1e-4       # REBOUND, as in the issue
-    assert np.linalg.norm(w.pos[0] - ref[0]) < 5e-3
+    assert np.linalg.norm(w.pos[0] - ref[0]) < 2e-2
     assert w.pos[0, 1] > 20                                          # the mass-3 body escapes
     assert abs(w.energy() / E0 - 1) < 3e-11                          # measured 1.1e-11
 
@@ -116,22 +123,35 @@ def test_step_n_equals_n_single_steps_bit_for_bit():
     assert np.array_equal(a.pos, b.pos) and np.array_equal(a.vel, b.vel)
 
 
-def test_test_particles_ride_along_converged_and_accurate():
-    # two planets set the step ("auto" = "pulling"); a test particle on a Kepler orbit inside
-    # them is still iterated to convergence within those steps
-    w = sp.World(dim=2, integrator="gauss_radau", dt=2 * np.pi)
+def _comet_scene(step_control, e):
+    """A star, a Jupiter at 5.2 and a test-particle comet (a = 3, eccentricity e)."""
+    w = sp.World(dim=2, integrator="gauss_radau", dt=1.0, step_control=step_control)
     w.add_body(1.0, (0, 0))
-    for a in (3.0, 4.5):
-        p, v = sp.elements_to_state(1.0, a, 0.0, f=a)
-        w.add_body(1e-9, p[:2], v[:2])
-    p, v = sp.elements_to_state(1.0, 1.0, 0.3, f=0.0)
-    probe = w.add_body(0.0, p[:2], v[:2])
-    w.step(5)
-    r, _ = sp.kepler_state(1.0, 1.0, 0.3, w.t)
-    assert np.linalg.norm(w.get(probe).pos - r[:2]) < 1e-6    # planets pull it by ~1e-9
-    every = w.copy()
-    every.step_control = "all"
-    assert w.step_control == "auto"
+    p, v = sp.elements_to_state(1.0 + 1e-3, 5.2, 0.05, f=1.0)
+    w.add_body(1e-3, p[:2], v[:2])
+    p, v = sp.elements_to_state(1.0, 3.0, e, f=0.5)
+    comet = w.add_body(0.0, p[:2], v[:2])
+    return w, comet
+
+
+@pytest.mark.parametrize("e", [0.95, 0.99])
+def test_test_particles_take_their_own_substeps_and_stay_accurate(e):
+    # "auto": the planets set the step; the comet's pericentre passages need far shorter
+    # ones, which it takes inside the planets' steps. Against every body setting the step:
+    # measured 4.9e-14 (e = 0.95) and 9.3e-13 (e = 0.99); without the substeps the comet
+    # ended 286 and 1.85e4 away.
+    riding, comet = _comet_scene("auto", e)
+    everyone, _ = _comet_scene("all", e)
+    riding.step(100)
+    everyone.step(100)
+    assert np.linalg.norm(riding.get(comet).pos - everyone.get(comet).pos) < 1e-11
+    stats = riding.integrator_stats
+    assert stats["rider_substeps"] > 100 and stats["not_converged"] == 0
+    # the planets never notice: bit for bit as without the comet
+    alone, _ = _comet_scene("auto", e)
+    alone.remove(comet)
+    alone.step(100)
+    assert np.array_equal(alone.pos, riding.pos[:2])
 
 
 def test_a_lone_star_lets_its_test_particles_set_the_step():
@@ -154,3 +174,48 @@ def test_collision_is_reported_and_the_state_kept():
         w.step(5)
     assert w.t == 0.75
     assert np.array_equal(w.pos, ref.pos) and np.array_equal(w.vel, ref.vel)
+
+
+def test_a_warning_turned_error_finds_the_world_consistent():
+    import warnings
+    w = kepler(0.99, planet_mass=1e-3, integrator="gauss_radau", dt=2 * np.pi, min_step=0.05)
+    ref = kepler(0.99, planet_mass=1e-3, integrator="gauss_radau", dt=2 * np.pi, min_step=0.05)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ref.step(1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(RuntimeWarning, match="min_step"):
+            w.step(1)
+    assert w.t == ref.t and np.array_equal(w.pos, ref.pos)
+
+
+def test_tolerance_zero_steps_are_fixed_whatever_came_before():
+    w = kepler(0.2, planet_mass=1e-3, integrator="gauss_radau", dt=0.5)
+    w.step(10)                                   # adaptive: the proposal is now its own
+    w.tolerance = 0.0
+    before = w.integrator_stats["steps"]
+    w.step(10)
+    assert w.integrator_stats["steps"] - before == 10      # one step of dt per interval
+    w.max_step = 0.125
+    before = w.integrator_stats["steps"]
+    w.step(2)
+    assert w.integrator_stats["steps"] - before == 8
+
+
+def test_after_a_failure_the_integrator_starts_clean():
+    w = sp.World(dim=2, integrator="gauss_radau", dt=0.25)
+    a, b = w.add_bodies([1.0, 1.0], [[-0.5, 0.0], [0.5, 0.0]])
+    with pytest.raises(FloatingPointError):
+        w.step(5)
+    # pull them apart and go on: as cheap and exact as a fresh world
+    w.set_body(a, pos=(-3.0, 0.0), vel=(0.0, -0.3))
+    w.set_body(b, pos=(3.0, 0.0), vel=(0.0, 0.3))
+    fresh = sp.World(dim=2, integrator="gauss_radau", dt=0.25)
+    fresh.add_bodies([1.0, 1.0], [[-3.0, 0.0], [3.0, 0.0]], [[0.0, -0.3], [0.0, 0.3]])
+    before = w.integrator_stats["steps"]
+    w.step(4)
+    fresh.step(4)
+    assert w.integrator_stats["steps"] - before == fresh.integrator_stats["steps"]
+    np.testing.assert_allclose(w.pos, fresh.pos, rtol=0, atol=1e-14)
+    np.testing.assert_array_equal(w.interpolate(0.0), w._b.prev[:2, :2])

@@ -113,3 +113,22 @@ def test_needs_direct_gravity():
     w.add_body(0.0, (1, 0), (0, 1))
     with pytest.raises(ValueError, match="needs gravity='direct'"):
         w.step(1)
+
+
+def test_bodies_with_no_mass_to_orbit_drift_freely():
+    w = sp.World(dim=2, integrator="wisdom_holman", dt=0.1)
+    w.add_bodies(0.0, [[0.0, 0.0], [0.0, 0.0]], [[1.0, 0.5], [1.0, 0.5]])
+    w.step(3)
+    np.testing.assert_allclose(w.pos, [[0.3, 0.15], [0.3, 0.15]], rtol=1e-15)
+
+
+def test_step_n_and_n_single_steps_agree_to_round_off():
+    # each call converts to Jacobi coordinates and back (and applies the corrector): the two
+    # ways agree to round-off, not bit for bit (measured 3e-12 AU after 2000 steps)
+    for name in ("wisdom_holman", "wisdom_holman_corrected"):
+        a = solar_system(integrator=name, dt=5 / 365.25)
+        b = a.copy()
+        a.step(2000)
+        for _ in range(2000):
+            b.step()
+        assert np.max(np.abs(a.pos - b.pos)) < 3e-11

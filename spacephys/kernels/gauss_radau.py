@@ -18,7 +18,7 @@ import numpy as np
 
 from .._jit import kernel
 from .collide import collide_step
-from .gravity import ALL, PASSIVE, PULLING, accelerations
+from .gravity import ALL, PASSIVE, PULLING, _pull, accelerations
 from .integrate import _scratch
 
 _PC_TOLERANCE = 1e-16      # corrector converged: the sweep changed b7 by < this fraction of |a|
@@ -30,7 +30,9 @@ _SAFETY = 0.25             # redo a step if the criterion asks for < 1/4 of it; 
 _TRUNCATION_FLOOR = 1e-8
 
 # stats slots
-STEPS, REJECTED, AT_MIN_STEP, NOT_CONVERGED, FAILED = 0, 1, 2, 3, 4
+STEPS, REJECTED, AT_MIN_STEP, NOT_CONVERGED, FAILED, RIDER_SUBSTEPS, SWEEPS = range(7)
+# most substeps a rider may take within one step of the bodies that set it
+_MAX_RIDER_SUBSTEPS = 4096
 
 
 @kernel
@@ -57,10 +59,12 @@ def _rescale(b, e, q):
 
 
 @kernel
-def _position_at(pos, csx, vel, a0, b, tau, h, x):
-    """x = x0 + tau h v0 + (tau h)^2 [a0/2 + sum_k b_k tau^k / ((k+1)(k+2))], with x0 the
-    compensated position (pos - csx): the compensation enters before the one rounding."""
-    for i in range(pos.shape[0]):
+def _position_at(rows, pos, csx, vel, a0, b, tau, h, x):
+    """x = x0 + tau h v0 + (tau h)^2 [a0/2 + sum_k b_k tau^k / ((k+1)(k+2))] for the bodies in
+    rows, with x0 the compensated position (pos - csx): the compensation enters before the
+    one rounding."""
+    for q in range(rows.size):
+        i = rows[q]
         for c in range(3):
             s = b[i, 6, c] / 72.0
             s = s * tau + b[i, 5, c] / 56.0
@@ -92,30 +96,37 @@ def _correct_at_node(rows, node, nodes, a, a0, g, b, c_gb):
 
 @kernel
 def _step_criterion(b, a0, h, control):
-    """min over control bodies of sqrt(2 |a|^2 / (|j|^2 + |a| |s|)) [time] (Pham et al. 2024),
-    with acceleration a, jerk j and snap s at the end of the step read off the polynomial;
-    inf when no control body accelerates."""
+    """min over control bodies of their dynamical time (_body_time) [time]; inf when no
+    control body accelerates."""
     best = np.inf
     for q in range(control.size):
-        i = control[q]
-        a2 = 0.0
-        j2 = 0.0
-        s2 = 0.0
-        for c in range(3):
-            a = a0[i, c]
-            j = 0.0
-            s = 0.0
-            for k in range(7):
-                a += b[i, k, c]
-                j += (k + 1) * b[i, k, c]
-                s += (k + 1) * k * b[i, k, c]
-            a2 += a * a
-            j2 += j * j
-            s2 += s * s
-        den = j2 + math.sqrt(a2 * s2)
-        if a2 > 0.0 and den > 0.0:
-            best = min(best, 2.0 * a2 / den)     # j and s lack their 1/h, 1/h^2: tau in units of h
-    return math.sqrt(best) * h
+        best = min(best, _body_time(b, a0, h, control[q]))
+    return best
+
+
+@kernel
+def _body_time(b, a0, h, i):
+    """sqrt(2 |a|^2 / (|j|^2 + |a| |s|)) [time] of body i (Pham et al. 2024), with acceleration
+    a, jerk j and snap s at the end of the step read off its polynomial; inf if a = 0."""
+    a2 = 0.0
+    j2 = 0.0
+    s2 = 0.0
+    for c in range(3):
+        a = a0[i, c]
+        j = 0.0
+        s = 0.0
+        for k in range(7):
+            a += b[i, k, c]
+            j += (k + 1) * b[i, k, c]
+            s += (k + 1) * k * b[i, k, c]
+        a2 += a * a
+        j2 += j * j
+        s2 += s * s
+    den = j2 + math.sqrt(a2 * s2)
+    if a2 > 0.0 and den > 0.0:
+        # j and s lack their 1/h, 1/h^2: this is tau in units of h
+        return math.sqrt(2.0 * a2 / den) * h
+    return np.inf
 
 
 @kernel
@@ -127,9 +138,11 @@ def _kahan_add(s, comp, i, c, delta):
 
 
 @kernel
-def _finish_step(pos, vel, csx, csv, a0, b, h):
-    """Move to the end of the step with compensated (Kahan) sums, small terms first."""
-    for i in range(pos.shape[0]):
+def _finish_step(rows, pos, vel, csx, csv, a0, b, h):
+    """Move the bodies in rows to the end of the step with compensated (Kahan) sums, small
+    terms first."""
+    for q in range(rows.size):
+        i = rows[q]
         for c in range(3):
             sx = b[i, 6, c] / 72.0 + b[i, 5, c] / 56.0
             sx += b[i, 4, c] / 42.0
@@ -178,8 +191,8 @@ def _predict(b, e, q, have_predictor):
 
 
 @kernel(parallel=True, inline=True)
-def _sweep(rows, which, first, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model, mass,
-           src, passive, G, eps2, field, field_mass, still, scratch):
+def _sweep(rows, which, first, everyone, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb,
+           model, mass, src, passive, G, eps2, field, field_mass, still, scratch):
     """One predictor-corrector sweep over the seven nodes, updating the bodies in rows (whose
     accelerations `which` selects, see gravity.accelerations). first = -1 evaluates a0, the
     acceleration at the step's start (of every body), before the nodes. Returns the change of
@@ -191,7 +204,7 @@ def _sweep(rows, which, first, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb
         # the only call of the force code in the kernel: each call site of an inlined
         # parallel loop is compiled anew
         if node >= 0:
-            _position_at(pos, csx, vel, a0, b, nodes[node], h, x)
+            _position_at(everyone, pos, csx, vel, a0, b, nodes[node], h, x)
         else:
             # the start: no polynomial needed (and a0, not yet known, must not enter: 0 * an
             # uninitialised NaN is NaN)
@@ -213,19 +226,169 @@ def _sweep(rows, which, first, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb
 
 
 @kernel(parallel=True, inline=True)
-def _converge(rows, which, with_a0, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb, model,
-              mass, src, passive, G, eps2, field, field_mass, still, scratch):
+def _converge(rows, which, with_a0, everyone, pos, csx, vel, a0, b, g, x, a, b7, h, nodes,
+              c_gb, model, mass, src, passive, G, eps2, field, field_mass, still, scratch):
     """Sweep until b7 stops changing: below _PC_TOLERANCE, or stalled at round-off. Returns
-    whether it converged within _PC_MAX_SWEEPS. with_a0: evaluate a0 first."""
+    (converged within _PC_MAX_SWEEPS, sweeps made). with_a0: evaluate a0 first."""
     last = np.inf
     for sweep in range(_PC_MAX_SWEEPS):
         first = -1 if with_a0 and sweep == 0 else 0
-        error = _sweep(rows, which, first, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb,
-                       model, mass, src, passive, G, eps2, field, field_mass, still, scratch)
+        error = _sweep(rows, which, first, everyone, pos, csx, vel, a0, b, g, x, a, b7, h, nodes,
+                       c_gb, model, mass, src, passive, G, eps2, field, field_mass, still,
+                       scratch)
         if error < _PC_TOLERANCE or (sweep > 1 and error >= last and error < _PC_ROUNDOFF):
-            return True
+            return True, sweep + 1
         last = error
-    return False
+    return False, _PC_MAX_SWEEPS
+
+
+@kernel
+def _needy_riders(riders, b, a0, h, dt_scale, mask, converged):
+    """The riders whose own dynamical time asks for a step shorter than h, or all of them if
+    their corrector did not converge over h (marked in mask)."""
+    count = 0
+    for q in range(riders.size):
+        r = riders[q]
+        if not converged or dt_scale * _body_time(b, a0, h, r) < h:
+            mask[r] = True
+            count += 1
+    needy = np.empty(count, np.int64)
+    k = 0
+    for q in range(riders.size):
+        if mask[riders[q]]:
+            needy[k] = riders[q]
+            k += 1
+    return needy
+
+
+@kernel
+def _rider_forces(needy, control, src, mass, x, G, eps2, scratch, out):
+    """The pull of the sources (at x) on the needy riders (at x): serial, they are few."""
+    for q in range(src.size):
+        k = src[q]
+        scratch[0, q] = x[k, 0]
+        scratch[1, q] = x[k, 1]
+        scratch[2, q] = x[k, 2]
+        scratch[3, q] = mass[k]
+    for q in range(needy.size):
+        r = needy[q]
+        ax, ay, az = _pull(x[r, 0], x[r, 1], x[r, 2], scratch, eps2)
+        out[r, 0] = G * ax
+        out[r, 1] = G * ay
+        out[r, 2] = G * az
+
+
+@kernel
+def _substep_riders(needy, h, dt_scale, reject_above, control, src, mass, G, eps2, nodes,
+                    c_gb, d_bg, pos, csx, vel, csv, a0, b, g, x, a, b7, stats):
+    """Integrate the needy riders across the step [0, h] in adaptive substeps of their own.
+
+    The control bodies have not moved yet: at any time of the step their positions come from
+    their fitted polynomials (pos, a0, b over h), so the riders see them where they are and
+    never change them. Each substep is a Gauss-Radau step of the riders alone, iterated to
+    convergence, its length from the riders' dynamical time, redone when its truncation
+    error says it was too long; at most _MAX_RIDER_SUBSTEPS of them."""
+    scratch = np.empty((4, src.size))
+    hs = np.inf
+    for q in range(needy.size):
+        hs = min(hs, dt_scale * _body_time(b, a0, h, needy[q]))
+    hs = min(max(hs, h / _MAX_RIDER_SUBSTEPS), h)
+    _scale_rows(needy, b, hs / h)          # the whole step's polynomials start the first
+    elapsed = 0.0
+    taken = 0
+    while elapsed < h:
+        landing = hs >= (h - elapsed) * (1.0 - 1e-12) or taken >= _MAX_RIDER_SUBSTEPS
+        if landing and taken >= _MAX_RIDER_SUBSTEPS:
+            stats[AT_MIN_STEP] += 1
+        h_try = h - elapsed if landing else hs
+        if h_try != hs:
+            _scale_rows(needy, b, h_try / hs)
+            hs = h_try
+        _position_at(control, pos, csx, vel, a0, b, elapsed / h, h, x)
+        for q in range(needy.size):
+            r = needy[q]
+            for c in range(3):
+                x[r, c] = pos[r, c] - csx[r, c]
+        _rider_forces(needy, control, src, mass, x, G, eps2, scratch, a0)
+        for q in range(needy.size):
+            r = needy[q]
+            for c in range(3):
+                for j in range(7):
+                    s_ = 0.0
+                    for k in range(j, 7):
+                        s_ += d_bg[k, j] * b[r, k, c]
+                    g[r, j, c] = s_
+        last = np.inf
+        for sweep in range(_PC_MAX_SWEEPS):
+            for q in range(needy.size):
+                for c in range(3):
+                    b7[needy[q], c] = b[needy[q], 6, c]
+            for node in range(7):
+                _position_at(control, pos, csx, vel, a0, b, (elapsed + nodes[node] * hs) / h,
+                             h, x)
+                _position_at(needy, pos, csx, vel, a0, b, nodes[node], hs, x)
+                _rider_forces(needy, control, src, mass, x, G, eps2, scratch, a)
+                _correct_at_node(needy, node, nodes, a, a0, g, b, c_gb)
+            max_a = 0.0
+            max_db7 = 0.0
+            for q in range(needy.size):
+                for c in range(3):
+                    max_a = max(max_a, abs(a[needy[q], c]))
+                    max_db7 = max(max_db7, abs(b[needy[q], 6, c] - b7[needy[q], c]))
+            error = max_db7 / max_a if max_a > 0.0 else max_db7
+            if error < _PC_TOLERANCE or (sweep > 1 and error >= last and error < _PC_ROUNDOFF):
+                break
+            last = error
+        max_a = 0.0
+        max_b7 = 0.0
+        nxt = np.inf
+        for q in range(needy.size):
+            r = needy[q]
+            nxt = min(nxt, dt_scale * _body_time(b, a0, hs, r))
+            for c in range(3):
+                max_a = max(max_a, abs(a[r, c]))
+                max_b7 = max(max_b7, abs(b[r, 6, c]))
+        nxt = min(nxt, hs / _SAFETY)
+        if max_b7 > reject_above * max_a and taken < _MAX_RIDER_SUBSTEPS and \
+                nxt < _SAFETY * hs:
+            _scale_rows(needy, b, nxt / hs)    # too long: again, shorter
+            hs = nxt
+            continue
+        _finish_step(needy, pos, vel, csx, csv, a0, b, hs)
+        stats[RIDER_SUBSTEPS] += 1
+        taken += 1
+        elapsed = h if landing else elapsed + hs
+        # the next substep starts from this one's polynomial, continued
+        _predict_rows(needy, b, nxt / hs)
+        hs = nxt
+
+
+@kernel
+def _scale_rows(rows, b, q):
+    """The rows' polynomials over a step q times as long: b_k -> b_k q^k."""
+    for k in range(7):
+        f = q ** (k + 1)
+        for r in range(rows.size):
+            for c in range(3):
+                b[rows[r], k, c] *= f
+
+
+@kernel
+def _predict_rows(rows, b, q):
+    """Everhart's continuation of the rows' polynomials to a next step q times as long."""
+    new = np.empty(7)
+    for r in range(rows.size):
+        i = rows[r]
+        for c in range(3):
+            for k in range(1, 8):
+                s_ = 0.0
+                binom = 1.0
+                for j in range(k, 8):
+                    s_ += binom * b[i, j - 1, c]
+                    binom = binom * (j + 1) / (j + 1 - k)
+                new[k - 1] = s_ * q ** k
+            for k in range(7):
+                b[i, k, c] = new[k]
 
 
 @kernel(parallel=True)
@@ -264,10 +427,17 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
     b7 = np.empty((n, 3))
     saved = np.empty((4, n, 3))                       # the state at the interval's start
     everyone = control.size == n
+    all_rows = np.arange(n)
+    needy_mask = np.zeros(n, np.bool_)
     dt_scale = (5040.0 * tolerance) ** (1.0 / 7.0)     # (7! tolerance)^(1/7)
     # the step was over 4x too long (b7 ~ dt^7); but never within the round-off of b7 / |a|,
     # or tiny tolerances would reject every step
     reject_above = max(tolerance / _SAFETY ** 7, _TRUNCATION_FLOOR)
+    # tolerance 0: steps of min(dt_out, max_step), whatever was proposed before; a step whose
+    # corrector does not converge is retried shorter, and the next one is full again
+    fixed_h = min(dt_out, max_step)
+    if tolerance == 0.0:
+        dt = fixed_h
     vel0 = np.empty((n, 3))
     for interval in range(nsteps):
         vel0[:] = vel
@@ -293,19 +463,24 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             # bodies' final polynomials (so they never change them)
             redo = False
             failed = False
-            dt_new = dt
+            riders_converged = True
+            dt_new = fixed_h if tolerance == 0.0 else dt
             for phase in range(2):
                 if phase == 1 and (everyone or riders.size == 0):
                     break
                 rows = control if phase == 0 else riders
                 which = (ALL if everyone else PULLING) if phase == 0 else PASSIVE
-                converged = _converge(rows, which, phase == 0, pos, csx, vel, a0, b, g, x, a, b7,
-                                      h, nodes, c_gb, model, mass, src, passive, G, eps2, field,
-                                      field_mass, still, scratch)
+                converged, sweeps = _converge(rows, which, phase == 0, all_rows, pos, csx, vel,
+                                              a0, b, g, x, a, b7, h, nodes, c_gb, model, mass,
+                                              src, passive, G, eps2, field, field_mass, still,
+                                              scratch)
+                if phase == 1:
+                    # riders that do not converge over the whole step take substeps below
+                    riders_converged = converged
+                    break
+                stats[SWEEPS] += sweeps
                 if not converged:
                     stats[NOT_CONVERGED] += 1
-                if phase == 1:
-                    break
                 if not converged and h > min_step:
                     # the fixed-point iteration diverges when the step is far too long
                     stats[REJECTED] += 1
@@ -346,7 +521,18 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
                 break
             if redo:
                 continue
-            _finish_step(pos, vel, csx, csv, a0, b, h)
+            # riders whose own dynamical time says this step is too long for them take
+            # substeps of their own inside it, against the control bodies' fitted motion
+            needy = all_rows[:0]
+            if not everyone and riders.size and tolerance > 0.0:
+                needy = _needy_riders(riders, b, a0, h, dt_scale, needy_mask, riders_converged)
+                if needy.size:
+                    _substep_riders(needy, h, dt_scale, reject_above, control, src, mass, G,
+                                    eps2, nodes, c_gb, d_bg, pos, csx, vel, csv, a0, b, g, x, a,
+                                    b7, stats)
+            _finish_step(all_rows if needy.size == 0 else all_rows[~needy_mask], pos, vel,
+                         csx, csv, a0, b, h)
+            needy_mask[needy] = False
             stats[STEPS] += 1
             elapsed = 0.0 if landing else elapsed + h
             h_next = min(dt_new, max_step, dt_out - elapsed)     # the next step, as far as known
@@ -358,6 +544,12 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             else:
                 _predict(b, e, h_next / h, have_predictor)
                 have_predictor = True
+            for q in range(needy.size):
+                # a substepping rider's polynomial spans its last substep: start it afresh
+                for k in range(7):
+                    for c in range(3):
+                        b[needy[q], k, c] = 0.0
+                        e[needy[q], k, c] = 0.0
             dt_b = h_next
             dt = dt_new
             if landing:

@@ -291,7 +291,8 @@ def _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_
         a1 = acc[i, 1] - A1
         a2 = acc[i, 2] - A2
         r2 = xj[k, 0] * xj[k, 0] + xj[k, 1] * xj[k, 1] + xj[k, 2] * xj[k, 2]
-        w = G * M[k] / (r2 * math.sqrt(r2))
+        # no Kepler part about no mass (and none to remove): 0, not 0/0
+        w = G * M[k] / (r2 * math.sqrt(r2)) if M[k] > 0.0 else 0.0
         vj[k, 0] += dt * (a0 + w * xj[k, 0])
         vj[k, 1] += dt * (a1 + w * xj[k, 1])
         vj[k, 2] += dt * (a2 + w * xj[k, 2])
@@ -384,6 +385,12 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
                   still, scratch, pos, vel, acc, k)
         ok = _drift_all(xj, vj, M, G, _CORRECTOR_A * dt if corrector else 0.5 * dt) & ok
         _from_jacobi(xj, vj, order, m, M, pos, vel)
+        for i in range(pos.shape[0]):
+            for c in range(3):
+                if not (abs(pos[i, c]) < np.inf and abs(vel[i, c]) < np.inf):
+                    ok = False
+        if not ok:
+            return done, ok
         done += steps
         if setup.enabled and collide_step(pos0, vel0, pos, vel, mass, setup, dt,
                                           setup.t0 + (done - 1) * dt) == 2:
