@@ -210,10 +210,10 @@ def _bounds(A, B, tb, radius, alive, lo, hi):
 
 
 @kernel
-def _axis_range(lo, hi, i, c, origin, cell, ncell):
+def _axis_range(lo, hi, i, c, origin, inv_cell, ncell):
     """First and last cell index on axis c covered by box i; periodic axes wrap later."""
-    first = int(math.floor((lo[i, c] - origin[c]) / cell[c]))
-    last = int(math.floor((hi[i, c] - origin[c]) / cell[c]))
+    first = int(math.floor((lo[i, c] - origin[c]) * inv_cell[c]))
+    last = int(math.floor((hi[i, c] - origin[c]) * inv_cell[c]))
     if ncell[c] > 0 and last - first >= ncell[c]:
         last = first + ncell[c] - 1                   # a box around the whole period
     return first, last
@@ -237,21 +237,22 @@ def _wrap_index(k, n):
 
 @kernel
 def _radix_sort(keys, values, keys_out, values_out):
-    """Sort (keys, values) by the low 33 bits of keys, 11 at a time (LSD radix: linear; each
-    pass streams the arrays once and scatters into 2048 streams). Only a grouping is needed:
-    entries of one cell end up adjacent, with at most a few other cells' entries mixed into
-    the same run of low bits (the scan compares full keys). Returns the sorted arrays."""
+    """Sort (keys, values) by the low 32 bits of keys, 8 at a time (LSD radix: linear; each
+    pass streams the arrays once and scatters into 256 streams, which stay in cache: measured
+    twice as fast as 11-bit digits at 3e5 entries). Only a grouping is needed: entries of one
+    cell end up adjacent, with at most a few other cells' entries mixed into the same run of
+    low bits (the scan compares full keys). Returns the sorted arrays."""
     n = keys.size
-    count = np.zeros(2049, np.int64)
+    count = np.zeros(257, np.int64)
     src_k, src_v, dst_k, dst_v = keys, values, keys_out, values_out
-    for shift in range(0, 33, 11):
+    for shift in range(0, 32, 8):
         count[:] = 0
         for e in range(n):
-            count[((src_k[e] >> shift) & 2047) + 1] += 1
-        for d in range(2048):
+            count[((src_k[e] >> shift) & 255) + 1] += 1
+        for d in range(256):
             count[d + 1] += count[d]
         for e in range(n):
-            d = (src_k[e] >> shift) & 2047
+            d = (src_k[e] >> shift) & 255
             dst_k[count[d]] = src_k[e]
             dst_v[count[d]] = src_v[e]
             count[d] += 1
@@ -277,6 +278,7 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
             cell[c] = L[c] / ncell[c]                  # whole cells around the period
         elif c >= setup.dim:
             cell[c] = 1.0                              # the flat axis: one layer of cells
+    cell = 1.0 / cell                                  # multiplied below: no divisions
     _bounds(A, B, tb, radius, alive, lo, hi)
     # the entries (body, cell): counted, then written in body order (sequentially)
     total = 0
@@ -309,7 +311,7 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
     pairs = np.empty((max(16, total // 8), 2), np.int64)
     m = 0
     run = 0
-    low_bits = (1 << 33) - 1
+    low_bits = (1 << 32) - 1
     while run < total:
         end = run + 1
         while end < total and (keys[end] & low_bits) == (keys[run] & low_bits):
@@ -320,7 +322,7 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
                     continue                           # another cell with the same low bits
                 i = min(bodies[eu], bodies[ew])
                 j = max(bodies[eu], bodies[ew])
-                if i == j or _allowed(setup, kind, i, j) == IGNORE:
+                if i == j:
                     continue
                 home = True
                 kx = 0
@@ -337,14 +339,17 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
                     if low > min(hi[i, c], hi[j, c] - shift):
                         home = False                   # the boxes do not even overlap
                         break
-                    kc = _wrap_index(int(math.floor((low - origin[c]) / cell[c])), ncell[c])
+                    kc = _wrap_index(int(math.floor((low - origin[c]) * cell[c])), ncell[c])
                     if c == 0:
                         kx = kc
                     elif c == 1:
                         ky = kc
                     else:
                         kz = kc
-                if home and _cell_key(kx, ky, kz) == keys[eu]:
+                # the filter last: most pairs sharing a cell fail the box test, which reads
+                # less memory than the kinds, categories and masks
+                if home and _cell_key(kx, ky, kz) == keys[eu] and \
+                        _allowed(setup, kind, i, j) != IGNORE:
                     if m == pairs.shape[0]:
                         grown = np.empty((2 * m, 2), np.int64)
                         grown[:m] = pairs
@@ -379,15 +384,20 @@ def focused_pairs(A, B, tb, radius, alive, kind, setup, lo, hi, focus, in_focus)
     _bounds(A, B, tb, radius, alive, lo, hi)
     pairs = np.empty((16, 2), np.int64)
     m = 0
+    wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
     for q in range(focus.size):
         i = focus[q]
         if not alive[i]:
             continue
+        x0, x1 = lo[i, 0], hi[i, 0]
         for j in range(n):
+            # the cheap test first: most bodies are far along x
+            if not wraps and (hi[j, 0] < x0 or lo[j, 0] > x1):
+                continue
             if j == i or not alive[j] or (in_focus[j] and j < i):
                 continue                               # a pair of two focus bodies: once
             a, b = min(i, j), max(i, j)
-            if _allowed(setup, kind, a, b) == IGNORE or not _boxes_meet(lo, hi, a, b, L):
+            if not _boxes_meet(lo, hi, a, b, L) or _allowed(setup, kind, a, b) == IGNORE:
                 continue
             if m == pairs.shape[0]:
                 grown = np.empty((2 * m, 2), np.int64)
@@ -715,7 +725,7 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
             # only pairs with a body whose line changed in the last pass can be new
             focus = np.flatnonzero(touched)
             in_focus[:] = touched
-            if focus.size * 32 < n:
+            if focus.size <= 64:                        # O(kN) box tests beat a new grid
                 pairs = focused_pairs(A, B, tb, radius, alive, kind, setup, lo, hi, focus,
                                       in_focus)
             else:
