@@ -402,6 +402,21 @@ def test_broad_phase_work_is_linear():
     assert setup_entries[1] == pytest.approx(setup_entries[0], rel=0.1)
 
 
+def test_a_2d_body_inside_one_cell_makes_one_entry():
+    # the flat axis holds one layer of cells: a disc well inside a cell is one entry, not two
+    w = sp.World(dim=2, gravity="none", dt=0.1)
+    w.set_collision("*", "*", "elastic")
+    w.collision_cell = 1.0
+    w.add_bodies(1.0, [[0.5, 0.5], [2.5, 0.5], [0.5, 3.5]], radius=0.2)
+    s = w._collision_setup()
+    A = np.zeros((3, 3))
+    A[:, :2] = w.pos
+    lo, hi = np.empty((3, 3)), np.empty((3, 3))
+    pairs, entries = collide.candidate_pairs(A, np.zeros((3, 3)), np.zeros(3), s.radius,
+                                             s.alive, s.kind, s, lo, hi)
+    assert entries == 3 and len(pairs) == 0
+
+
 def test_a_body_touching_two_others_merges_them_all():
     # B overlaps A and C, which do not touch each other: one body at the end (REBOUND's
     # line/merge does this too, on most runs)

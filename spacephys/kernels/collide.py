@@ -276,9 +276,9 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
             origin[c] = setup.box[0, c]
             ncell[c] = max(1, int(L[c] // setup.cell))
             cell[c] = L[c] / ncell[c]                  # whole cells around the period
-        elif c >= setup.dim:
-            cell[c] = 1.0                              # the flat axis: one layer of cells
     cell = 1.0 / cell                                  # multiplied below: no divisions
+    for c in range(setup.dim, 3):
+        cell[c] = 0.0                                  # a flat axis: every box in layer 0
     _bounds(A, B, tb, radius, alive, lo, hi)
     # the entries (body, cell): counted, then written in body order (sequentially)
     total = 0
