@@ -2,6 +2,7 @@
 
 The whole public API, re-exported by name.
 """
+from .entities import GUIDANCE, ExplosionSpec, MissileSpec, ShipSpec
 from .events import EVENT_DTYPE, EVENT_KINDS
 from .geometry import polygon_center_of_mass
 from .integrators import INTEGRATORS, Integrator, get_integrator
@@ -14,6 +15,7 @@ __version__ = "0.1.0"
 __all__ = [
     "World", "Body", "DEFAULT_KINDS", "GRAVITY_MODELS", "RESPONSES", "BOUNDARIES",
     "EVENT_DTYPE", "EVENT_KINDS",
+    "ShipSpec", "MissileSpec", "ExplosionSpec", "GUIDANCE",
     "INTEGRATORS", "Integrator", "get_integrator",
     "UNITS", "UnitSystem", "get_units",
     "polygon_center_of_mass",

@@ -1,10 +1,12 @@
 """What happened during a step: the event dtype and the names of its kinds."""
 import numpy as np
 
-# event kinds (the `kind` field); later issues add launch, burnout, detonation...
-BOUNCE, MERGE, DESTROY, SENSOR, WALL = 1, 2, 3, 4, 5
+# event kinds (the `kind` field)
+BOUNCE, MERGE, DESTROY, SENSOR, WALL = 1, 2, 3, 4, 5                 # collisions
+LAUNCH, BURNOUT, FUEL_EMPTY, DETONATION, EXPIRY = 6, 7, 8, 9, 10     # ships, missiles, lifetimes
 EVENT_KINDS = {BOUNCE: "bounce", MERGE: "merge", DESTROY: "destroy", SENSOR: "sensor",
-               WALL: "wall"}
+               WALL: "wall", LAUNCH: "launch", BURNOUT: "burnout", FUEL_EMPTY: "fuel_empty",
+               DETONATION: "detonation", EXPIRY: "expiry"}
 
 EVENT_DTYPE = np.dtype([
     ("kind", np.int16),          # one of EVENT_KINDS
@@ -16,8 +18,16 @@ EVENT_DTYPE = np.dtype([
     ("nx", np.float64), ("ny", np.float64), ("nz", np.float64),    # unit normal, from a to b
     ("speed", np.float64),       # closing speed along the normal [length/time]
     ("energy_lost", np.float64),  # kinetic energy the response removed [mass length^2/time^2]
+    ("distance", np.float64),    # centre distance at the event: r_a + r_b at a contact, the
+                                 # radius at a wall, the miss distance of a detonation [length]
 ])
-"""One record per event; the id fields are generational ids as in World.ids."""
+"""One record per event; the id fields are generational ids as in World.ids.
+
+Per kind: a collision (bounce, merge, destroy, sensor, wall) as described above; launch: a the
+missile, b its launcher, the point where it appeared; burnout (the burn time ended) and
+fuel_empty: a the ship or missile, b = -1, at the moment it happened; detonation: a the
+missile, b its target, the point the missile was at, normal toward the target, closing speed,
+distance the miss distance; expiry: a the body whose lifetime ended."""
 
 
 def kind_name(code):

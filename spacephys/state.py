@@ -37,6 +37,7 @@ class Bodies:
         capacity = max(int(capacity), 1)
         self.n = 0
         self.columns = dict(_COLUMNS)
+        self.defaults = {}                # columns whose default is not 0
         for name, (shape, dtype) in _COLUMNS.items():
             setattr(self, name, np.zeros((capacity,) + shape, dtype=dtype))
         self.generation = np.zeros(capacity, dtype=np.int64)   # per slot
@@ -48,12 +49,14 @@ class Bodies:
     def capacity(self):
         return self.mass.shape[0]
 
-    def ensure_column(self, name, shape, dtype=np.float64):
-        """Add a per-body column (zeros) that grows, compacts and copies with the others;
-        integrators keep per-body state this way (Gauss-Radau's polynomial, compensations)."""
+    def ensure_column(self, name, shape=(), dtype=np.float64, default=0):
+        """Add a per-body column that grows, compacts and copies with the others, holding
+        `default` for every body that exists or is added without a value for it; integrators
+        and ships keep per-body state this way (Gauss-Radau's polynomial, fuel, heading)."""
         if name not in self.columns:
             self.columns[name] = (tuple(shape), dtype)
-            setattr(self, name, np.zeros((self.capacity,) + tuple(shape), dtype=dtype))
+            self.defaults[name] = default
+            setattr(self, name, np.full((self.capacity,) + tuple(shape), default, dtype=dtype))
         return getattr(self, name)
 
     def _grow(self, need):
@@ -64,7 +67,7 @@ class Bodies:
         new = max(need, 2 * cap)
         for name in self.columns:
             old = getattr(self, name)
-            arr = np.zeros((new,) + old.shape[1:], dtype=old.dtype)
+            arr = np.full((new,) + old.shape[1:], self.defaults.get(name, 0), dtype=old.dtype)
             arr[:self.n] = old[:self.n]
             setattr(self, name, arr)
 
@@ -78,8 +81,8 @@ class Bodies:
 
     def add(self, columns):
         """Append k bodies; columns maps column names to (k, ...) arrays (ids and prev are set
-        here; columns not given start at zero). The caller has validated everything, so this
-        cannot fail half-way. Returns (k,) ids.
+        here; columns not given take their default: 0 unless ensure_column said otherwise).
+        The caller has validated everything, so this cannot fail half-way. Returns (k,) ids.
         """
         k = len(columns["mass"])
         n = self.n
@@ -92,7 +95,7 @@ class Bodies:
         self.slots_used += fresh.size
         ids = (self.generation[slots] << _SLOT_BITS) | slots
         for name in self.columns:
-            getattr(self, name)[n:n + k] = columns.get(name, 0)
+            getattr(self, name)[n:n + k] = columns.get(name, self.defaults.get(name, 0))
         self.ids[n:n + k] = ids
         self.prev[n:n + k] = self.pos[n:n + k]
         self.index[slots] = np.arange(n, n + k)

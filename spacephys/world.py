@@ -7,6 +7,7 @@ import numpy as np
 from numba import typed
 
 from . import _validate as check
+from .actors import Actors
 from .integrators import get_integrator
 from .kernels import diagnostics
 from .events import EVENT_DTYPE
@@ -59,7 +60,7 @@ def _readonly(arr):
     return view
 
 
-class World:
+class World(Actors):
     """Bodies under gravity, advanced by a fixed-step integrator whose loop runs in numba.
 
     Parameters
@@ -90,12 +91,13 @@ class World:
     central_mass, central_pos : the fixed body, with gravity="central" (pos defaults to 0)
     max_substeps : int >= 1, most steps one advance() call may take (against the spiral of death)
     capacity : int, initial room for bodies (grows by doubling)
+    seed : int >= 0, seeds every random choice (explosions): same seed, same run
     """
 
     def __init__(self, dim=2, *, units="game", G=None, integrator="leapfrog", dt=1 / 240,
                  softening=0.0, gravity="direct", g=None, central_mass=None, central_pos=None,
                  tolerance=1e-9, max_step=None, min_step=0.0, step_control="auto",
-                 max_substeps=16, capacity=64):
+                 max_substeps=16, capacity=64, seed=0):
         if isinstance(dim, bool) or not isinstance(dim, (int, np.integer)) or dim not in (2, 3):
             raise ValueError(f"dim = {dim!r}: must be the integer 2 or 3")
         unit_system = get_units(units)
@@ -124,6 +126,7 @@ class World:
                              f"(gravity={gravity!r})")
         max_substeps = check.count("max_substeps", max_substeps, minimum=1)
         capacity = check.count("capacity", capacity, minimum=1)
+        seed = check.count("seed", seed)
         tolerance, max_step, min_step = self._adaptive_settings(tolerance, max_step, min_step)
         step_control = self._checked_step_control(step_control)
 
@@ -164,6 +167,12 @@ class World:
                                    min(dt, max_step), 0.0])
         self._adaptive_stats = np.zeros(7, dtype=np.int64)
         self._pending_warning = None
+        # ships and missiles (actors.py): explosion specs by index, thrust curve rows, launch
+        # events waiting for the next step's events
+        self._seed = seed
+        self._explosion_specs = []
+        self._curves = np.zeros((0, 2))
+        self._queued_events = []
 
     # ---------------------------------------------------------------- settings
     @property
@@ -390,7 +399,7 @@ class World:
         return b.active[:b.n] & (b.mass[:b.n] > 0)
 
     def add_body(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None,
-                 fixed=False, category=1, mask=-1):
+                 fixed=False, category=1, mask=-1, lifetime=None):
         """Add one body; returns its id.
 
         mass [mass] >= 0 (0: a test particle); pos, vel : (dim,); radius [length] >= 0;
@@ -398,7 +407,8 @@ class World:
         mass); default True, except for the kinds ship, missile and debris; fixed : immovable
         (it stays put, and collisions treat its mass as infinite); category, mask : collision
         filter bits: two bodies interact only if each one's category meets the other's mask
-        (default: category 1, mask all bits).
+        (default: category 1, mask all bits); lifetime [time] > 0: removed that long from
+        now, with an expiry event (None: never).
         """
         pos = check.floats("pos", pos, (self._dim,))
         vel = np.zeros(self._dim) if vel is None else check.floats("vel", vel, (self._dim,))
@@ -408,16 +418,16 @@ class World:
             raise ValueError(f"active = {active!r}: must be True, False or None")
         return int(self.add_bodies(mass, pos[None], vel[None], radius=radius, kind=kind,
                                    active=active, fixed=fixed, category=category,
-                                   mask=mask)[0])
+                                   mask=mask, lifetime=lifetime)[0])
 
     def add_bodies(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None,
-                   fixed=False, category=1, mask=-1):
+                   fixed=False, category=1, mask=-1, lifetime=None):
         """Add k bodies at once; returns their (k,) int64 ids.
 
         mass : number or (k,); pos, vel : (k, dim); radius : number or (k,);
         kind : one name/code or k of them; active, fixed : None/bool or (k,) bools (see
-        add_body); category, mask : int or (k,) ints. Everything is checked before anything
-        is added.
+        add_body); category, mask : int or (k,) ints; lifetime : None, a number or (k,)
+        numbers > 0. Everything is checked before anything is added.
         """
         pos = check.floats("pos", pos, (None, self._dim))
         k = pos.shape[0]
@@ -433,6 +443,10 @@ class World:
         still = _bools("fixed", fixed, k)
         category = _bits("category", category, k)
         mask = _bits("mask", mask, k)
+        if lifetime is not None:
+            lifetime = check.per_body("lifetime", lifetime, k, minimum=0.0)
+            if np.any(lifetime == 0):
+                raise ValueError(f"lifetime[{int(np.argmin(lifetime))}] = 0: must be > 0")
         p3 = np.zeros((k, 3))
         v3 = np.zeros((k, 3))
         p3[:, :self._dim] = pos
@@ -440,6 +454,7 @@ class World:
         ids = self._b.add({"pos": p3, "vel": v3, "mass": mass, "radius": radius,
                            "kind": codes, "active": act, "fixed": still, "category": category,
                            "mask": mask})
+        self._set_lifetimes(ids, lifetime)
         self._invalidate()
         return ids
 
@@ -478,6 +493,9 @@ class World:
         A new pos also resets the body's render interpolation (a teleport, not a smear).
         """
         i = self.index_of(body_id)
+        if mass is not None and "actor" in self._b.columns and self._b.actor[i]:
+            raise ValueError(f"mass of {body_id}: a ship's or missile's mass is dry + fuel; "
+                             f"use set_fuel")
         new = {}
         if pos is not None:
             new["pos"] = check.floats("pos", pos, (self._dim,))
@@ -659,8 +677,8 @@ class World:
     @property
     def events(self):
         """Structured array (spacephys.EVENT_DTYPE) of what happened in the last step() or
-        advance(): kind, ids a and b, time, time within its step, contact point, normal,
-        closing speed and kinetic energy lost."""
+        advance() (launches made before it included): kind, ids a and b, time, time within
+        its step, contact point, normal, closing speed, kinetic energy lost, distance."""
         return self._event_box[0][:self._event_count[0]].copy()
 
     def _collision_setup(self):
@@ -676,7 +694,8 @@ class World:
                              np.ones(n, dtype=np.bool_), self._event_box, self._event_count,
                              self.t, self._response, self._restitution, b.category[:n],
                              b.mask[:n], b.fixed[:n], self._walls, self._boundary, self._box,
-                             self._box_restitution, cell, self._dim)
+                             self._box_restitution, cell, self._dim,
+                             np.full(n, -1, np.int64))
 
     # ---------------------------------------------------------------- stepping
     def _invalidate(self):
@@ -706,34 +725,41 @@ class World:
         bodies (or filled the event buffer), and is resumed once World has caught up."""
         while nsteps:
             setup = self._collision_setup()
+            ctrl = self._control_setup(setup)
+            first_event = int(self._event_count[0])
             try:
-                done = self._run_kernel(nsteps, setup)
+                done = self._run_kernel(nsteps, setup, ctrl)
             finally:
-                # bodies destroyed or merged away leave, even if the integration then failed
+                # bodies destroyed or merged away leave, even if the integration then failed;
+                # the destroyed ones with an explosion throw out their debris
                 dead = np.flatnonzero(~setup.alive)
                 if dead.size:
+                    blasts = self._explode_dead(setup, first_event)
                     self._b.remove(dead)
                     self._invalidate()
+                    for blast in blasts:
+                        self.add_kind(blast[0].kind)
+                        self._spawn_debris(*blast)
             self._steps += done
             nsteps -= done
             if self._pending_warning:
                 message, self._pending_warning = self._pending_warning, None
                 warnings.warn(message, RuntimeWarning, stacklevel=4)
 
-    def _run_kernel(self, nsteps, setup):
+    def _run_kernel(self, nsteps, setup, ctrl):
         b = self._b
         spec = self._spec
         if spec.family == "splitting":
             return splitting_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.drift,
-                                   spec.kick, self._dt, nsteps, setup)
+                                   spec.kick, self._dt, nsteps, setup, ctrl)
         if spec.family == "rk":
             return rk_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.a, spec.b,
-                            self._dt, nsteps, setup)
+                            self._dt, nsteps, setup, ctrl)
         if spec.family == "gauss_radau":
-            return self._run_gauss_radau(nsteps, setup)
-        return self._run_wisdom_holman(nsteps, setup)
+            return self._run_gauss_radau(nsteps, setup, ctrl)
+        return self._run_wisdom_holman(nsteps, setup, ctrl)
 
-    def _run_wisdom_holman(self, nsteps, setup):
+    def _run_wisdom_holman(self, nsteps, setup, ctrl):
         if self._model != DIRECT:
             raise ValueError(f"integrator {self._spec.name!r} needs gravity='direct' with a "
                              f"dominant body among the bodies (gravity={self._gravity!r})")
@@ -744,10 +770,16 @@ class World:
         if still.size:
             raise ValueError(f"integrator {self._spec.name!r} cannot hold bodies fixed "
                              f"({still.size} are): use a fixed-step or the adaptive integrator")
+        pulling_actors = ctrl.actors[np.isin(ctrl.actors, src)]
+        if pulling_actors.size:
+            raise ValueError(f"integrator {self._spec.name!r}: ship or missile "
+                             f"{int(b.ids[pulling_actors[0]])} pulls (active): its mass changes "
+                             f"as it burns, which the Jacobi frames cannot follow; make it "
+                             f"passive or use another integrator")
         order, m = self._jacobi_order(src, passive)
         saved = b.pos[:n].copy(), b.vel[:n].copy()
         done, ok = wisdom_holman_steps(b.pos[:n], b.vel[:n], *args, order, m, self._dt, nsteps,
-                                       self._spec.corrector > 0, setup)
+                                       self._spec.corrector > 0, setup, ctrl)
         if not ok:
             b.pos[:n], b.vel[:n] = saved
             setup.alive[:] = True
@@ -775,7 +807,7 @@ class World:
             self._jacobi = (order, m)
         return self._jacobi
 
-    def _run_gauss_radau(self, nsteps, setup):
+    def _run_gauss_radau(self, nsteps, setup, ctrl):
         b = self._b
         n = b.n
         cols = [b.ensure_column(name, shape)[:n] for name, shape in
@@ -794,7 +826,7 @@ class World:
         before = stats.copy()
         done = gr.gauss_radau_steps(b.pos[:n], b.vel[:n], *args, *cols, control, riders,
                                     spec.nodes, spec.c_gb, spec.d_bg, self._dt, nsteps,
-                                    self._adaptive, stats, setup)
+                                    self._adaptive, stats, setup, ctrl)
         if stats[gr.FAILED]:
             stats[gr.FAILED] = 0
             self._steps += done          # the state is that of the last completed interval
@@ -828,6 +860,7 @@ class World:
         holds what happened during these steps."""
         n = check.count("n", n)
         self._event_count[:] = 0
+        self._write_queued_events()
         b = self._b
         if not (n and b.n):
             self._steps += n
@@ -837,6 +870,16 @@ class World:
         b.prev[:b.n] = b.pos[:b.n]
         self._run(1)
         return self.t
+
+    def _write_queued_events(self):
+        """Launches made since the last step open this step's events."""
+        queued, self._queued_events = self._queued_events, []
+        if queued:
+            buf = self._event_box[0]
+            if len(buf) < len(queued):
+                self._event_box[0] = buf = np.zeros(2 * len(queued), dtype=EVENT_DTYPE)
+            buf[:len(queued)] = queued
+            self._event_count[0] = len(queued)
 
     def advance(self, frame_time):
         """Fixed-step accumulator for variable frame time; returns alpha in [0, 1).

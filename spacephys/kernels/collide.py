@@ -22,6 +22,7 @@ from collections import namedtuple
 import numpy as np
 
 from .._jit import kernel
+from .arrays import grown_pairs, stable_argsort
 
 # responses of the kind x kind matrix
 IGNORE, SENSOR, ELASTIC, BOUNCE, MERGE, DESTROY_A, DESTROY_B, DESTROY_BOTH = range(8)
@@ -55,6 +56,7 @@ Setup = namedtuple("Setup", [
     "box_restitution",  # float
     "cell",          # float > 0: grid cell size [length]
     "dim",           # 2 or 3: merged radii keep area (2D) or volume (3D)
+    "owner",         # (n,) int64: the launcher of a missile not yet armed (ignored by it), -1
 ])
 """What the collision pass needs besides positions, velocities and masses; built by World."""
 
@@ -193,6 +195,8 @@ def _allowed(setup, kind, i, j):
     """The response for the pair, IGNORE when the category/mask bits filter it out."""
     if (setup.category[i] & setup.mask[j]) == 0 or (setup.category[j] & setup.mask[i]) == 0:
         return IGNORE
+    if setup.owner[i] == j or setup.owner[j] == i:
+        return IGNORE                     # a missile and its launcher, before it is armed
     return setup.response[kind[i], kind[j]]
 
 
@@ -246,7 +250,8 @@ def _radix_sort(keys, values, keys_out, values_out):
     count = np.zeros(257, np.int64)
     src_k, src_v, dst_k, dst_v = keys, values, keys_out, values_out
     for shift in range(0, 32, 8):
-        count[:] = 0
+        for d in range(257):
+            count[d] = 0
         for e in range(n):
             count[((src_k[e] >> shift) & 255) + 1] += 1
         for d in range(256):
@@ -351,9 +356,7 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
                 if home and _cell_key(kx, ky, kz) == keys[eu] and \
                         _allowed(setup, kind, i, j) != IGNORE:
                     if m == pairs.shape[0]:
-                        grown = np.empty((2 * m, 2), np.int64)
-                        grown[:m] = pairs
-                        pairs = grown
+                        pairs = grown_pairs(pairs, m)
                     pairs[m, 0] = i
                     pairs[m, 1] = j
                     m += 1
@@ -400,9 +403,7 @@ def focused_pairs(A, B, tb, radius, alive, kind, setup, lo, hi, focus, in_focus)
             if not _boxes_meet(lo, hi, a, b, L) or _allowed(setup, kind, a, b) == IGNORE:
                 continue
             if m == pairs.shape[0]:
-                grown = np.empty((2 * m, 2), np.int64)
-                grown[:m] = pairs
-                pairs = grown
+                pairs = grown_pairs(pairs, m)
             pairs[m, 0] = a
             pairs[m, 1] = b
             m += 1
@@ -426,9 +427,7 @@ def brute_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
                 continue
             if _boxes_meet(lo, hi, i, j, L):
                 if m == pairs.shape[0]:
-                    grown = np.empty((2 * m, 2), np.int64)
-                    grown[:m] = pairs
-                    pairs = grown
+                    pairs = grown_pairs(pairs, m)
                 pairs[m, 0] = i
                 pairs[m, 1] = j
                 m += 1
@@ -455,13 +454,14 @@ def _fractions(m_i, m_j, fixed_i, fixed_j):
 
 
 @kernel
-def _record(events, count, kind, a, b, time, t_in_step, point, normal, speed, lost):
+def _record(events, count, kind, a, b, time, t_in_step, point, normal, speed, lost, distance):
     """Append an event to the buffer events[0], doubling it when full."""
     k = count[0]
     buf = events[0]
     if k >= buf.shape[0]:
         grown = np.zeros(2 * buf.shape[0] + 16, dtype=buf.dtype)
-        grown[:buf.shape[0]] = buf
+        for q in range(buf.shape[0]):                  # a loop: compiles 3 s faster
+            grown[q] = buf[q]
         events[0] = grown
         buf = grown
     ev = buf[k]
@@ -478,6 +478,7 @@ def _record(events, count, kind, a, b, time, t_in_step, point, normal, speed, lo
     ev.nz = normal[2]
     ev.speed = speed
     ev.energy_lost = lost
+    ev.distance = distance
     count[0] = k + 1
 
 
@@ -528,7 +529,7 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, se
     fixed_j = setup.fixed[j]
     when = t0 + t * dt
     if resp == SENSOR:
-        _record(events, count, _SENSOR, ids[i], ids[j], when, t * dt, point, n, -closing, 0.0)
+        _record(events, count, _SENSOR, ids[i], ids[j], when, t * dt, point, n, -closing, 0.0, dist)
         return 0
     if resp == ELASTIC or resp == BOUNCE:
         if closing >= 0.0:
@@ -561,7 +562,7 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, se
         else:
             reduced = mass[i] * fj          # m_i m_j / (m_i + m_j)
         lost = 0.5 * (1.0 - e * e) * reduced * closing * closing
-        _record(events, count, _BOUNCE, ids[i], ids[j], when, t * dt, point, n, -closing, lost)
+        _record(events, count, _BOUNCE, ids[i], ids[j], when, t * dt, point, n, -closing, lost, dist)
         return 1
     if resp == MERGE:
         # the heavier (or the immovable) one survives, with the pair's mass and momentum
@@ -600,7 +601,8 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, se
         for c in range(3):
             B[o, c] = 0.0
             A[o, c] = po[c]
-        _record(events, count, _MERGE, ids[s], ids[o], when, t * dt, point, n, -closing, lost)
+        _record(events, count, _MERGE, ids[s], ids[o], when, t * dt, point, n, -closing, lost,
+                dist)
         return 2
     # destroy one or both: frozen where they met, no mass, out of the game
     lost = 0.0
@@ -618,7 +620,7 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, se
             alive[k] = False
             mass[k] = 0.0
             _record(events, count, _DESTROY, ids[k], ids[other], when, t * dt, point, n,
-                    -closing, lost)
+                    -closing, lost, dist)
     return 2
 
 
@@ -647,7 +649,8 @@ def _respond_wall(i, t, n0, n1, n2, e, A, B, tb, V0, V1, D, mass, radius, ids, s
         normal[c] = -n[c]
     # the wall does not move: a restitution e takes (1 - e^2) of the normal kinetic energy
     lost = 0.5 * (1.0 - e * e) * mass[i] * un * un
-    _record(events, count, _WALL, ids[i], -1, t0 + t * dt, t * dt, point, normal, -un, lost)
+    _record(events, count, _WALL, ids[i], -1, t0 + t * dt, t * dt, point, normal, -un, lost,
+            radius[i])
     return 1
 
 
@@ -724,7 +727,8 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
         else:
             # only pairs with a body whose line changed in the last pass can be new
             focus = np.flatnonzero(touched)
-            in_focus[:] = touched
+            for i in range(n):
+                in_focus[i] = touched[i]
             if focus.size <= 64:                        # O(kN) box tests beat a new grid
                 pairs = focused_pairs(A, B, tb, radius, alive, kind, setup, lo, hi, focus,
                                       in_focus)
@@ -737,9 +741,10 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
         ci = np.empty(ct.size, np.int64)
         cj = np.empty(ct.size, np.int64)
         cn = np.empty((ct.size, 3))
-        ct[:k] = pt
-        ci[:k] = pi_
-        cj[:k] = pj_
+        for q in range(k):
+            ct[q] = pt[q]
+            ci[q] = pi_[q]
+            cj[q] = pj_[q]
         for i in range(n):
             if not alive[i]:
                 continue
@@ -756,8 +761,9 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
                     k += 1
         if k == 0:
             break
-        order = np.argsort(ct[:k], kind="mergesort")   # stable: ties keep a fixed order
-        touched[:] = False
+        order = stable_argsort(ct, k)                  # stable: ties keep a fixed order
+        for i in range(n):
+            touched[i] = False
         moved = False
         for q in range(k):
             c = order[q]

@@ -17,7 +17,8 @@ import math
 import numpy as np
 
 from .._jit import kernel
-from .collide import collide_step
+from .arrays import copy_into
+from .control import add_thrust, begin_step, finish_step, next_stop
 from .gravity import ALL, PASSIVE, PULLING, _pull, accelerations
 from .integrate import _scratch
 
@@ -192,11 +193,13 @@ def _predict(b, e, q, have_predictor):
 
 @kernel(parallel=True, inline=True)
 def _sweep(rows, which, first, everyone, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb,
-           model, mass, src, passive, G, eps2, field, field_mass, still, scratch):
+           model, mass, src, passive, G, eps2, field, field_mass, still, scratch, thrust):
     """One predictor-corrector sweep over the seven nodes, updating the bodies in rows (whose
     accelerations `which` selects, see gravity.accelerations). first = -1 evaluates a0, the
-    acceleration at the step's start (of every body), before the nodes. Returns the change of
-    b7 in this sweep relative to the largest |a| (over rows)."""
+    acceleration at the step's start (of every body), before the nodes. thrust = (actors,
+    burn, t_off, rider, want): the burns (control.begin_step) are added for the actors whose
+    rider flag equals want (-1: all), the step starting t_off after the interval's. Returns the change of b7 in this sweep relative to the largest |a|
+    (over rows)."""
     for q in range(rows.size):
         for c in range(3):
             b7[rows[q], c] = b[rows[q], 6, c]
@@ -213,6 +216,10 @@ def _sweep(rows, which, first, everyone, pos, csx, vel, a0, b, g, x, a, b7, h, n
                     x[i, c] = pos[i, c] - csx[i, c]
         accelerations(x, model, mass, src, passive, G, eps2, field, field_mass, still, scratch,
                       a if node >= 0 else a0, which if node >= 0 else ALL)
+        actors, burn, t_off, rider, want = thrust
+        add_thrust(actors, burn, a if node >= 0 else a0,
+                   t_off + (nodes[node] * h if node >= 0 else 0.0), rider,
+                   want if node >= 0 else -1)
         if node >= 0:
             _correct_at_node(rows, node, nodes, a, a0, g, b, c_gb)
     max_a = 0.0
@@ -227,7 +234,8 @@ def _sweep(rows, which, first, everyone, pos, csx, vel, a0, b, g, x, a, b7, h, n
 
 @kernel(parallel=True, inline=True)
 def _converge(rows, which, with_a0, everyone, pos, csx, vel, a0, b, g, x, a, b7, h, nodes,
-              c_gb, model, mass, src, passive, G, eps2, field, field_mass, still, scratch):
+              c_gb, model, mass, src, passive, G, eps2, field, field_mass, still, scratch,
+              thrust):
     """Sweep until b7 stops changing: below _PC_TOLERANCE, or stalled at round-off. Returns
     (converged within _PC_MAX_SWEEPS, sweeps made). with_a0: evaluate a0 first."""
     last = np.inf
@@ -235,7 +243,7 @@ def _converge(rows, which, with_a0, everyone, pos, csx, vel, a0, b, g, x, a, b7,
         first = -1 if with_a0 and sweep == 0 else 0
         error = _sweep(rows, which, first, everyone, pos, csx, vel, a0, b, g, x, a, b7, h, nodes,
                        c_gb, model, mass, src, passive, G, eps2, field, field_mass, still,
-                       scratch)
+                       scratch, thrust)
         if error < _PC_TOLERANCE or (sweep > 1 and error >= last and error < _PC_ROUNDOFF):
             return True, sweep + 1
         last = error
@@ -280,14 +288,16 @@ def _rider_forces(needy, control, src, mass, x, G, eps2, scratch, out):
 
 @kernel
 def _substep_riders(needy, h, dt_scale, reject_above, control, src, mass, G, eps2, nodes,
-                    c_gb, d_bg, pos, csx, vel, csv, a0, b, g, x, a, b7, stats):
+                    c_gb, d_bg, pos, csx, vel, csv, a0, b, g, x, a, b7, stats, actors, burn,
+                    t_off, needy_mask):
     """Integrate the needy riders across the step [0, h] in adaptive substeps of their own.
 
     The control bodies have not moved yet: at any time of the step their positions come from
     their fitted polynomials (pos, a0, b over h), so the riders see them where they are and
     never change them. Each substep is a Gauss-Radau step of the riders alone, iterated to
     convergence, its length from the riders' dynamical time, redone when its truncation
-    error says it was too long; at most _MAX_RIDER_SUBSTEPS of them."""
+    error says it was too long; at most _MAX_RIDER_SUBSTEPS of them. Thrusting riders (in
+    needy_mask) add their thrust, the step starting t_off after the interval's."""
     scratch = np.empty((4, src.size))
     hs = np.inf
     for q in range(needy.size):
@@ -310,6 +320,7 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, src, mass, G, eps
             for c in range(3):
                 x[r, c] = pos[r, c] - csx[r, c]
         _rider_forces(needy, control, src, mass, x, G, eps2, scratch, a0)
+        add_thrust(actors, burn, a0, t_off + elapsed, needy_mask, 1)
         for q in range(needy.size):
             r = needy[q]
             for c in range(3):
@@ -328,6 +339,7 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, src, mass, G, eps
                              h, x)
                 _position_at(needy, pos, csx, vel, a0, b, nodes[node], hs, x)
                 _rider_forces(needy, control, src, mass, x, G, eps2, scratch, a)
+                add_thrust(actors, burn, a, t_off + elapsed + nodes[node] * hs, needy_mask, 1)
                 _correct_at_node(needy, node, nodes, a, a0, g, b, c_gb)
             max_a = 0.0
             max_db7 = 0.0
@@ -394,7 +406,7 @@ def _predict_rows(rows, b, q):
 @kernel(parallel=True)
 def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
                       csx, csv, b, e, control, riders, nodes, c_gb, d_bg, dt_out, nsteps,
-                      params, stats, setup):
+                      params, stats, setup, ctrl):
     """Advance nsteps intervals of dt_out, landing exactly on the end of each.
 
     pos, vel : (n, 3), updated in place; csx, csv : (n, 3), their Kahan compensations;
@@ -410,7 +422,9 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             is set when the step underflows or turns NaN: the kernel then restores the state
             at the start of the interval and returns.
     model ... still : the gravity arguments of gravity.accelerations; setup : collide.Setup,
-    whose pass runs at the end of each interval (so dt_out caps the collision step).
+    whose pass runs at the end of each interval (so dt_out caps the collision step);
+    ctrl : control.Control: controls are held over each interval, thrust is sampled at the
+    nodes, and steps end where a burn stops (fuel or burn time), so none straddles the jump.
     Returns the number of intervals completed: fewer than nsteps after a failure, or when a
     collision removed or merged bodies.
     """
@@ -439,12 +453,26 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
     if tolerance == 0.0:
         dt = fixed_h
     vel0 = np.empty((n, 3))
+    actors = ctrl.actors
+    burn = np.zeros((actors.size, 8))
+    turned = np.empty((actors.size, 7))               # orientations at the interval's start
+    rider = np.zeros(n, np.bool_)
+    for q in range(riders.size):
+        rider[riders[q]] = True
     for interval in range(nsteps):
-        vel0[:] = vel
-        saved[0] = pos
-        saved[1] = vel
-        saved[2] = csx
-        saved[3] = csv
+        t0 = setup.t0 + interval * dt_out
+        copy_into(vel0, vel)
+        copy_into(saved[0], pos)
+        copy_into(saved[1], vel)
+        copy_into(saved[2], csx)
+        copy_into(saved[3], csv)
+        if ctrl.enabled:
+            for q in range(actors.size):
+                for k in range(4):
+                    turned[q, k] = ctrl.quat[actors[q], k]
+                for k in range(3):
+                    turned[q, 4 + k] = ctrl.omega[actors[q], k]
+            begin_step(ctrl, setup, pos, vel, mass, t0, dt_out, burn)
         elapsed = 0.0
         while True:
             h = min(dt, max_step)
@@ -452,6 +480,12 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             landing = h >= (dt_out - elapsed) * (1.0 - 1e-12)
             if landing:
                 h = dt_out - elapsed
+            # end the step where a burn stops: thrust jumps there
+            stop = next_stop(actors, burn, elapsed + 1e-12 * dt_out)
+            clipped = stop < elapsed + h and stop < dt_out * (1.0 - 1e-12)
+            if clipped:
+                h = stop - elapsed
+                landing = False
             if not (h > 0.0) or (not landing and elapsed + h == elapsed):
                 landing = False                      # NaN, or a step below the clock's resolution
                 break
@@ -470,10 +504,11 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
                     break
                 rows = control if phase == 0 else riders
                 which = (ALL if everyone else PULLING) if phase == 0 else PASSIVE
+                want = (-1 if everyone else 0) if phase == 0 else 1
                 converged, sweeps = _converge(rows, which, phase == 0, all_rows, pos, csx, vel,
                                               a0, b, g, x, a, b7, h, nodes, c_gb, model, mass,
                                               src, passive, G, eps2, field, field_mass, still,
-                                              scratch)
+                                              scratch, (actors, burn, elapsed, rider, want))
                 if phase == 1:
                     # riders that do not converge over the whole step take substeps below
                     riders_converged = converged
@@ -506,7 +541,8 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
                     if not (dt_new > 0.0):
                         failed = True                    # NaN accelerations
                         break
-                    basis = max(h, dt) if landing else h   # a landing step is short by choice
+                    # a landing or clipped step is short by choice
+                    basis = max(h, dt) if landing or clipped else h
                     dt_new = min(dt_new, basis / _SAFETY)
                     if dt_new < min_step:
                         dt_new = min_step
@@ -529,7 +565,7 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
                 if needy.size:
                     _substep_riders(needy, h, dt_scale, reject_above, control, src, mass, G,
                                     eps2, nodes, c_gb, d_bg, pos, csx, vel, csv, a0, b, g, x, a,
-                                    b7, stats)
+                                    b7, stats, actors, burn, elapsed, needy_mask)
             _finish_step(all_rows if needy.size == 0 else all_rows[~needy_mask], pos, vel,
                          csx, csv, a0, b, h)
             needy_mask[needy] = False
@@ -556,16 +592,21 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
                 break
         if not landing:                              # the interval was abandoned
             stats[FAILED] = 1
-            pos[:] = saved[0]
-            vel[:] = saved[1]
-            csx[:] = saved[2]
-            csv[:] = saved[3]
+            copy_into(pos, saved[0])
+            copy_into(vel, saved[1])
+            copy_into(csx, saved[2])
+            copy_into(csv, saved[3])
+            if ctrl.enabled:
+                for q in range(actors.size):
+                    for k in range(4):
+                        ctrl.quat[actors[q], k] = turned[q, k]
+                    for k in range(3):
+                        ctrl.omega[actors[q], k] = turned[q, 4 + k]
             params[3] = dt
             params[4] = dt_b
             params[5] = 1.0 if have_predictor else 0.0
             return interval
-        if setup.enabled and collide_step(saved[0], vel0, pos, vel, mass, setup, dt_out,
-                                          setup.t0 + interval * dt_out) == 2:
+        if finish_step(saved[0], vel0, pos, vel, mass, setup, ctrl, burn, dt_out, t0):
             params[3] = dt
             params[4] = dt_b
             params[5] = 1.0 if have_predictor else 0.0

@@ -3,12 +3,15 @@
 Two families serve every fixed-step method of the registry (spacephys.integrators):
   splitting_steps  drift/kick compositions (symplectic Euler, leapfrog, Yoshida 4/6/8);
   rk_steps         explicit Runge-Kutta tableaux (explicit Euler, classical RK4).
-Positions and velocities are updated in place; gravity comes from gravity.accelerations.
+Positions and velocities are updated in place; gravity comes from gravity.accelerations,
+thrust from kernels/control.py (exact within each drift of a splitting, sampled at the stages
+and integrated exactly into the velocity of a Runge-Kutta step).
 """
 import numpy as np
 
 from .._jit import kernel
-from .collide import collide_step
+from .arrays import copy_into
+from .control import add_thrust, begin_step, drift_thrust, finish_step, rk_thrust_fix
 from .gravity import DIRECT, accelerations
 
 
@@ -20,23 +23,30 @@ def _scratch(model, src):
 
 @kernel(parallel=True)
 def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
-                    drift, kick, dt, nsteps, setup):
+                    drift, kick, dt, nsteps, setup, ctrl):
     """Advance nsteps steps of dt with the drift/kick sequence (drift[s], kick[s]).
 
     Stage s: pos += drift[s] dt vel, then vel += kick[s] dt a(pos) (skipped where kick[s] == 0).
     pos, vel : (n, 3) float64, updated in place; mass : (n,) float64; drift, kick : (S,) float64.
-    model ... still : the gravity arguments of gravity.accelerations; setup : collide.Setup.
-    Returns the steps taken: fewer than nsteps when a collision removed or merged bodies.
+    model ... still : the gravity arguments of gravity.accelerations; setup : collide.Setup;
+    ctrl : control.Control (ships, missiles, lifetimes).
+    Returns the steps taken: fewer than nsteps when a collision, a detonation or an expiry
+    removed or merged bodies.
     """
     n = pos.shape[0]
     acc = np.empty((n, 3))
     pos0 = np.empty((n, 3))
     vel0 = np.empty((n, 3))
+    burn = np.zeros((ctrl.actors.size, 8))
     scratch = _scratch(model, src)
     for step in range(nsteps):
-        if setup.enabled:
-            pos0[:] = pos
-            vel0[:] = vel
+        t0 = setup.t0 + step * dt
+        if setup.enabled or ctrl.enabled:
+            copy_into(pos0, pos)
+            copy_into(vel0, vel)
+        if ctrl.enabled:
+            begin_step(ctrl, setup, pos, vel, mass, t0, dt, burn)
+        tau = 0.0                                      # time into the step the drifts reached
         for s in range(drift.size):
             h = drift[s] * dt
             if h != 0.0:
@@ -44,6 +54,8 @@ def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_m
                     pos[i, 0] += h * vel[i, 0]
                     pos[i, 1] += h * vel[i, 1]
                     pos[i, 2] += h * vel[i, 2]
+                drift_thrust(ctrl.actors, burn, pos, vel, tau, tau + h)
+                tau += h
             h = kick[s] * dt
             if h != 0.0:
                 accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass,
@@ -52,20 +64,19 @@ def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_m
                     vel[i, 0] += h * acc[i, 0]
                     vel[i, 1] += h * acc[i, 1]
                     vel[i, 2] += h * acc[i, 2]
-        if setup.enabled and collide_step(pos0, vel0, pos, vel, mass, setup, dt,
-                                          setup.t0 + step * dt) == 2:
+        if finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0):
             return step + 1
     return nsteps
 
 
 @kernel(parallel=True)
 def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
-             a, b, dt, nsteps, setup):
+             a, b, dt, nsteps, setup, ctrl):
     """Advance nsteps steps of dt with the explicit Runge-Kutta tableau (a, b).
 
     a : (S, S) float64, strictly lower triangular; b : (S,) float64 weights.
     Stage s evaluates x_s = x + dt sum_j a[s, j] v_j, v_s = v + dt sum_j a[s, j] a_j, a_s = a(x_s).
-    Collisions and the return value as in splitting_steps.
+    Collisions, actors and the return value as in splitting_steps.
     """
     n = pos.shape[0]
     S = b.size
@@ -74,11 +85,16 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, st
     x = np.empty((n, 3))
     pos0 = np.empty((n, 3))
     vel0 = np.empty((n, 3))
+    burn = np.zeros((ctrl.actors.size, 8))
+    no_mask = np.zeros(0, np.bool_)
     scratch = _scratch(model, src)
     for step in range(nsteps):
-        if setup.enabled:
-            pos0[:] = pos
-            vel0[:] = vel
+        t0 = setup.t0 + step * dt
+        if setup.enabled or ctrl.enabled:
+            copy_into(pos0, pos)
+            copy_into(vel0, vel)
+        if ctrl.enabled:
+            begin_step(ctrl, setup, pos, vel, mass, t0, dt, burn)
         for s in range(S):
             for i in range(n):
                 for c in range(3):
@@ -92,6 +108,10 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, st
                     kx[s, i, c] = vs
             accelerations(x, model, mass, src, passive, G, eps2, field, field_mass,
                           still, scratch, kv[s])
+            c_s = 0.0
+            for j in range(s):
+                c_s += a[s, j]
+            add_thrust(ctrl.actors, burn, kv[s], c_s * dt, no_mask, -1)
         for i in range(n):
             for c in range(3):
                 dx = 0.0
@@ -101,7 +121,7 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, st
                     dv += b[s] * kv[s, i, c]
                 pos[i, c] += dt * dx
                 vel[i, c] += dt * dv
-        if setup.enabled and collide_step(pos0, vel0, pos, vel, mass, setup, dt,
-                                          setup.t0 + step * dt) == 2:
+        rk_thrust_fix(ctrl.actors, burn, vel, a, b, dt)
+        if finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0):
             return step + 1
     return nsteps

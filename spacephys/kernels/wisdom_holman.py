@@ -20,7 +20,8 @@ import math
 import numpy as np
 
 from .._jit import kernel
-from .collide import collide_step
+from .arrays import copy_into
+from .control import F, begin_step, finish_step, thrust_dv
 from .gravity import accelerations
 from .integrate import _scratch
 
@@ -275,11 +276,15 @@ def _drift_all(xj, vj, M, G, dt):
 
 @kernel(parallel=True, inline=True)
 def _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_mass, still,
-          scratch, pos, vel, acc, dt):
-    """v'_k += dt (J(a) + G M_k x'_k / r'^3): the interaction part of the N-body acceleration."""
+          scratch, pos, vel, acc, dt, actors, thrust):
+    """v'_k += dt (J(a) + G M_k x'_k / r'^3): the interaction part of the N-body acceleration,
+    plus the thrust accelerations (A, 3) of the actors (rows `actors`)."""
     _from_jacobi(xj, vj, order, m, M, pos, vel)
     accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, still, scratch,
                   acc)
+    for q in range(actors.size):
+        for c in range(3):
+            acc[actors[q], c] += thrust[q, c]
     # Jacobi transform of the accelerations: a'_k = a_k - (mass-weighted mean of a over 0..k-1)
     Mprev = m[0]
     A0 = acc[order[0], 0]
@@ -342,7 +347,7 @@ def _schedule(q, nsteps, dt, corrector):
 
 @kernel(parallel=True)
 def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
-                        order, m, dt, nsteps, corrector, setup):
+                        order, m, dt, nsteps, corrector, setup, ctrl):
     """Advance nsteps steps of dt with the Wisdom-Holman map. Returns (steps taken, ok): ok
     False if a Kepler solve did not converge (the state is then unreliable); fewer steps when
     a collision removed or merged bodies.
@@ -352,8 +357,10 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
     bodies (they do not move the Jacobi frames); corrector : apply the third-order symplectic
     corrector at the start and its inverse at the end.
     model ... still : the gravity arguments of gravity.accelerations (model must be DIRECT);
-    setup : collide.Setup. With collisions the state is synchronised (and the corrector
-    applied) every step, so that the collision pass sees positions and velocities.
+    setup : collide.Setup; ctrl : control.Control. With collisions or actors the state is
+    synchronised (and the corrector applied) every step, so that the collision pass sees
+    positions and velocities; thrust enters the step's kick as its exact velocity change over
+    the step, dv(dt) / dt (actors must be passive: their mass changes).
     """
     n = order.size
     xj = np.empty((n, 3))
@@ -363,26 +370,39 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
     vel0 = np.empty((pos.shape[0], 3))
     M = np.cumsum(m)
     scratch = _scratch(model, src)
+    actors = ctrl.actors
+    burn = np.zeros((actors.size, 8))
+    thrust = np.zeros((actors.size, 3))
+    none = np.zeros((actors.size, 3))
     ok = True
     # In chunks of steps between synchronisations: all of them at once, or one at a time when
     # collisions need the state after every step. Within a chunk, one loop of drift-then-kick
     # over the whole schedule, so that the force code appears once in the compiled kernel
     # (each call site of an inlined parallel loop is compiled again). Corrector drifts merge
     # with their neighbours: Kepler flows compose exactly.
-    chunk = 1 if setup.enabled else max(nsteps, 1)
+    chunk = 1 if setup.enabled or ctrl.enabled else max(nsteps, 1)
     done = 0
     while done < nsteps:
-        if setup.enabled:
-            pos0[:] = pos
-            vel0[:] = vel
+        t0 = setup.t0 + done * dt
+        if setup.enabled or ctrl.enabled:
+            copy_into(pos0, pos)
+            copy_into(vel0, vel)
+        if ctrl.enabled:
+            begin_step(ctrl, setup, pos, vel, mass, t0, dt, burn)
+            for q in range(actors.size):
+                dv = thrust_dv(burn, q, dt) if burn[q, F] != 0.0 else 0.0
+                for c in range(3):
+                    thrust[q, c] = dv / dt * burn[q, c]
         steps = min(chunk, nsteps - done)
         _to_jacobi(pos, vel, order, m, xj, vj)
         kicks = steps + (4 if corrector else 0)
         for q in range(kicks):
             d, k = _schedule(q, steps, dt, corrector)
             ok = _drift_all(xj, vj, M, G, d) & ok
+            # the step's own kick carries the thrust, the corrector's kicks do not
+            main = not corrector or 2 <= q < steps + 2
             _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_mass,
-                  still, scratch, pos, vel, acc, k)
+                  still, scratch, pos, vel, acc, k, actors, thrust if main else none)
         ok = _drift_all(xj, vj, M, G, _CORRECTOR_A * dt if corrector else 0.5 * dt) & ok
         _from_jacobi(xj, vj, order, m, M, pos, vel)
         for i in range(pos.shape[0]):
@@ -392,7 +412,6 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
         if not ok:
             return done, ok
         done += steps
-        if setup.enabled and collide_step(pos0, vel0, pos, vel, mass, setup, dt,
-                                          setup.t0 + (done - 1) * dt) == 2:
+        if finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0):
             return done, ok
     return done, ok

@@ -1,0 +1,465 @@
+"""Ships and missiles inside the step: rotation, guidance, thrust with fuel burn, fuses, lifetimes.
+
+Per step (per output interval for Gauss-Radau) the controls are held: begin_step turns every
+actor (ship or missile) for the whole step, takes its thrust direction at mid-step, and fills
+one row of `burn` per actor:
+    burn[q] = [dx, dy, dz, F, mdot, m0, t_stop, ve]
+a thrust of magnitude F [mass length/time^2] along the unit vector d, burning mdot
+[mass/time] from the mass m0 at the step's start, until t_stop [time after the step's start]
+when the fuel or the burn time runs out (inf if not within reach); ve = F / mdot.
+Within the step the thrust acceleration is exact for that burn: a(tau) = d F / (m0 - mdot tau),
+whose integrals are
+    dv(tau) = -ve log(1 - mdot tau / m0)                (Tsiolkovsky)
+    p(tau)  = ve m0 / mdot g(mdot tau / m0),  g(x) = x + (1 - x) log(1 - x)
+(the velocity and the displacement the thrust adds by tau; constant / linear after t_stop).
+Splitting methods drift with these exactly, Runge-Kutta and Gauss-Radau sample a(tau) at their
+stages, Wisdom-Holman kicks with dv(dt) / dt. After the integration end_burn books the fuel,
+after the collisions after_step fires proximity fuses and ends lifetimes.
+Compiled without fastmath: log1p and the series of g carry the small-burn accuracy.
+"""
+import math
+from collections import namedtuple
+
+import numpy as np
+
+from .._jit import kernel
+from .collide import _record, collide_step
+
+# guidance laws
+NO_GUIDANCE, PURSUIT, PROPORTIONAL = 0, 1, 2
+# event kinds (spacephys.events)
+_LAUNCH, _BURNOUT, _FUEL_EMPTY, _DETONATION, _EXPIRY = 6, 7, 8, 9, 10
+# flags: what has been reported once
+_FLAG_EMPTY, _FLAG_BURNOUT = 1, 2
+# burn columns
+DX, DY, DZ, F, MDOT, M0, T_STOP, VE = range(8)
+
+Control = namedtuple("Control", [
+    "enabled",     # bool: actors or lifetimes to handle
+    "actors",      # (A,) int64 rows of the ships and missiles
+    "quat",        # (n, 4) orientation quaternion (w, x, y, z): body x is the heading
+    "omega",       # (n, 3) body-frame angular velocity [rad/time] (physical rotation)
+    "throttle",    # (n,) in [0, 1]
+    "turn",        # (n, 3) body-frame turn commands in [-1, 1] (roll, pitch, yaw); 2D: z
+    "strafe",      # (n, 3) body-frame side thrust commands in [-1, 1]; x unused
+    "dry",         # (n,) dry mass [mass]
+    "fuel",        # (n,) fuel left [mass]
+    "thrust",      # (n,) main engine thrust at full throttle [mass length/time^2]
+    "side",        # (n,) side thrusters' thrust at full command
+    "exhaust",     # (n,) exhaust speed [length/time]
+    "turn_rate",   # (n,) arcade turning at full command [rad/time]
+    "inertia",     # (n,) moment of inertia; > 0 selects physical rotation [mass length^2]
+    "torque",      # (n,) torque at full command [mass length^2/time^2]
+    "curve",       # (n, 2) int64: first row and row count in curve_table (0 rows: factor 1)
+    "curve_table",  # (K, 2) speed [length/time], thrust factor: piecewise linear
+    "guidance",    # (n,) int64: NO_GUIDANCE | PURSUIT | PROPORTIONAL
+    "nav",         # (n,) navigation constant N of proportional navigation
+    "target",      # (n,) int64 row of the target, -1 none
+    "burn_end",    # (n,) time the motor stops (inf: never) [time]
+    "armed_at",    # (n,) time the fuse arms [time]
+    "fuse",        # (n,) proximity fuse radius (0: none) [length]
+    "kill",        # (n,) bool: a detonation destroys the target too
+    "flags",       # (n,) int64: _FLAG_* already reported
+    "expires",     # (n,) time of expiry (inf: never), or (0,) when no body has a lifetime
+    "dim",         # 2 or 3
+])
+"""What the actors' kernels need besides positions, velocities and masses; built by World."""
+
+
+# ---------------------------------------------------------------- rotations
+@kernel
+def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
+    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
+
+
+@kernel
+def _qexp(wx, wy, wz, t):
+    """The rotation by the angle |w| t about w, as a quaternion."""
+    norm = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if norm == 0.0:
+        return 1.0, 0.0, 0.0, 0.0
+    half = 0.5 * norm * t
+    s = math.sin(half) / norm
+    return math.cos(half), wx * s, wy * s, wz * s
+
+
+@kernel
+def _rotate(q0, q1, q2, q3, vx, vy, vz):
+    """R(q) v for a unit quaternion q."""
+    # t = 2 q_vec x v; v' = v + q0 t + q_vec x t
+    tx = 2.0 * (q2 * vz - q3 * vy)
+    ty = 2.0 * (q3 * vx - q1 * vz)
+    tz = 2.0 * (q1 * vy - q2 * vx)
+    return (vx + q0 * tx + (q2 * tz - q3 * ty),
+            vy + q0 * ty + (q3 * tx - q1 * tz),
+            vz + q0 * tz + (q1 * ty - q2 * tx))
+
+
+@kernel
+def _normalised(q0, q1, q2, q3):
+    s = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    return q0 * s, q1 * s, q2 * s, q3 * s
+
+
+@kernel
+def _curve_factor(ctrl, i, speed):
+    """The thrust curve at this speed: piecewise linear through the table rows, flat beyond."""
+    first = ctrl.curve[i, 0]
+    count = ctrl.curve[i, 1]
+    if count == 0:
+        return 1.0
+    table = ctrl.curve_table
+    if speed <= table[first, 0]:
+        return table[first, 1]
+    for k in range(first + 1, first + count):
+        if speed <= table[k, 0]:
+            s0, f0 = table[k - 1, 0], table[k - 1, 1]
+            s1, f1 = table[k, 0], table[k, 1]
+            return f0 + (f1 - f0) * (speed - s0) / (s1 - s0)
+    return table[first + count - 1, 1]
+
+
+@kernel
+def _desired(ctrl, i, j, pos, vel, hx, hy, hz, a_max):
+    """The direction guidance asks missile i to accelerate in, toward target j; the heading
+    when there is nothing to do. Pursuit: along the line of sight. Proportional navigation:
+    the lateral acceleration N Vc (line-of-sight rate) = N Vc v_perp / |r|, plus whatever
+    thrust is left along the line of sight to close; pursuit while the range opens."""
+    rx = pos[j, 0] - pos[i, 0]
+    ry = pos[j, 1] - pos[i, 1]
+    rz = pos[j, 2] - pos[i, 2]
+    r = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if r == 0.0:
+        return hx, hy, hz
+    ux, uy, uz = rx / r, ry / r, rz / r
+    if ctrl.guidance[i] == PURSUIT:
+        return ux, uy, uz
+    wx = vel[j, 0] - vel[i, 0]
+    wy = vel[j, 1] - vel[i, 1]
+    wz = vel[j, 2] - vel[i, 2]
+    along = wx * ux + wy * uy + wz * uz
+    closing = -along
+    if closing <= 0.0:
+        return ux, uy, uz
+    k = ctrl.nav[i] * closing / r
+    cx = k * (wx - along * ux)
+    cy = k * (wy - along * uy)
+    cz = k * (wz - along * uz)
+    c2 = cx * cx + cy * cy + cz * cz
+    rest = a_max * a_max - c2
+    if rest > 0.0:
+        s = math.sqrt(rest)
+        cx += s * ux
+        cy += s * uy
+        cz += s * uz
+    norm = math.sqrt(cx * cx + cy * cy + cz * cz)
+    if norm == 0.0:
+        return ux, uy, uz
+    return cx / norm, cy / norm, cz / norm
+
+
+@kernel
+def _turn_toward(q0, q1, q2, q3, hx, hy, hz, dx, dy, dz, max_angle, dim):
+    """The world-frame rotation (axis, angle) turning heading h toward d by at most max_angle."""
+    ax = hy * dz - hz * dy
+    ay = hz * dx - hx * dz
+    az = hx * dy - hy * dx
+    s = math.sqrt(ax * ax + ay * ay + az * az)
+    c = hx * dx + hy * dy + hz * dz
+    angle = math.atan2(s, c)
+    if s < 1e-300:
+        if c > 0.0:
+            return 0.0, 0.0, 1.0, 0.0
+        # straight behind: turn about the body's own z (2D: the plane's normal)
+        ax, ay, az = (0.0, 0.0, 1.0) if dim == 2 else _rotate(q0, q1, q2, q3, 0.0, 0.0, 1.0)
+        s = math.sqrt(ax * ax + ay * ay + az * az)
+    return ax / s, ay / s, az / s, min(angle, max_angle)
+
+
+# ---------------------------------------------------------------- the burn
+@kernel
+def _g(x):
+    """x + (1 - x) log(1 - x) = sum_{k>=2} x^k / (k (k - 1)), without cancellation."""
+    if abs(x) < 0.05:
+        s = 0.0
+        p = x * x
+        for k in range(2, 20):
+            s += p / (k * (k - 1))
+            p *= x
+        return s
+    return x + (1.0 - x) * math.log1p(-x)
+
+
+@kernel
+def thrust_dv(burn, q, tau):
+    """Speed the thrust has added along d by tau [time after the step's start]."""
+    tau = min(tau, burn[q, T_STOP])
+    return -burn[q, VE] * math.log1p(-burn[q, MDOT] * tau / burn[q, M0])
+
+
+@kernel
+def thrust_p(burn, q, tau):
+    """Displacement along d the thrust has added by tau (the integral of thrust_dv)."""
+    t_stop = burn[q, T_STOP]
+    t = min(tau, t_stop)
+    x = burn[q, MDOT] * t / burn[q, M0]
+    p = burn[q, VE] * burn[q, M0] / burn[q, MDOT] * _g(x)
+    if tau > t_stop:
+        p += thrust_dv(burn, q, t_stop) * (tau - t_stop)
+    return p
+
+
+@kernel
+def drift_thrust(actors, burn, pos, vel, ta, tb):
+    """The thrust's exact share of a drift from ta to tb [time after the step's start]: call
+    after pos += (tb - ta) vel, with vel still that at ta."""
+    for q in range(actors.size):
+        if burn[q, F] == 0.0:
+            continue
+        i = actors[q]
+        dva = thrust_dv(burn, q, ta)
+        dv = thrust_dv(burn, q, tb) - dva
+        dp = thrust_p(burn, q, tb) - thrust_p(burn, q, ta) - dva * (tb - ta)
+        for c in range(3):
+            pos[i, c] += dp * burn[q, c]
+            vel[i, c] += dv * burn[q, c]
+
+
+@kernel
+def add_thrust(actors, burn, acc, tau, mask, want):
+    """acc += the thrust acceleration at tau [time after the step's start], for every actor
+    (want = -1) or for those whose row has mask[i] == want (0 or 1)."""
+    for q in range(actors.size):
+        if burn[q, F] == 0.0 or not tau < burn[q, T_STOP]:
+            continue
+        i = actors[q]
+        if want >= 0 and mask[i] != (want == 1):
+            continue
+        a = burn[q, F] / (burn[q, M0] - burn[q, MDOT] * tau)
+        for c in range(3):
+            acc[i, c] += a * burn[q, c]
+
+
+@kernel
+def rk_thrust_fix(actors, burn, vel, a, b, dt):
+    """Replace the Runge-Kutta quadrature of the thrust, dt sum_s b_s a(c_s dt), in vel by its
+    exact integral dv(dt): Tsiolkovsky holds to rounding, the order of the method is kept."""
+    for q in range(actors.size):
+        if burn[q, F] == 0.0:
+            continue
+        quad = 0.0
+        for s in range(b.size):
+            tau = 0.0
+            for j in range(s):
+                tau += a[s, j]
+            tau *= dt
+            if tau < burn[q, T_STOP]:
+                quad += b[s] * burn[q, F] / (burn[q, M0] - burn[q, MDOT] * tau)
+        dv = thrust_dv(burn, q, dt) - dt * quad
+        i = actors[q]
+        for c in range(3):
+            vel[i, c] += dv * burn[q, c]
+
+
+@kernel
+def next_stop(actors, burn, after):
+    """The earliest t_stop later than `after` (inf if none): where thrust switches off."""
+    best = np.inf
+    for q in range(actors.size):
+        if burn[q, F] != 0.0 and burn[q, T_STOP] > after:
+            best = min(best, burn[q, T_STOP])
+    return best
+
+
+@kernel
+def begin_step(ctrl, setup, pos, vel, mass, t0, dt, burn):
+    """Arm fuses, turn every live actor over the step and set its burn (see the module)."""
+    actors = ctrl.actors
+    alive = setup.alive
+    for q in range(actors.size):
+        i = actors[q]
+        for k in range(8):
+            burn[q, k] = 0.0
+        burn[q, T_STOP] = np.inf
+        burn[q, M0] = 1.0
+        if not alive[i]:
+            continue
+        if setup.owner[i] >= 0 and t0 >= ctrl.armed_at[i]:
+            setup.owner[i] = -1                      # armed: its launcher can be hit now
+        q0, q1, q2, q3 = ctrl.quat[i, 0], ctrl.quat[i, 1], ctrl.quat[i, 2], ctrl.quat[i, 3]
+        hx, hy, hz = _rotate(q0, q1, q2, q3, 1.0, 0.0, 0.0)
+        speed = math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2 + vel[i, 2] ** 2)
+        burning = ctrl.fuel[i] > 0.0 and t0 < ctrl.burn_end[i]
+        main = ctrl.throttle[i] * ctrl.thrust[i] * _curve_factor(ctrl, i, speed) \
+            if burning else 0.0
+        j = ctrl.target[i]
+        if ctrl.guidance[i] != NO_GUIDANCE and j >= 0 and alive[j]:
+            # a world-frame turn toward what guidance asks for, at most turn_rate dt
+            a_max = main / mass[i] if mass[i] > 0.0 else 0.0
+            dx, dy, dz = _desired(ctrl, i, j, pos, vel, hx, hy, hz, a_max)
+            ax, ay, az, angle = _turn_toward(q0, q1, q2, q3, hx, hy, hz, dx, dy, dz,
+                                             ctrl.turn_rate[i] * dt, ctrl.dim)
+            m0, m1, m2, m3 = _qexp(ax, ay, az, 0.5 * angle)
+            e0, e1, e2, e3 = _qexp(ax, ay, az, angle)
+            h0, h1, h2, h3 = _qmul(m0, m1, m2, m3, q0, q1, q2, q3)
+            n0, n1, n2, n3 = _qmul(e0, e1, e2, e3, q0, q1, q2, q3)
+        else:
+            # body-frame rates: commanded (arcade) or from torque (physical, the step's mean)
+            if ctrl.inertia[i] > 0.0:
+                wx = ctrl.omega[i, 0]
+                wy = ctrl.omega[i, 1]
+                wz = ctrl.omega[i, 2]
+                f = ctrl.torque[i] / ctrl.inertia[i] * dt
+                ctrl.omega[i, 0] += f * ctrl.turn[i, 0]
+                ctrl.omega[i, 1] += f * ctrl.turn[i, 1]
+                ctrl.omega[i, 2] += f * ctrl.turn[i, 2]
+                wx = 0.5 * (wx + ctrl.omega[i, 0])
+                wy = 0.5 * (wy + ctrl.omega[i, 1])
+                wz = 0.5 * (wz + ctrl.omega[i, 2])
+            else:
+                wx = ctrl.turn_rate[i] * ctrl.turn[i, 0]
+                wy = ctrl.turn_rate[i] * ctrl.turn[i, 1]
+                wz = ctrl.turn_rate[i] * ctrl.turn[i, 2]
+            m0, m1, m2, m3 = _qexp(wx, wy, wz, 0.5 * dt)
+            e0, e1, e2, e3 = _qexp(wx, wy, wz, dt)
+            h0, h1, h2, h3 = _qmul(q0, q1, q2, q3, m0, m1, m2, m3)
+            n0, n1, n2, n3 = _qmul(q0, q1, q2, q3, e0, e1, e2, e3)
+        n0, n1, n2, n3 = _normalised(n0, n1, n2, n3)
+        ctrl.quat[i, 0] = n0
+        ctrl.quat[i, 1] = n1
+        ctrl.quat[i, 2] = n2
+        ctrl.quat[i, 3] = n3
+        if not burning:
+            continue
+        # thrust along the mid-step frame: main along x, side thrusters along y and z
+        fx, fy, fz = _rotate(h0, h1, h2, h3, main, 0.0, 0.0)
+        sy = ctrl.side[i] * ctrl.strafe[i, 1]
+        sz = ctrl.side[i] * ctrl.strafe[i, 2]
+        px, py, pz = _rotate(h0, h1, h2, h3, 0.0, sy, sz)
+        fx += px
+        fy += py
+        fz += pz
+        force = math.sqrt(fx * fx + fy * fy + fz * fz)
+        if force == 0.0 or mass[i] <= 0.0:
+            continue
+        mdot = (abs(main) + abs(sy) + abs(sz)) / ctrl.exhaust[i]
+        burn[q, DX] = fx / force
+        burn[q, DY] = fy / force
+        burn[q, DZ] = fz / force
+        burn[q, F] = force
+        burn[q, MDOT] = mdot
+        burn[q, M0] = mass[i]
+        burn[q, T_STOP] = min(ctrl.fuel[i] / mdot, ctrl.burn_end[i] - t0)
+        burn[q, VE] = force / mdot
+
+
+@kernel
+def end_burn(ctrl, setup, pos, mass, t0, dt, burn):
+    """Book the fuel the step burned; report fuel running out and burn times ending."""
+    actors = ctrl.actors
+    for q in range(actors.size):
+        i = actors[q]
+        if not setup.alive[i]:
+            continue
+        if burn[q, F] != 0.0:
+            t_burn = min(dt, burn[q, T_STOP])
+            used = burn[q, MDOT] * t_burn
+            mass[i] = burn[q, M0] - used
+            fuel = ctrl.fuel[i] - used
+            empty = ctrl.fuel[i] / burn[q, MDOT] <= min(dt, ctrl.burn_end[i] - t0)
+            if empty:
+                fuel = 0.0
+                if ctrl.flags[i] & _FLAG_EMPTY == 0:
+                    ctrl.flags[i] |= _FLAG_EMPTY
+                    _event(setup, _FUEL_EMPTY, i, -1, t0, t_burn, pos, 0.0)
+            ctrl.fuel[i] = max(fuel, 0.0)
+        end = ctrl.burn_end[i]
+        if t0 < end <= t0 + dt and ctrl.fuel[i] > 0.0 and ctrl.flags[i] & _FLAG_BURNOUT == 0:
+            ctrl.flags[i] |= _FLAG_BURNOUT
+            _event(setup, _BURNOUT, i, -1, t0, end - t0, pos, 0.0)
+
+
+@kernel
+def _event(setup, kind, i, j, t0, t_in_step, pos, distance):
+    point = np.empty(3)
+    normal = np.zeros(3)
+    for c in range(3):
+        point[c] = pos[i, c]
+    _record(setup.events, setup.count, kind, setup.ids[i], setup.ids[j] if j >= 0 else -1,
+            t0 + t_in_step, t_in_step, point, normal, 0.0, 0.0, distance)
+
+
+@kernel
+def after_step(ctrl, setup, pos0, pos, mass, t0, dt):
+    """Proximity fuses (the closest approach along both bodies' straight lines over the step)
+    and lifetimes. Returns True when a body died (World must remove it, and may spawn its
+    explosion)."""
+    alive = setup.alive
+    died = False
+    actors = ctrl.actors
+    point = np.empty(3)
+    normal = np.empty(3)
+    for q in range(actors.size):
+        i = actors[q]
+        j = ctrl.target[i]
+        if ctrl.fuse[i] <= 0.0 or j < 0 or not alive[i] or not alive[j]:
+            continue
+        d0 = np.empty(3)
+        e = np.empty(3)
+        for c in range(3):
+            d0[c] = pos0[j, c] - pos0[i, c]
+            e[c] = (pos[j, c] - pos0[j, c]) - (pos[i, c] - pos0[i, c])
+        ee = e[0] * e[0] + e[1] * e[1] + e[2] * e[2]
+        s = 0.0
+        if ee > 0.0:
+            s = min(max(-(d0[0] * e[0] + d0[1] * e[1] + d0[2] * e[2]) / ee, 0.0), 1.0)
+        armed = ctrl.armed_at[i]
+        if t0 + s * dt < armed:
+            if t0 + dt < armed:
+                continue
+            # armed within the step, after the closest approach: the range only grows from
+            # then on, so the arming moment is the closest armed one
+            s = (armed - t0) / dt
+        dist2 = 0.0
+        for c in range(3):
+            normal[c] = d0[c] + s * e[c]
+            dist2 += normal[c] * normal[c]
+        fuse = ctrl.fuse[i]
+        if dist2 > fuse * fuse:
+            continue
+        dist = math.sqrt(dist2)
+        closing = 0.0
+        for c in range(3):
+            point[c] = pos0[i, c] + s * (pos[i, c] - pos0[i, c])
+            if dist > 0.0:
+                normal[c] /= dist
+                closing -= normal[c] * e[c] / dt
+        _record(setup.events, setup.count, _DETONATION, setup.ids[i], setup.ids[j], t0 + s * dt,
+                s * dt, point, normal, closing, 0.0, dist)
+        alive[i] = False
+        if ctrl.kill[i]:
+            alive[j] = False
+        died = True
+    if ctrl.expires.size:
+        t1 = t0 + dt
+        for i in range(pos.shape[0]):
+            if alive[i] and ctrl.expires[i] <= t1:
+                alive[i] = False
+                died = True
+                _event(setup, _EXPIRY, i, -1, t0, max(ctrl.expires[i] - t0, 0.0), pos, 0.0)
+    return died
+
+
+@kernel
+def finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0):
+    """Everything after a step's integration: fuel, collisions, fuses and lifetimes. True when
+    bodies were removed or merged (the kernel returns so that World can catch up)."""
+    if ctrl.enabled:
+        end_burn(ctrl, setup, pos, mass, t0, dt, burn)
+    removed = setup.enabled and collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0) == 2
+    if ctrl.enabled and after_step(ctrl, setup, pos0, pos, mass, t0, dt):
+        removed = True
+    return removed
