@@ -11,7 +11,7 @@ import numpy as np
 
 from . import _validate as check
 from .entities import G0_SI, GUIDANCE, ExplosionSpec, MissileSpec, ShipSpec
-from .events import EVENT_DTYPE, LAUNCH
+from .events import DESTROY, DETONATION, EVENT_DTYPE, LAUNCH, MERGE
 from .kernels import control
 
 # per-body actor columns: name -> (shape, dtype, default)
@@ -51,24 +51,29 @@ _EMPTY = {name: np.zeros((0,) + shape, dtype) for name, (shape, dtype, _) in
           {**ACTOR_COLUMNS, **LIFETIME_COLUMNS}.items()}
 
 
-def _quat_from_heading(dim, heading):
-    """Unit quaternion turning body x onto the heading: an angle [rad] or a vector in 2D, a
-    vector in 3D (the shortest turn from x)."""
+def _heading(dim, heading):
+    """(unit (3,) direction, unit quaternion turning body x onto it) from an angle [rad] (2D)
+    or a vector (2D or 3D; the shortest turn from x); None is +x."""
+    if heading is None:
+        return np.array([1.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0, 0.0])
     if dim == 2 and np.ndim(heading) == 0:
         angle = check.scalar("heading", heading)
-        return np.array([math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)])
-    h = check.floats("heading", heading, (dim,))
-    norm = float(np.linalg.norm(h))
+        h = np.array([math.cos(angle), math.sin(angle), 0.0])
+        return h, np.array([math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)])
+    v = check.floats("heading", heading, (dim,))
+    norm = float(np.linalg.norm(v))
     if norm == 0.0:
-        raise ValueError(f"heading = {h.tolist()}: a direction cannot be zero")
-    h = np.concatenate([h, np.zeros(3 - dim)]) / norm
+        raise ValueError(f"heading = {v.tolist()}: a direction cannot be zero")
+    h = np.concatenate([v, np.zeros(3 - dim)])
+    if norm != 1.0:
+        h /= norm
     if dim == 2:
         angle = math.atan2(h[1], h[0])
-        return np.array([math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)])
+        return h, np.array([math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)])
     if h[0] < -1.0 + 1e-15:
-        return np.array([0.0, 0.0, 0.0, 1.0])               # straight back: half a turn about z
+        return h, np.array([0.0, 0.0, 0.0, 1.0])            # straight back: half a turn about z
     q = np.array([1.0 + h[0], 0.0, -h[2], h[1]])           # half-way quaternion from x to h
-    return q / np.linalg.norm(q)
+    return h, q / np.linalg.norm(q)
 
 
 def _rotate(q, v):
@@ -122,15 +127,15 @@ class Actors:
         return len(self._explosion_specs) - 1
 
     # ------------------------------------------------------------ ships
-    def add_ship(self, spec, pos, vel=None, heading=0.0):
+    def add_ship(self, spec, pos, vel=None, heading=None):
         """Add a ship; returns its id.
 
         spec : ShipSpec; pos, vel : (dim,); heading : the direction the main engine pushes,
-        an angle [rad] from +x (2D) or a vector (2D or 3D). It starts with full fuel, throttle
+        an angle [rad] from +x (2D) or a vector (2D or 3D); default +x. It starts with full fuel, throttle
         0 and no turning."""
         if not isinstance(spec, ShipSpec):
             raise ValueError(f"spec = {spec!r}: must be a ShipSpec")
-        q = _quat_from_heading(self._dim, heading)
+        _, q = _heading(self._dim, heading)
         ve = self._exhaust_speed(spec)
         self.add_kind(spec.kind)
         physical = spec.moment_of_inertia is not None
@@ -213,7 +218,7 @@ class Actors:
     def set_heading(self, body, heading):
         """Point an actor: an angle [rad] (2D) or a vector; stops physical rotation."""
         i = self._actor_row(body, "body")
-        q = _quat_from_heading(self._dim, heading)
+        _, q = _heading(self._dim, heading)
         self._b.quat[i] = q
         self._b.omega[i] = 0.0
 
@@ -265,9 +270,10 @@ class Actors:
             if "actor" not in b.columns or not b.actor[p]:
                 raise ValueError(f"parent = {parent} has no heading of its own: give heading")
             q = b.quat[p].copy()
+            h = _rotate(q, np.array([1.0, 0.0, 0.0]))
         else:
-            q = _quat_from_heading(self._dim, heading)
-        h = _rotate(q, np.array([1.0, 0.0, 0.0]))[:self._dim]
+            h, q = _heading(self._dim, heading)
+        h = h[:self._dim]
         ve = self._exhaust_speed(spec)
         m = spec.dry_mass + spec.fuel_mass
         is_ship = "actor" in b.columns and b.actor[p]
@@ -385,8 +391,9 @@ class Actors:
         if "explosion" not in b.columns:
             return []
         events = self._event_box[0][first_event:self._event_count[0]]
-        died = set(events["a"][(events["kind"] == 3) | (events["kind"] == 9)].tolist())
-        killed = events["b"][events["kind"] == 9]
+        died = set(events["a"][(events["kind"] == DESTROY) |
+                               (events["kind"] == DETONATION)].tolist())
+        killed = events["b"][events["kind"] == DETONATION]
         died.update(killed.tolist())
         blasts = []
         dead = np.flatnonzero(~setup.alive)
@@ -395,6 +402,18 @@ class Actors:
                 blasts.append((self._explosion_specs[b.explosion[i]], int(b.ids[i]),
                                b.pos[i].copy(), b.vel[i].copy(), float(b.radius[i])))
         return blasts
+
+    def _merged_actors(self, first_event):
+        """A ship or missile that survived a merge carries the other body's mass as dry mass
+        (the kernels keep its mass at dry + fuel)."""
+        b = self._b
+        if "actor" not in b.columns:
+            return
+        events = self._event_box[0][first_event:self._event_count[0]]
+        survivors = self._b.lookup(events["a"][events["kind"] == MERGE])
+        for i in survivors[survivors >= 0]:
+            if b.actor[i]:
+                b.dry[i] = b.mass[i] - b.fuel[i]
 
     def _control_setup(self, setup):
         """The kernels' control.Control for the bodies now alive; sets setup.owner."""

@@ -732,6 +732,7 @@ class World(Actors):
             finally:
                 # bodies destroyed or merged away leave, even if the integration then failed;
                 # the destroyed ones with an explosion throw out their debris
+                self._merged_actors(first_event)
                 dead = np.flatnonzero(~setup.alive)
                 if dead.size:
                     blasts = self._explode_dead(setup, first_event)

@@ -366,9 +366,7 @@ def end_burn(ctrl, setup, pos, mass, t0, dt, burn):
             continue
         if burn[q, F] != 0.0:
             t_burn = min(dt, burn[q, T_STOP])
-            used = burn[q, MDOT] * t_burn
-            mass[i] = burn[q, M0] - used
-            fuel = ctrl.fuel[i] - used
+            fuel = ctrl.fuel[i] - burn[q, MDOT] * t_burn
             empty = ctrl.fuel[i] / burn[q, MDOT] <= min(dt, ctrl.burn_end[i] - t0)
             if empty:
                 fuel = 0.0
@@ -376,6 +374,7 @@ def end_burn(ctrl, setup, pos, mass, t0, dt, burn):
                     ctrl.flags[i] |= _FLAG_EMPTY
                     _event(setup, _FUEL_EMPTY, i, -1, t0, t_burn, pos, 0.0)
             ctrl.fuel[i] = max(fuel, 0.0)
+            mass[i] = ctrl.dry[i] + ctrl.fuel[i]     # exactly dry once the fuel is gone
         end = ctrl.burn_end[i]
         if t0 < end <= t0 + dt and ctrl.fuel[i] > 0.0 and ctrl.flags[i] & _FLAG_BURNOUT == 0:
             ctrl.flags[i] |= _FLAG_BURNOUT

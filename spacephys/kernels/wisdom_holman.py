@@ -307,6 +307,12 @@ def _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_
             A1 += m[k] * a1 / Mk
             A2 += m[k] * a2 / Mk
         Mprev = Mk
+    if Mprev == 0.0:
+        # nothing pulls: the first body is its own "centre of mass", kicked by its own
+        # (non-gravitational) acceleration; with mass the centre's acceleration is 0
+        vj[0, 0] += dt * A0
+        vj[0, 1] += dt * A1
+        vj[0, 2] += dt * A2
 
 
 # Third-order corrector (Wisdom, Holman & Touma 1996): C = X(a, b) X(-a, -b) with
