@@ -134,6 +134,69 @@ def outer_solar_system(**world):
     return w
 
 
+def fleet_battle(*, ships=200, missiles=2000, debris=50_000, seed=0, **world):
+    """Two fleets fighting around a star (2D, game units, G = 1): a star and nine planets
+    (the 10 massive bodies), `ships` ships in two counter-rotating bands, `missiles` missiles
+    with proportional navigation, each fired from a ship of one fleet at a ship of the other,
+    and `debris` particles from earlier explosions; collisions on (missiles and ships destroy
+    each other, anything hitting a planet is destroyed, ships bounce off each other; destroyed
+    ships and missiles explode). The scene of the fleet-battle benchmark."""
+    from .entities import ExplosionSpec, MissileSpec, ShipSpec
+    world.setdefault("dt", 1 / 60)
+    w = World(dim=2, seed=seed, **world)
+    rng = np.random.default_rng(seed)
+    star_mass = 1e7
+    w.add_body(star_mass, (0.0, 0.0), radius=60.0, kind="star")
+    for k in range(9):
+        a = 900.0 + 500.0 * k
+        pos, vel = elements_to_state(star_mass, a, 0.0, f=2.0 * np.pi * rng.random())
+        w.add_body(1e3 * (1 + k % 4), pos[:2], vel[:2], radius=15.0 + 2.0 * (k % 4),
+                   kind="planet")
+    for a, b, response in (("missile", "ship", "destroy_both"), ("missile", "planet", "destroy_a"),
+                           ("missile", "star", "destroy_a"), ("ship", "planet", "destroy_a"),
+                           ("ship", "star", "destroy_a"), ("debris", "planet", "destroy_a"),
+                           ("debris", "star", "destroy_a")):
+        w.set_collision(a, b, response)
+    w.set_collision("ship", "ship", "bounce", restitution=0.5)
+    boom = ExplosionSpec(count=100, speed=20.0, lifetime=5.0, lifetime_spread=0.5)
+    hull = ShipSpec(dry_mass=10.0, fuel_mass=10.0, max_thrust=200.0, exhaust_speed=300.0,
+                    side_thrust=50.0, turn_rate=2.0, radius=4.0, explosion=boom)
+    fleets = []
+    for side, (r, sense) in enumerate(((2900.0, 1.0), (3100.0, -1.0))):
+        ids = []
+        for k in range(ships // 2 + (side < ships % 2)):
+            angle = rng.uniform(0.0, 0.6) + np.pi * side
+            radius = r + rng.uniform(-60.0, 60.0)
+            pos = radius * np.array([np.cos(angle), np.sin(angle)])
+            speed = np.sqrt(star_mass / radius)
+            vel = sense * speed * np.array([-np.sin(angle), np.cos(angle)])
+            ship = w.add_ship(hull, pos, vel, heading=rng.uniform(-np.pi, np.pi))
+            w.control(ship, throttle=rng.uniform(0.0, 0.3), turn=rng.uniform(-0.2, 0.2))
+            ids.append(ship)
+        fleets.append(ids)
+    warhead = MissileSpec(mass=1.0, fuel_mass=2.0, thrust=300.0, exhaust_speed=500.0,
+                          guidance="pn", turn_rate=4.0, launch_speed=20.0, lifetime=20.0,
+                          arming_delay=0.5, fuse_radius=3.0, radius=1.0,
+                          explosion=ExplosionSpec(count=20, speed=10.0, lifetime=2.0))
+    for k in range(missiles):
+        side = k % 2
+        if not fleets[side] or not fleets[1 - side]:
+            break
+        shooter = fleets[side][rng.integers(len(fleets[side]))]
+        target = fleets[1 - side][rng.integers(len(fleets[1 - side]))]
+        w.launch(shooter, warhead, target=target, heading=rng.uniform(-np.pi, np.pi))
+    # debris of earlier fights: explosions of bodies made for the purpose, along the bands
+    cloud = ExplosionSpec(count=500, speed=30.0, lifetime=60.0, lifetime_spread=0.5,
+                          radius=0.5)
+    for k in range(debris // cloud.count):
+        angle = rng.uniform(0.0, 2.0 * np.pi)
+        radius = rng.uniform(2700.0, 3300.0)
+        pos = radius * np.array([np.cos(angle), np.sin(angle)])
+        vel = np.sqrt(star_mass / radius) * np.array([-np.sin(angle), np.cos(angle)])
+        w.explode(w.add_body(1.0, pos, vel, radius=5.0), cloud)
+    return w
+
+
 # Scenes `spacephys run` knows: name -> (function building the World, duration [time],
 # integrator and dt suited to it). The Pythagorean problem waits for the adaptive integrator:
 # its close encounters defeat any fixed step.

@@ -23,11 +23,14 @@ _COLUMNS = {
     "fixed": ((), np.bool_),        # immovable: infinite inertial mass, never moves
     "category": ((), np.int64),     # collision filter: the bits a body is...
     "mask": ((), np.int64),         # ...and the bits it collides with
+    "serial": ((), np.int64),       # order of addition (rows move when bodies are removed)
 }
 
 
 class Bodies:
-    """Per-body columns of length `capacity`; rows [0, n) are the live bodies in insertion order.
+    """Per-body columns of length `capacity`; rows [0, n) are the live bodies. Removing bodies
+    moves the last rows into the holes (O(removed), not O(n)); `serial` keeps the order of
+    addition for whoever needs it.
 
     Columns: ids (int64), pos/vel/prev (cap, 3) float64, mass/radius float64, kind int16,
     active bool. Always 3 components: a 2D world keeps z = 0, so one set of kernels serves both.
@@ -43,6 +46,7 @@ class Bodies:
         self.generation = np.zeros(capacity, dtype=np.int64)   # per slot
         self.index = np.full(capacity, -1, dtype=np.int64)     # per slot: row of its body, -1 free
         self.slots_used = 0                                    # slots ever handed out
+        self.added = 0                                         # bodies ever added
         self.free = np.zeros(0, dtype=np.int64)                # freed slots, oldest first
 
     @property
@@ -97,6 +101,8 @@ class Bodies:
         for name in self.columns:
             getattr(self, name)[n:n + k] = columns.get(name, self.defaults.get(name, 0))
         self.ids[n:n + k] = ids
+        self.serial[n:n + k] = np.arange(self.added, self.added + k)
+        self.added += k
         self.prev[n:n + k] = self.pos[n:n + k]
         self.index[slots] = np.arange(n, n + k)
         self.n = n + k
@@ -113,17 +119,22 @@ class Bodies:
         return rows
 
     def remove(self, rows):
-        """Delete the bodies at the given (validated, distinct) rows, keeping the others' order."""
+        """Delete the bodies at the given (validated, distinct) rows: the last live rows move
+        into the holes, so the cost is O(removed) whatever the number of bodies."""
+        rows = np.asarray(rows, dtype=np.int64)
         n = self.n
-        keep = np.ones(n, dtype=bool)
-        keep[rows] = False
+        m = n - rows.size
         slots = self.ids[rows] & _SLOT_MASK
         self.generation[slots] += 1      # every id that named these bodies is now stale
         self.index[slots] = -1
         self.free = np.concatenate([self.free, slots])
-        m = n - len(rows)
+        gone = np.zeros(n - m, dtype=bool)
+        tail = rows[rows >= m] - m
+        gone[tail] = True
+        holes = np.sort(rows[rows < m])
+        movers = m + np.flatnonzero(~gone)             # live rows past the new end, in order
         for name in self.columns:
             col = getattr(self, name)
-            col[:m] = col[:n][keep]
+            col[holes] = col[movers]
         self.n = m
-        self.index[self.ids[:m] & _SLOT_MASK] = np.arange(m)
+        self.index[self.ids[holes] & _SLOT_MASK] = holes

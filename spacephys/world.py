@@ -681,21 +681,52 @@ class World(Actors):
         its step, contact point, normal, closing speed, kinetic energy lost, distance."""
         return self._event_box[0][:self._event_count[0]].copy()
 
+    def _giants(self):
+        """(rows of the giants, grid cell). With the default cell: the largest bodies above
+        the widest gap (at least 2x in radius) among the 65 largest, at most 64 of them, are
+        giants, tested against every body; the cell is the largest diameter of the rest.
+        A cell set by the user puts every body in the grid."""
+        r = self._b.radius[:self._b.n]
+        if self._cell is not None:
+            return np.zeros(0, np.int64), self._cell
+        if r.size == 0:
+            return np.zeros(0, np.int64), 1.0
+        top = min(r.size, 65)
+        rows = np.argpartition(-r, top - 1)[:top] if top < r.size else np.arange(r.size)
+        rows = rows[np.argsort(-r[rows], kind="stable")]
+        ordered = r[rows]
+        giants = 0
+        if ordered.size > 1:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                # a body with a radius above points: an infinite gap; between points: none
+                gaps = np.where(ordered[1:] > 0, ordered[:-1] / ordered[1:],
+                                np.where(ordered[:-1] > 0, np.inf, 1.0))
+            k = int(np.argmax(gaps))
+            if gaps[k] >= 2.0 and k < 64:
+                giants = k + 1
+        biggest = ordered[giants] if giants < ordered.size else 0.0
+        return np.sort(rows[:giants]).astype(np.int64), 2.0 * biggest if biggest > 0 else 1.0
+
     def _collision_setup(self):
         b = self._b
         n = b.n
         enabled = bool(self._response.any() or len(self._walls) or self._boundary != collide.OPEN)
-        if self._cell is not None:
-            cell = self._cell
-        else:
-            biggest = float(b.radius[:n].max()) if n else 0.0
-            cell = 2.0 * biggest if biggest > 0 else 1.0
-        return collide.Setup(enabled, b.ids[:n], b.kind[:n].astype(np.int64), b.radius[:n],
+        giants, cell = self._giants()
+        kind = b.kind[:n].astype(np.int64)
+        # a kind needs the grid if it can meet a kind with bodies besides giants (itself: two)
+        gridded = np.ones(n, np.bool_)
+        gridded[giants] = False
+        K = len(self._kinds)
+        counts = np.bincount(kind[gridded], minlength=K)
+        meets = (self._response != collide.IGNORE) & \
+            (counts[None, :] > np.eye(K, dtype=np.int64))
+        gridded &= meets.any(axis=1)[kind]
+        return collide.Setup(enabled, b.ids[:n], kind, b.radius[:n],
                              np.ones(n, dtype=np.bool_), self._event_box, self._event_count,
                              self.t, self._response, self._restitution, b.category[:n],
                              b.mask[:n], b.fixed[:n], self._walls, self._boundary, self._box,
                              self._box_restitution, cell, self._dim,
-                             np.full(n, -1, np.int64))
+                             np.full(n, -1, np.int64), giants, gridded)
 
     # ---------------------------------------------------------------- stepping
     def _invalidate(self):
@@ -801,6 +832,7 @@ class World(Actors):
             if src.size == 0:
                 order = np.arange(b.n, dtype=np.int64)
             else:
+                src = src[np.argsort(b.serial[src], kind="stable")]    # in order of addition
                 central = src[np.argmax(b.mass[src])]
                 order = np.concatenate([[central], src[src != central], passive]).astype(np.int64)
             m = np.zeros(b.n)

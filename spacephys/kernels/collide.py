@@ -4,7 +4,10 @@ The seed's steps of analysis, for every pair at once. Over a step each body move
 straight line from its start to its end position, p(t) = A + B t, t in [0, 1] of the step.
 1. Broad phase: the box each body sweeps goes into every cell of a uniform grid it touches;
    cells are hashed into buckets by a counting sort (linear in N), and a pair is reported only
-   in the cell holding the low corner of the overlap of its two boxes, so never twice.
+   in the cell holding the low corner of the overlap of its two boxes, so never twice. A few
+   giants (planets among ships) are tested against every body instead of setting a huge
+   cell, and bodies whose kinds meet nothing but giants (debris that only hit planets) stay
+   out of the grid.
 2. Narrow phase: the earliest t with |dA + dB t| = r1 + r2, from squared distances (one square
    root per real contact, none per rejected pair).
 3. Contacts are resolved in time order: back up to contact, respond, move on along the new
@@ -57,6 +60,9 @@ Setup = namedtuple("Setup", [
     "cell",          # float > 0: grid cell size [length]
     "dim",           # 2 or 3: merged radii keep area (2D) or volume (3D)
     "owner",         # (n,) int64: the launcher of a missile not yet armed (ignored by it), -1
+    "giants",        # (G,) int64 rows of bodies far larger than the cell: tested against all
+    "gridded",       # (n,) bool: the bodies entered in the grid (not giants, and of a kind
+                     # that can meet some body other than a giant)
 ])
 """What the collision pass needs besides positions, velocities and masses; built by World."""
 
@@ -285,10 +291,11 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
     for c in range(setup.dim, 3):
         cell[c] = 0.0                                  # a flat axis: every box in layer 0
     _bounds(A, B, tb, radius, alive, lo, hi)
+    gridded = setup.gridded
     # the entries (body, cell): counted, then written in body order (sequentially)
     total = 0
     for i in range(n):
-        if alive[i]:
+        if alive[i] and gridded[i]:
             x0, x1 = _axis_range(lo, hi, i, 0, origin, cell, ncell)
             y0, y1 = _axis_range(lo, hi, i, 1, origin, cell, ncell)
             z0, z1 = _axis_range(lo, hi, i, 2, origin, cell, ncell)
@@ -297,7 +304,7 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
     bodies = np.empty(total, np.int64)
     e = 0
     for i in range(n):
-        if not alive[i]:
+        if not alive[i] or not gridded[i]:
             continue
         x0, x1 = _axis_range(lo, hi, i, 0, origin, cell, ncell)
         y0, y1 = _axis_range(lo, hi, i, 1, origin, cell, ncell)
@@ -361,6 +368,28 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
                     pairs[m, 1] = j
                     m += 1
         run = end
+    # the giants against everyone, x first (most bodies are far along it); a pair of giants
+    # once, from the lower row
+    wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
+    is_giant = np.zeros(n, np.bool_)
+    for q in range(setup.giants.size):
+        is_giant[setup.giants[q]] = True
+    for q in range(setup.giants.size):
+        g = setup.giants[q]
+        if not alive[g]:
+            continue
+        for j in range(n):
+            if not wraps and (hi[j, 0] < lo[g, 0] or lo[j, 0] > hi[g, 0]):
+                continue
+            if j == g or not alive[j] or (is_giant[j] and j < g):
+                continue
+            i, k = min(g, j), max(g, j)
+            if _boxes_meet(lo, hi, i, k, L) and _allowed(setup, kind, i, k) != IGNORE:
+                if m == pairs.shape[0]:
+                    pairs = grown_pairs(pairs, m)
+                pairs[m, 0] = i
+                pairs[m, 1] = k
+                m += 1
     return pairs[:m], total
 
 
@@ -680,9 +709,10 @@ def pair_contacts(A, B, tb, pairs, radius, L, setup):
 def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
     """Find and resolve every contact of one step, in time order.
 
-    pos0, vel0 : (n, 3) positions and velocities at the start of the step; pos, vel : (n, 3)
-    at its end, updated (a contact at fraction t of the step sees the velocity interpolated
-    between the two);
+    pos0, vel0 : (n, 3) positions and velocities at the start of the step (vel0 is used as
+    scratch: merges overwrite it); pos, vel : (n, 3) at its end, updated where a contact
+    changed them, left bit for bit as they were elsewhere (a contact at fraction t of the step
+    sees the velocity interpolated between the two);
     mass : (n,), updated by merges (bodies destroyed or merged away get mass 0 and are marked
     dead in setup.alive); setup : Setup; dt : the step [time]; t0 : the simulation time at
     its start. Events are appended to setup.events.
@@ -699,9 +729,10 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
             # where periodic, the start is unwrapped next to the end the integrator reached
             B[i, c] = _wrap(pos[i, c] - pos0[i, c], L[c]) if L[c] > 0.0 else pos[i, c] - pos0[i, c]
     tb = np.zeros(n)
-    V0 = vel0.copy()
-    V1 = vel.copy()
+    V0 = vel0                                          # merges mix these in place
+    V1 = vel
     D = np.zeros((n, 3))                               # impulses of this step, per body
+    ever = np.zeros(n, np.bool_)                       # bodies whose line a contact changed
     lo = np.empty((n, 3))
     hi = np.empty((n, 3))
     walls = setup.walls
@@ -795,19 +826,25 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
                     merged_into[i if not alive[i] else j] = j if not alive[i] else i
             if r > 0:
                 touched[i] = True
+                ever[i] = True
                 if j >= 0:
                     touched[j] = True
+                    ever[j] = True
                 moved = True
                 changed = max(changed, r)
         if not moved:
             break
+    wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
     for i in range(n):
+        if not (ever[i] or wraps):
+            continue                                   # untouched: the integrator's state
         for c in range(3):
-            x = A[i, c] + B[i, c]
+            x = A[i, c] + B[i, c] if ever[i] else pos[i, c]
             if L[c] > 0.0:
                 x = setup.box[0, c] + (x - setup.box[0, c]) % L[c]
             pos[i, c] = x
-            vel[i, c] = V1[i, c] + D[i, c]
+            if ever[i]:
+                vel[i, c] = V1[i, c] + D[i, c]
     return changed
 
 
