@@ -12,6 +12,7 @@ from .integrators import get_integrator
 from .kernels import diagnostics
 from .events import EVENT_DTYPE
 from .kernels import collide
+from .kernels.arrays import Work
 from .kernels import gauss_radau as gr
 from .kernels.gravity import CENTRAL, DIRECT, NONE, UNIFORM
 from .kernels.integrate import rk_steps, splitting_steps
@@ -173,6 +174,7 @@ class World(Actors):
         self._explosion_specs = []
         self._curves = np.zeros((0, 2))
         self._queued_events = []
+        self._work = None                  # kernels' scratch (see _workspace)
 
     # ---------------------------------------------------------------- settings
     @property
@@ -543,6 +545,7 @@ class World(Actors):
     def __getstate__(self):
         state = self.__dict__.copy()
         state["_event_box"] = self._event_box[0]
+        state["_work"] = None                          # scratch: not part of the state
         return state
 
     def __setstate__(self, state):
@@ -778,15 +781,26 @@ class World(Actors):
                 message, self._pending_warning = self._pending_warning, None
                 warnings.warn(message, RuntimeWarning, stacklevel=4)
 
+    def _workspace(self):
+        """arrays.Work with n rows, views of buffers kept at the capacity (see arrays.Work)."""
+        cap, n = self._b.capacity, self._b.n
+        if self._work is None or self._work.acc.shape[0] != cap:
+            shapes = {"ever": np.bool_, "touched": np.bool_, "in_focus": np.bool_,
+                      "is_giant": np.bool_, "merged": np.int64, "partners": np.int64,
+                      "tb": np.float64}
+            self._work = Work(*(np.zeros(cap, shapes[name]) if name in shapes
+                                else np.zeros((cap, 3)) for name in Work._fields))
+        return Work(*(a[:n] for a in self._work))
+
     def _run_kernel(self, nsteps, setup, ctrl):
         b = self._b
         spec = self._spec
         if spec.family == "splitting":
             return splitting_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.drift,
-                                   spec.kick, self._dt, nsteps, setup, ctrl)
+                                   spec.kick, self._dt, nsteps, setup, ctrl, self._workspace())
         if spec.family == "rk":
             return rk_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.a, spec.b,
-                            self._dt, nsteps, setup, ctrl)
+                            self._dt, nsteps, setup, ctrl, self._workspace())
         if spec.family == "gauss_radau":
             return self._run_gauss_radau(nsteps, setup, ctrl)
         return self._run_wisdom_holman(nsteps, setup, ctrl)
@@ -811,7 +825,8 @@ class World(Actors):
         order, m = self._jacobi_order(src, passive)
         saved = b.pos[:n].copy(), b.vel[:n].copy()
         done, ok = wisdom_holman_steps(b.pos[:n], b.vel[:n], *args, order, m, self._dt, nsteps,
-                                       self._spec.corrector > 0, setup, ctrl)
+                                       self._spec.corrector > 0, setup, ctrl,
+                                       self._workspace())
         if not ok:
             b.pos[:n], b.vel[:n] = saved
             setup.alive[:] = True
@@ -859,7 +874,7 @@ class World(Actors):
         before = stats.copy()
         done = gr.gauss_radau_steps(b.pos[:n], b.vel[:n], *args, *cols, control, riders,
                                     spec.nodes, spec.c_gb, spec.d_bg, self._dt, nsteps,
-                                    self._adaptive, stats, setup, ctrl)
+                                    self._adaptive, stats, setup, ctrl, self._workspace())
         if stats[gr.FAILED]:
             stats[gr.FAILED] = 0
             self._steps += done          # the state is that of the last completed interval

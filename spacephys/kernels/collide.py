@@ -196,7 +196,7 @@ def _wall_time(A, B, i, r, wall, t_lo):
     return best, bn0, bn1, bn2
 
 
-@kernel
+@kernel(inline=True)
 def _allowed(setup, kind, i, j):
     """The response for the pair, IGNORE when the category/mask bits filter it out."""
     if (setup.category[i] & setup.mask[j]) == 0 or (setup.category[j] & setup.mask[i]) == 0:
@@ -207,9 +207,11 @@ def _allowed(setup, kind, i, j):
 
 
 @kernel
-def _bounds(A, B, tb, radius, alive, lo, hi):
-    """The box each live body sweeps over [tb, 1] of the step."""
-    for i in range(A.shape[0]):
+def _bounds(A, B, tb, radius, alive, lo, hi, rows):
+    """The box each live body sweeps over [tb, 1] of the step: every body, or only those in
+    rows when rows is not empty."""
+    for q in range(rows.size if rows.size else A.shape[0]):
+        i = rows[q] if rows.size else q
         if not alive[i]:
             continue
         for c in range(3):
@@ -290,7 +292,7 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
     cell = 1.0 / cell                                  # multiplied below: no divisions
     for c in range(setup.dim, 3):
         cell[c] = 0.0                                  # a flat axis: every box in layer 0
-    _bounds(A, B, tb, radius, alive, lo, hi)
+    _bounds(A, B, tb, radius, alive, lo, hi, setup.giants[:0])
     gridded = setup.gridded
     # the entries (body, cell): counted, then written in body order (sequentially)
     total = 0
@@ -371,17 +373,15 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
     # the giants against everyone, x first (most bodies are far along it); a pair of giants
     # once, from the lower row
     wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
-    is_giant = np.zeros(n, np.bool_)
-    for q in range(setup.giants.size):
-        is_giant[setup.giants[q]] = True
-    for q in range(setup.giants.size):
-        g = setup.giants[q]
+    giants = setup.giants
+    for q in range(giants.size):
+        g = giants[q]
         if not alive[g]:
             continue
         for j in range(n):
             if not wraps and (hi[j, 0] < lo[g, 0] or lo[j, 0] > hi[g, 0]):
                 continue
-            if j == g or not alive[j] or (is_giant[j] and j < g):
+            if j == g or not alive[j] or (j < g and _in_sorted(giants, j)):
                 continue
             i, k = min(g, j), max(g, j)
             if _boxes_meet(lo, hi, i, k, L) and _allowed(setup, kind, i, k) != IGNORE:
@@ -391,6 +391,20 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
                 pairs[m, 1] = k
                 m += 1
     return pairs[:m], total
+
+
+@kernel
+def _in_sorted(values, x):
+    """Whether x is in the ascending array values (binary search)."""
+    lo = 0
+    hi = values.size
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if values[mid] < x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo < values.size and values[lo] == x
 
 
 @kernel
@@ -408,12 +422,16 @@ def _boxes_meet(lo, hi, i, j, L):
 
 
 @kernel
-def focused_pairs(A, B, tb, radius, alive, kind, setup, lo, hi, focus, in_focus):
+def focused_pairs(A, B, tb, radius, alive, kind, setup, lo, hi, focus, in_focus, partners,
+                  is_giant):
     """Pairs with at least one body of `focus` (whose lines changed in the last pass) and
-    overlapping boxes: O(len(focus) N), cheaper than a new grid when few bodies changed."""
+    overlapping boxes: O(len(focus) N), cheaper than a new grid when few bodies changed.
+    lo, hi : the boxes of the last pass, refreshed here for the focus bodies only (the others'
+    lines did not change); partners : the rows that can meet a body other than a giant (the
+    gridded ones and the giants): what a focus body that is no giant is tested against."""
     n = A.shape[0]
     L = _periods(setup)
-    _bounds(A, B, tb, radius, alive, lo, hi)
+    _bounds(A, B, tb, radius, alive, lo, hi, focus)
     pairs = np.empty((16, 2), np.int64)
     m = 0
     wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
@@ -422,7 +440,9 @@ def focused_pairs(A, B, tb, radius, alive, kind, setup, lo, hi, focus, in_focus)
         if not alive[i]:
             continue
         x0, x1 = lo[i, 0], hi[i, 0]
-        for j in range(n):
+        count = n if is_giant[i] else partners.size
+        for p in range(count):
+            j = p if is_giant[i] else partners[p]
             # the cheap test first: most bodies are far along x
             if not wraps and (hi[j, 0] < x0 or lo[j, 0] > x1):
                 continue
@@ -445,7 +465,7 @@ def brute_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
     response is not IGNORE: the O(N^2) reference the grid is tested against."""
     n = A.shape[0]
     L = _periods(setup)
-    _bounds(A, B, tb, radius, alive, lo, hi)
+    _bounds(A, B, tb, radius, alive, lo, hi, setup.giants[:0])
     pairs = np.empty((16, 2), np.int64)
     m = 0
     for i in range(n):
@@ -706,7 +726,7 @@ def pair_contacts(A, B, tb, pairs, radius, L, setup):
 
 
 @kernel
-def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
+def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0, work):
     """Find and resolve every contact of one step, in time order.
 
     pos0, vel0 : (n, 3) positions and velocities at the start of the step (vel0 is used as
@@ -715,26 +735,31 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
     sees the velocity interpolated between the two);
     mass : (n,), updated by merges (bodies destroyed or merged away get mass 0 and are marked
     dead in setup.alive); setup : Setup; dt : the step [time]; t0 : the simulation time at
-    its start. Events are appended to setup.events.
+    its start; work : arrays.Work, scratch of n rows. Events are appended to setup.events.
     Returns 2 if a body was removed or merged, 1 if only velocities changed, 0 if nothing.
     """
     radius, kind, alive, ids = setup.radius, setup.kind, setup.alive, setup.ids
     events, count = setup.events, setup.count
     n = pos.shape[0]
     L = _periods(setup)
-    A = pos0.copy()
-    B = np.empty((n, 3))
+    A, B, D, lo, hi, tb = work.A, work.B, work.D, work.lo, work.hi, work.tb
+    ever, touched, in_focus, is_giant = work.ever, work.touched, work.in_focus, work.is_giant
+    merged_into = work.merged
     for i in range(n):
+        tb[i] = 0.0
+        ever[i] = False
+        touched[i] = False
+        in_focus[i] = False
+        is_giant[i] = False
+        merged_into[i] = i
         for c in range(3):
+            A[i, c] = pos0[i, c]
+            D[i, c] = 0.0
             # where periodic, the start is unwrapped next to the end the integrator reached
             B[i, c] = _wrap(pos[i, c] - pos0[i, c], L[c]) if L[c] > 0.0 else pos[i, c] - pos0[i, c]
-    tb = np.zeros(n)
+    # D: impulses of this step, per body; ever: bodies whose line a contact changed
     V0 = vel0                                          # merges mix these in place
     V1 = vel
-    D = np.zeros((n, 3))                               # impulses of this step, per body
-    ever = np.zeros(n, np.bool_)                       # bodies whose line a contact changed
-    lo = np.empty((n, 3))
-    hi = np.empty((n, 3))
     walls = setup.walls
     nbox = 2 * setup.dim if setup.boundary == REFLECT else 0
     box_walls = np.zeros((nbox, 8))
@@ -746,11 +771,18 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
             row[4 + c] = 1.0 if side == 0 else -1.0
             row[7] = setup.box_restitution
     changed = 0
-    touched = np.zeros(n, np.bool_)
-    # a body merged away hands its remaining contacts of the step to its survivor, so that
-    # everything that touched within the step ends up one body (merges chain transitively)
-    merged_into = np.arange(n)
-    in_focus = np.zeros(n, np.bool_)
+    # merged_into: a body merged away hands its remaining contacts of the step to its
+    # survivor, so that everything that touched within the step ends up one body (merges
+    # chain transitively)
+    for q in range(setup.giants.size):
+        is_giant[setup.giants[q]] = True
+    partners = work.partners
+    size = 0
+    for i in range(n):
+        if setup.gridded[i] or is_giant[i]:
+            partners[size] = i
+            size += 1
+    partners = partners[:size]
     for sweep in range(_MAX_PASSES + 1):
         last = sweep == _MAX_PASSES
         if sweep == 0:
@@ -762,7 +794,7 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0):
                 in_focus[i] = touched[i]
             if focus.size <= 64:                        # O(kN) box tests beat a new grid
                 pairs = focused_pairs(A, B, tb, radius, alive, kind, setup, lo, hi, focus,
-                                      in_focus)
+                                      in_focus, partners, is_giant)
             else:
                 pairs, _ = candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi)
         pt, pi_, pj_ = pair_contacts(A, B, tb, pairs, radius, L, setup)

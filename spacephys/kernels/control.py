@@ -104,7 +104,7 @@ def _normalised(q0, q1, q2, q3):
     return q0 * s, q1 * s, q2 * s, q3 * s
 
 
-@kernel
+@kernel(inline=True)
 def _curve_factor(ctrl, i, speed):
     """The thrust curve at this speed: piecewise linear through the table rows, flat beyond."""
     first = ctrl.curve[i, 0]
@@ -122,7 +122,7 @@ def _curve_factor(ctrl, i, speed):
     return table[first + count - 1, 1]
 
 
-@kernel
+@kernel(inline=True)
 def _desired(ctrl, i, j, pos, vel, hx, hy, hz, a_max):
     """The direction guidance asks missile i to accelerate in, toward target j; the heading
     when there is nothing to do. Pursuit: along the line of sight. Proportional navigation:
@@ -453,12 +453,13 @@ def after_step(ctrl, setup, pos0, pos, mass, t0, dt):
 
 
 @kernel
-def finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0):
+def finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work):
     """Everything after a step's integration: fuel, collisions, fuses and lifetimes. True when
     bodies were removed or merged (the kernel returns so that World can catch up)."""
     if ctrl.enabled:
         end_burn(ctrl, setup, pos, mass, t0, dt, burn)
-    removed = setup.enabled and collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0) == 2
+    removed = setup.enabled and \
+        collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0, work) == 2
     if ctrl.enabled and after_step(ctrl, setup, pos0, pos, mass, t0, dt):
         removed = True
     return removed

@@ -406,7 +406,7 @@ def _predict_rows(rows, b, q):
 @kernel(parallel=True)
 def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
                       csx, csv, b, e, control, riders, nodes, c_gb, d_bg, dt_out, nsteps,
-                      params, stats, setup, ctrl):
+                      params, stats, setup, ctrl, work):
     """Advance nsteps intervals of dt_out, landing exactly on the end of each.
 
     pos, vel : (n, 3), updated in place; csx, csv : (n, 3), their Kahan compensations;
@@ -423,6 +423,7 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             at the start of the interval and returns.
     model ... still : the gravity arguments of gravity.accelerations; setup : collide.Setup,
     whose pass runs at the end of each interval (so dt_out caps the collision step);
+    work : arrays.Work, scratch for the collision pass;
     ctrl : control.Control: controls are held over each interval, thrust is sampled at the
     nodes, and steps end where a burn stops (fuel or burn time), so none straddles the jump.
     Returns the number of intervals completed: fewer than nsteps after a failure, or when a
@@ -606,7 +607,7 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             params[4] = dt_b
             params[5] = 1.0 if have_predictor else 0.0
             return interval
-        if finish_step(saved[0], vel0, pos, vel, mass, setup, ctrl, burn, dt_out, t0):
+        if finish_step(saved[0], vel0, pos, vel, mass, setup, ctrl, burn, dt_out, t0, work):
             params[3] = dt
             params[4] = dt_b
             params[5] = 1.0 if have_predictor else 0.0

@@ -23,20 +23,19 @@ def _scratch(model, src):
 
 @kernel(parallel=True)
 def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
-                    drift, kick, dt, nsteps, setup, ctrl):
+                    drift, kick, dt, nsteps, setup, ctrl, work):
     """Advance nsteps steps of dt with the drift/kick sequence (drift[s], kick[s]).
 
     Stage s: pos += drift[s] dt vel, then vel += kick[s] dt a(pos) (skipped where kick[s] == 0).
     pos, vel : (n, 3) float64, updated in place; mass : (n,) float64; drift, kick : (S,) float64.
     model ... still : the gravity arguments of gravity.accelerations; setup : collide.Setup;
-    ctrl : control.Control (ships, missiles, lifetimes).
+    ctrl : control.Control (ships, missiles, lifetimes); work : arrays.Work, n rows of
+    scratch.
     Returns the steps taken: fewer than nsteps when a collision, a detonation or an expiry
     removed or merged bodies.
     """
     n = pos.shape[0]
-    acc = np.empty((n, 3))
-    pos0 = np.empty((n, 3))
-    vel0 = np.empty((n, 3))
+    acc, pos0, vel0 = work.acc, work.pos0, work.vel0
     burn = np.zeros((ctrl.actors.size, 8))
     scratch = _scratch(model, src)
     for step in range(nsteps):
@@ -64,14 +63,14 @@ def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_m
                     vel[i, 0] += h * acc[i, 0]
                     vel[i, 1] += h * acc[i, 1]
                     vel[i, 2] += h * acc[i, 2]
-        if finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0):
+        if finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work):
             return step + 1
     return nsteps
 
 
 @kernel(parallel=True)
 def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
-             a, b, dt, nsteps, setup, ctrl):
+             a, b, dt, nsteps, setup, ctrl, work):
     """Advance nsteps steps of dt with the explicit Runge-Kutta tableau (a, b).
 
     a : (S, S) float64, strictly lower triangular; b : (S,) float64 weights.
@@ -82,9 +81,8 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, st
     S = b.size
     kx = np.empty((S, n, 3))     # stage velocities (the derivative of position)
     kv = np.empty((S, n, 3))     # stage accelerations (the derivative of velocity)
-    x = np.empty((n, 3))
-    pos0 = np.empty((n, 3))
-    vel0 = np.empty((n, 3))
+    x = work.acc
+    pos0, vel0 = work.pos0, work.vel0
     burn = np.zeros((ctrl.actors.size, 8))
     no_mask = np.zeros(0, np.bool_)
     scratch = _scratch(model, src)
@@ -122,6 +120,6 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, st
                 pos[i, c] += dt * dx
                 vel[i, c] += dt * dv
         rk_thrust_fix(ctrl.actors, burn, vel, a, b, dt)
-        if finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0):
+        if finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work):
             return step + 1
     return nsteps

@@ -353,7 +353,7 @@ def _schedule(q, nsteps, dt, corrector):
 
 @kernel(parallel=True)
 def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
-                        order, m, dt, nsteps, corrector, setup, ctrl):
+                        order, m, dt, nsteps, corrector, setup, ctrl, work):
     """Advance nsteps steps of dt with the Wisdom-Holman map. Returns (steps taken, ok): ok
     False if a Kepler solve did not converge (the state is then unreliable); fewer steps when
     a collision removed or merged bodies.
@@ -363,7 +363,7 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
     bodies (they do not move the Jacobi frames); corrector : apply the third-order symplectic
     corrector at the start and its inverse at the end.
     model ... still : the gravity arguments of gravity.accelerations (model must be DIRECT);
-    setup : collide.Setup; ctrl : control.Control. With collisions or actors the state is
+    setup : collide.Setup; ctrl : control.Control; work : arrays.Work. With collisions or actors the state is
     synchronised (and the corrector applied) every step, so that the collision pass sees
     positions and velocities; thrust enters the step's kick as its exact velocity change over
     the step, dv(dt) / dt (actors must be passive: their mass changes).
@@ -371,9 +371,7 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
     n = order.size
     xj = np.empty((n, 3))
     vj = np.empty((n, 3))
-    acc = np.empty((pos.shape[0], 3))
-    pos0 = np.empty((pos.shape[0], 3))
-    vel0 = np.empty((pos.shape[0], 3))
+    acc, pos0, vel0 = work.acc, work.pos0, work.vel0
     M = np.cumsum(m)
     scratch = _scratch(model, src)
     actors = ctrl.actors
@@ -418,6 +416,6 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
         if not ok:
             return done, ok
         done += steps
-        if finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0):
+        if finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work):
             return done, ok
     return done, ok
