@@ -349,40 +349,43 @@ class Actors:
         elif not isinstance(spec, ExplosionSpec):
             raise ValueError(f"spec = {spec!r}: must be an ExplosionSpec")
         b = self._b
-        blast = (int(b.ids[i]), b.pos[i].copy(), b.vel[i].copy(), float(b.radius[i]))
+        blast = (spec, int(b.ids[i]), b.pos[i].copy(), b.vel[i].copy(), float(b.radius[i]))
         self.add_kind(spec.kind)
         self.remove(body)
-        return self._spawn_debris(spec, *blast)
+        return self._spawn_debris([blast])[0]
 
-    def _spawn_debris(self, spec, body_id, pos, vel, radius):
-        """spec.count particles around a body that exploded, from an RNG seeded by the World's
-        seed and the body's id: the same explosion every run."""
-        k = spec.count
-        if k == 0:
-            return np.zeros(0, np.int64)
-        rng = np.random.default_rng([self._seed, body_id & 0xFFFFFFFF, body_id >> 32])
+    def _spawn_debris(self, blasts):
+        """Throw out the debris of every blast (spec, body id, pos (3,), vel (3,), radius) in
+        one addition; each blast draws from an RNG seeded by the World's seed and the body's
+        id, so an explosion is the same every run. Returns the debris ids, blast by blast."""
+        parts = []
         d = self._dim
-        direction = rng.normal(size=(k, d))
-        norm = np.linalg.norm(direction, axis=1)
-        norm[norm == 0] = 1.0
-        direction /= norm[:, None]
-        speed = spec.speed * rng.random(k) ** (1.0 / d)          # uniform over a disc / ball
-        offset = radius * rng.random(k) ** (1.0 / d)
-        life = spec.lifetime * (1.0 + spec.lifetime_spread * (2.0 * rng.random(k) - 1.0))
-        p3 = np.repeat(pos[None], k, axis=0)
-        v3 = np.repeat(vel[None], k, axis=0)
-        p3[:, :d] += offset[:, None] * direction
-        v3[:, :d] += speed[:, None] * direction
+        for spec, body_id, pos, vel, radius in blasts:
+            k = spec.count
+            rng = np.random.default_rng([self._seed, body_id & 0xFFFFFFFF, body_id >> 32])
+            direction = rng.normal(size=(k, d))
+            norm = np.linalg.norm(direction, axis=1)
+            norm[norm == 0] = 1.0
+            direction /= norm[:, None]
+            speed = spec.speed * rng.random(k) ** (1.0 / d)      # uniform over a disc / ball
+            offset = radius * rng.random(k) ** (1.0 / d)
+            life = spec.lifetime * (1.0 + spec.lifetime_spread * (2.0 * rng.random(k) - 1.0))
+            p3 = np.repeat(pos[None], k, axis=0)
+            v3 = np.repeat(vel[None], k, axis=0)
+            p3[:, :d] += offset[:, None] * direction
+            v3[:, :d] += speed[:, None] * direction
+            per = np.ones(k)
+            parts.append((p3, v3, spec.mass * per, spec.radius * per,
+                          np.full(k, self.add_kind(spec.kind), np.int16), life, spec.fade * per))
+        if not parts:
+            return []
         self._lifetime_columns()
-        code = self.add_kind(spec.kind)
-        ids = self._b.add({"pos": p3, "vel": v3, "mass": np.full(k, spec.mass),
-                           "radius": np.full(k, spec.radius), "kind": np.full(k, code, np.int16),
-                           "active": np.zeros(k, np.bool_), "fixed": np.zeros(k, np.bool_),
-                           "category": np.ones(k, np.int64), "mask": np.full(k, -1, np.int64),
-                           "born": np.full(k, self.t), "expires": self.t + life,
-                           "fade": np.full(k, spec.fade)})
+        p3, v3, mass, radius, kind, life, fade = (np.concatenate(x) for x in zip(*parts))
+        ids = self._b.add({"pos": p3, "vel": v3, "mass": mass, "radius": radius, "kind": kind,
+                           "active": False, "fixed": False, "category": 1, "mask": -1,
+                           "born": self.t, "expires": self.t + life, "fade": fade})
         self._invalidate()
-        return ids
+        return np.split(ids, np.cumsum([len(x[0]) for x in parts])[:-1])
 
     def _explode_dead(self, setup, first_event):
         """After a kernel call: the bodies destroyed (by a collision or a detonation) that

@@ -367,11 +367,134 @@ def collisions(quick=False):
             "merging": merge}
 
 
+def _fleet_split(w, repeats=5):
+    """Milliseconds of each part of one step on w's current state, each kernel timed alone
+    (best of repeats, on copies): gravity (one force evaluation: leapfrog makes one per step),
+    guidance and thrust (turning, guidance, burns, fuel, fuses, lifetimes) and collisions
+    (broad + narrow phase and responses)."""
+    from .kernels import collide, control, gravity as grav
+    b = w._b
+    n = b.n
+    args = w._gravity_args()
+    acc = np.empty((n, 3))
+    scratch = np.empty((4, max(args[2].size, 1)))
+    pos, vel, mass = b.pos[:n].copy(), b.vel[:n].copy(), b.mass[:n].copy()
+    end = pos + w.dt * vel
+
+    def best(run):
+        times = []
+        for _ in range(repeats):
+            start = time.perf_counter()
+            run()
+            times.append(time.perf_counter() - start)
+        return 1e3 * min(times)
+
+    def guide():
+        c = w.copy()
+        setup = c._collision_setup()
+        ctrl = c._control_setup(setup)
+        burn = np.zeros((ctrl.actors.size, 8))
+        p, v, m = pos.copy(), vel.copy(), mass.copy()
+        start = time.perf_counter()
+        control.begin_step(ctrl, setup, p, v, m, c.t, c.dt, burn)
+        control.end_burn(ctrl, setup, p, m, c.t, c.dt, burn)
+        control.after_step(ctrl, setup, pos, end, m, c.t, c.dt)
+        return time.perf_counter() - start
+
+    def collisions():
+        setup = w._collision_setup()
+        work = w._workspace()
+        p0, v0, p1, v1, m = pos.copy(), vel.copy(), end.copy(), vel.copy(), mass.copy()
+        start = time.perf_counter()
+        collide.collide_step(p0, v0, p1, v1, m, setup, w.dt, w.t, work)
+        return time.perf_counter() - start
+
+    count = int(w._event_count[0])
+    out = {"gravity_ms": best(lambda: grav.accelerations(pos, *args, scratch, acc)),
+           "guidance_ms": 1e3 * min(guide() for _ in range(repeats)),
+           "collisions_ms": 1e3 * min(collisions() for _ in range(repeats))}
+    w._event_count[0] = count                         # the timing runs' events are not the run's
+    return out
+
+
+def fleet(quick=False):
+    """The fleet battle (scenes.fleet_battle): 10 massive bodies, 200 ships, 2 000 guided
+    missiles, 50 000 debris, collisions on, leapfrog at 60 Hz; milliseconds per step, split
+    into gravity, guidance and collisions; and REBOUND's leapfrog on the same gravity alone
+    (the 10 massive bodies as active particles, everything else as test particles)."""
+    import numba
+    from .scenes import fleet_battle
+    rebound = _rebound()
+    scale = 4 if quick else 1
+    w = fleet_battle(ships=200 // scale, missiles=2000 // scale, debris=50_000 // scale)
+    start = time.perf_counter()
+    w.step(1)                                          # compile or load from the cache
+    first = time.perf_counter() - start
+    bodies = w.n
+    w.step(4)
+    times = []
+    splits = []
+    steps = 30 if quick else 120
+    for k in range(steps):
+        if k % (steps // 3) == 0:
+            splits.append(_fleet_split(w))
+        start = time.perf_counter()
+        w.step(1)
+        times.append(time.perf_counter() - start)
+    times = 1e3 * np.array(times)
+    split = {key: float(np.median([s[key] for s in splits])) for key in splits[0]}
+    # the same gravity without ships, missiles or collisions: spacephys and REBOUND leapfrog
+    from .world import World
+    pulls = w.pulls
+    plain = World(dim=2, G=w.G, dt=w.dt)
+    plain.add_bodies(np.where(pulls, w.mass, 0.0), w.pos, w.vel)
+    sim = rebound.Simulation()
+    sim.G, sim.integrator, sim.gravity, sim.dt = w.G, "leapfrog", "basic", w.dt
+    order = np.concatenate([np.flatnonzero(pulls), np.flatnonzero(~pulls)])
+    for i in order:
+        p, v = w.pos[i], w.vel[i]
+        sim.add(m=float(w.mass[i]) if pulls[i] else 0.0, x=p[0], y=p[1], vx=v[0], vy=v[1])
+    sim.N_active = int(pulls.sum())
+    sim.testparticle_type = 0
+    massive = np.flatnonzero(pulls)
+    plain.step(1)
+    sim.steps(1)
+    reps = 3 if quick else 5
+    ours_ms = 1e3 * _per_step(plain.step, 10, reps)
+    rebound_ms = 1e3 * _per_step(sim.steps, 10, reps)
+    return {"benchmark": "fleet", "quick": quick,
+            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
+            "numba_threads": numba.get_num_threads(),
+            "versions": {"numba": numba.__version__, "numpy": np.__version__,
+                         "rebound": rebound.__version__},
+            "bodies_start": bodies, "bodies_end": w.n, "massive": int(massive.size),
+            "steps": steps, "first_step_s": first,
+            "median_ms": float(np.median(times)), "p95_ms": float(np.percentile(times, 95)),
+            "max_ms": float(times.max()), "split_ms": split,
+            "gravity_only_ms": ours_ms, "rebound_gravity_only_ms": rebound_ms,
+            "gravity_ratio": rebound_ms / ours_ms}
+
+
 def format_table(results):
     lines = [f"{results['benchmark']} benchmark on {results['machine']} "
              f"({results['numba_threads']} numba threads; {results['versions']})",
              f"{'case':40s} {'spacephys':>14s} {'REBOUND':>14s} {'speed-up':>9s} "
              f"{'pairs/s (ours)':>15s} {'max rel. diff':>14s}"]
+    if results["benchmark"] == "fleet":
+        s = results["split_ms"]
+        rest = results["median_ms"] - sum(s.values())
+        return "\n".join(lines[:1] + [
+            f"fleet battle: {results['bodies_start']} -> {results['bodies_end']} bodies "
+            f"({results['massive']} massive), {results['steps']} steps of leapfrog at 60 Hz",
+            f"one step: median {results['median_ms']:.2f} ms, 95th percentile "
+            f"{results['p95_ms']:.2f} ms, max {results['max_ms']:.2f} ms (target 8 ms)",
+            f"split: gravity {s['gravity_ms']:.2f} ms, guidance and thrust "
+            f"{s['guidance_ms']:.2f} ms, collisions {s['collisions_ms']:.2f} ms, the rest "
+            f"(integration, bookkeeping, explosions) {rest:.2f} ms",
+            f"the same bodies under gravity alone (no ships, missiles or collisions), leapfrog: "
+            f"spacephys {results['gravity_only_ms']:.2f} ms, REBOUND "
+            f"{results['rebound_gravity_only_ms']:.2f} ms per step "
+            f"({results['gravity_ratio']:.1f}x)"])
     if results["benchmark"] == "collisions":
         lines = lines[:1]
         for n, d in results["detection"].items():
@@ -415,4 +538,5 @@ def format_table(results):
     return "\n".join(lines)
 
 
-BENCHMARKS = {"gravity": gravity, "integrators": integrators, "collisions": collisions}
+BENCHMARKS = {"gravity": gravity, "integrators": integrators, "collisions": collisions,
+              "fleet": fleet}

@@ -772,9 +772,7 @@ class World(Actors):
                     blasts = self._explode_dead(setup, first_event)
                     self._b.remove(dead)
                     self._invalidate()
-                    for blast in blasts:
-                        self.add_kind(blast[0].kind)
-                        self._spawn_debris(*blast)
+                    self._spawn_debris(blasts)
             self._steps += done
             nsteps -= done
             if self._pending_warning:
