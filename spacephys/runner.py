@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .events import EVENT_KINDS
 from .scenes import SCENES
 from .world import World
 
@@ -24,6 +25,7 @@ class RunResult:
     momentum_error: float    # |P - P0| / sum |m v|
     angular_momentum0: float
     angular_momentum: float
+    events: dict             # event kind name -> how many happened
 
     @property
     def energy_error(self):
@@ -51,6 +53,7 @@ class RunResult:
             f"relative error {self.energy_error:.2e} (of the pulling bodies, which conserve it)",
             f"momentum      error {self.momentum_error:.2e} of sum |m v|",
             f"ang. momentum relative error {self.angular_momentum_error:.2e}",
+            "events        " + (", ".join(f"{k} {v}" for k, v in self.events.items()) or "none"),
         ])
 
 
@@ -81,15 +84,24 @@ def run_scene(name="star_system", *, integrator=None, dt=None, duration=None, pr
     t0, E0, P0, L0 = w.t, w.energy(True), w.momentum(True), _norm_L(w)
     scale = float(np.sum(w.mass * w.pulls * np.linalg.norm(w.vel, axis=1))) or 1.0
 
+    counts = {}
+
+    def tally():
+        kinds, number = np.unique(w.events["kind"], return_counts=True)
+        for k, c in zip(kinds, number):
+            counts[EVENT_KINDS[int(k)]] = counts.get(EVENT_KINDS[int(k)], 0) + int(c)
+
     start = time.perf_counter()
     w.step(1)
     compile_wall = time.perf_counter() - start
+    tally()
     done, chunks = 1, 50
     start = time.perf_counter()
     for c in range(1, chunks + 1):
         n = total * c // chunks - done
         if n > 0:
             w.step(n)
+            tally()
             done += n
         if progress is not None:
             bar = "#" * (30 * c // chunks)
@@ -99,7 +111,8 @@ def run_scene(name="star_system", *, integrator=None, dt=None, duration=None, pr
     if progress is not None:
         print(file=progress)
     return RunResult(w, name, done, wall, compile_wall, t0, E0, w.energy(True),
-                     float(np.linalg.norm(w.momentum(True) - P0)) / scale, L0, _norm_L(w))
+                     float(np.linalg.norm(w.momentum(True) - P0)) / scale, L0, _norm_L(w),
+                     dict(sorted(counts.items())))
 
 
 def default_progress():

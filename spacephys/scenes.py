@@ -176,7 +176,7 @@ def fleet_battle(*, ships=200, missiles=2000, debris=50_000, seed=0, **world):
         fleets.append(ids)
     warhead = MissileSpec(mass=1.0, fuel_mass=2.0, thrust=300.0, exhaust_speed=500.0,
                           guidance="pn", turn_rate=4.0, launch_speed=20.0, lifetime=20.0,
-                          arming_delay=0.5, fuse_radius=3.0, radius=1.0,
+                          arming_delay=0.5, fuse_radius=8.0, radius=1.0,
                           explosion=ExplosionSpec(count=20, speed=10.0, lifetime=2.0))
     for k in range(missiles):
         side = k % 2
@@ -206,4 +206,5 @@ SCENES = {
     "kepler": (lambda **kw: kepler(0.5, planet_mass=1e-3, **kw), 10 * period(1.0, 1.0),
                "leapfrog", 1e-3),
     "cluster": (lambda **kw: uniform_sphere(1024, **kw), 0.1, "leapfrog", 1e-4),
+    "fleet_battle": (fleet_battle, 10.0, "leapfrog", 1 / 60),
 }
