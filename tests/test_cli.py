@@ -74,6 +74,17 @@ def test_readme_collision_example_runs_as_pasted():
     assert res.stdout.splitlines()[0].startswith("bounce 0 1 ")   # the ball hits the brick
 
 
+def test_readme_ships_example_runs_as_pasted():
+    text = (ROOT / "README.md").read_text()
+    block = re.search(r"<!-- ships -->\s*```python\n(.*?)```", text, re.S).group(1)
+    res = subprocess.run([sys.executable, "-c", block], capture_output=True, text=True,
+                         cwd=ROOT, timeout=600)
+    assert res.returncode == 0, res.stderr
+    lines = res.stdout.splitlines()
+    assert lines[1].startswith("launch ") and lines[2].startswith("detonation ")
+    assert lines[-1].startswith("debris: 50 ")       # the prey's explosion
+
+
 def test_readme_commands_are_what_ci_runs():
     readme = (ROOT / "README.md").read_text()
     ci = (ROOT / ".ci" / "run").read_text()

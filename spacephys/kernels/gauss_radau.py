@@ -217,9 +217,10 @@ def _sweep(rows, which, first, everyone, pos, csx, vel, a0, b, g, x, a, b7, h, n
         accelerations(x, model, mass, src, passive, G, eps2, field, field_mass, still, scratch,
                       a if node >= 0 else a0, which if node >= 0 else ALL)
         actors, burn, t_off, rider, want = thrust
-        add_thrust(actors, burn, a if node >= 0 else a0,
-                   t_off + (nodes[node] * h if node >= 0 else 0.0), rider,
-                   want if node >= 0 else -1)
+        if burn.shape[0]:
+            add_thrust(actors, burn, a if node >= 0 else a0,
+                       t_off + (nodes[node] * h if node >= 0 else 0.0), rider,
+                       want if node >= 0 else -1)
         if node >= 0:
             _correct_at_node(rows, node, nodes, a, a0, g, b, c_gb)
     max_a = 0.0
@@ -320,7 +321,8 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, src, mass, G, eps
             for c in range(3):
                 x[r, c] = pos[r, c] - csx[r, c]
         _rider_forces(needy, control, src, mass, x, G, eps2, scratch, a0)
-        add_thrust(actors, burn, a0, t_off + elapsed, needy_mask, 1)
+        if burn.shape[0]:
+            add_thrust(actors, burn, a0, t_off + elapsed, needy_mask, 1)
         for q in range(needy.size):
             r = needy[q]
             for c in range(3):
@@ -339,7 +341,9 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, src, mass, G, eps
                              h, x)
                 _position_at(needy, pos, csx, vel, a0, b, nodes[node], hs, x)
                 _rider_forces(needy, control, src, mass, x, G, eps2, scratch, a)
-                add_thrust(actors, burn, a, t_off + elapsed + nodes[node] * hs, needy_mask, 1)
+                if burn.shape[0]:
+                    add_thrust(actors, burn, a, t_off + elapsed + nodes[node] * hs,
+                               needy_mask, 1)
                 _correct_at_node(needy, node, nodes, a, a0, g, b, c_gb)
             max_a = 0.0
             max_db7 = 0.0
@@ -482,7 +486,7 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             if landing:
                 h = dt_out - elapsed
             # end the step where a burn stops: thrust jumps there
-            stop = next_stop(actors, burn, elapsed + 1e-12 * dt_out)
+            stop = next_stop(actors, burn, elapsed + 1e-12 * dt_out) if burn.shape[0] else np.inf
             clipped = stop < elapsed + h and stop < dt_out * (1.0 - 1e-12)
             if clipped:
                 h = stop - elapsed
@@ -607,7 +611,8 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             params[4] = dt_b
             params[5] = 1.0 if have_predictor else 0.0
             return interval
-        if finish_step(saved[0], vel0, pos, vel, mass, setup, ctrl, burn, dt_out, t0, work):
+        if (setup.enabled or ctrl.enabled) and \
+                finish_step(saved[0], vel0, pos, vel, mass, setup, ctrl, burn, dt_out, t0, work):
             params[3] = dt
             params[4] = dt_b
             params[5] = 1.0 if have_predictor else 0.0

@@ -53,7 +53,8 @@ def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_m
                     pos[i, 0] += h * vel[i, 0]
                     pos[i, 1] += h * vel[i, 1]
                     pos[i, 2] += h * vel[i, 2]
-                drift_thrust(ctrl.actors, burn, pos, vel, tau, tau + h)
+                if burn.shape[0]:
+                    drift_thrust(ctrl.actors, burn, pos, vel, tau, tau + h)
                 tau += h
             h = kick[s] * dt
             if h != 0.0:
@@ -63,7 +64,10 @@ def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_m
                     vel[i, 0] += h * acc[i, 0]
                     vel[i, 1] += h * acc[i, 1]
                     vel[i, 2] += h * acc[i, 2]
-        if finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work):
+        # (a call passing the Setup and Control tuples costs a reference count per array:
+        # made only when there is something to do)
+        if (setup.enabled or ctrl.enabled) and \
+                finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work):
             return step + 1
     return nsteps
 
@@ -109,7 +113,8 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, st
             c_s = 0.0
             for j in range(s):
                 c_s += a[s, j]
-            add_thrust(ctrl.actors, burn, kv[s], c_s * dt, no_mask, -1)
+            if burn.shape[0]:
+                add_thrust(ctrl.actors, burn, kv[s], c_s * dt, no_mask, -1)
         for i in range(n):
             for c in range(3):
                 dx = 0.0
@@ -119,7 +124,9 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, st
                     dv += b[s] * kv[s, i, c]
                 pos[i, c] += dt * dx
                 vel[i, c] += dt * dv
-        rk_thrust_fix(ctrl.actors, burn, vel, a, b, dt)
-        if finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work):
+        if burn.shape[0]:
+            rk_thrust_fix(ctrl.actors, burn, vel, a, b, dt)
+        if (setup.enabled or ctrl.enabled) and \
+                finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work):
             return step + 1
     return nsteps

@@ -416,6 +416,7 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
         if not ok:
             return done, ok
         done += steps
-        if finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work):
+        if (setup.enabled or ctrl.enabled) and \
+                finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work):
             return done, ok
     return done, ok
