@@ -296,7 +296,9 @@ class Actors:
             "exhaust": ve, "turn_rate": spec.turn_rate, "throttle": 1.0,
             "guidance": GUIDANCE[spec.guidance], "nav": spec.nav_constant,
             "target": -1 if target is None else target, "launcher": parent,
-            "burn_end": t + spec.burn_time, "armed_at": t + spec.arming_delay,
+            # never armed in the step it is launched in: it starts touching its launcher
+            "burn_end": t + spec.burn_time,
+            "armed_at": max(t + spec.arming_delay, np.nextafter(t, np.inf)),
             "fuse": spec.fuse_radius, "kill": spec.kill_target}, active=False,
             lifetime=lifetime)
         if spec.recoil:

@@ -126,7 +126,7 @@ class MissileSpec:
     ship (a missile burns at full throttle unless controlled); burn_time [time]: the motor
     stops after it (inf: when the fuel is gone); lifetime [time]: removed after it (an expiry
     event; inf: never); arming_delay [time]: until then it cannot hit its launcher and its
-    fuse is off; launch_speed [length/time] along the heading, added to the launcher's
+    fuse is off (never armed in the step it is launched in, where it touches its launcher); launch_speed [length/time] along the heading, added to the launcher's
     velocity; recoil: the launcher gives up the missile's mass and takes the opposite
     momentum (total momentum conserved), else it is unaffected; guidance "none", "pursuit"
     (turn toward the target) or "pn" (proportional navigation with nav_constant N);

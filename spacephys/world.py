@@ -826,7 +826,9 @@ class World(Actors):
                                        self._spec.corrector > 0, setup, ctrl,
                                        self._workspace())
         if not ok:
-            b.pos[:n], b.vel[:n] = saved
+            if done == 0:
+                b.pos[:n], b.vel[:n] = saved
+            self._steps += done          # the kernel undid the failed step (see its docstring)
             setup.alive[:] = True
             raise FloatingPointError(
                 f"{self._spec.name}: a Kepler drift did not converge: a body sits at the centre "

@@ -67,6 +67,59 @@ def test_grid_finds_exactly_the_pairs_brute_force_finds(seed, n, dim, cell, peri
     assert as_set(grid) == as_set(brute)
 
 
+def _grid_and_brute(w, B=None, tb=None):
+    """The candidate pairs of the grid and of brute force for w's bodies, as sets."""
+    setup = w._collision_setup()
+    n, dim = w.n, w.dim
+    A = np.zeros((n, 3))
+    A[:, :dim] = w.pos
+    B = np.zeros((n, 3)) if B is None else B
+    tb = np.zeros(n) if tb is None else tb
+    lo, hi = np.empty((n, 3)), np.empty((n, 3))
+    grid, _ = collide.candidate_pairs(A, B, tb, setup.radius, setup.alive, setup.kind, setup,
+                                      lo, hi)
+    brute = collide.brute_pairs(A, B, tb, setup.radius, setup.alive, setup.kind, setup, lo, hi)
+    as_set = lambda pairs: {tuple(p) for p in pairs.tolist()}
+    assert len(as_set(grid)) == len(grid)            # never reported twice
+    return as_set(grid), as_set(brute), setup
+
+
+@settings(deadline=None, max_examples=30)
+@given(seed=st.integers(0, 10_000), n=st.integers(5, 80), dim=st.sampled_from([2, 3]),
+       giants=st.integers(0, 4), periodic=st.booleans())
+def test_default_cell_with_giants_finds_the_brute_force_pairs(seed, n, dim, giants, periodic):
+    # the default cell: planets far larger than the rest are tested against everyone, the
+    # others go in a grid sized for the largest of them
+    rng = np.random.default_rng(seed)
+    w = arena(n, seed, dim=dim, box=6.0, radius=(0.05, 0.3))
+    if periodic:
+        w.set_boundary("periodic", lo=[0] * dim, hi=[6.0] * dim)
+    if giants:
+        w.add_bodies(10.0, rng.uniform(0, 6.0, (giants, dim)), radius=rng.uniform(1, 2.5, giants),
+                     kind="ball")
+    B = np.zeros((w.n, 3))
+    B[:, :dim] = w.vel * 0.2
+    grid, brute, setup = _grid_and_brute(w, B, rng.uniform(0, 0.5, w.n) * (rng.random(w.n) < .3))
+    assert setup.giants.size >= (giants > 0)      # the giants path is exercised
+    assert grid == brute
+
+
+@pytest.mark.parametrize("r", [0.1, 0.3, 0.35, 0.7, 1.3])
+@pytest.mark.parametrize("lo", [0.0, -1.7, 0.3])
+def test_a_periodic_lattice_of_touching_discs_finds_every_contact(r, lo):
+    # spacing = diameter = the default cell: every pair sits exactly on cell edges, where a
+    # low corner shifted by the period rounds into a different cell than its owner's entry
+    for m in (3, 5, 7, 10):
+        w = sp.World(dim=2, gravity="none", dt=0.1)
+        w.set_collision("*", "*", "elastic")
+        L = 2 * r * m
+        w.set_boundary("periodic", lo=[lo] * 2, hi=[lo + L] * 2)
+        X, Y = np.meshgrid(lo + r + 2 * r * np.arange(m), lo + r + 2 * r * np.arange(m))
+        w.add_bodies(1.0, np.c_[X.ravel(), Y.ravel()], radius=r)
+        grid, brute, _ = _grid_and_brute(w)
+        assert brute and grid == brute, (m, len(brute - grid))
+
+
 @settings(deadline=None, max_examples=30)
 @given(seed=st.integers(0, 10_000), dim=st.sampled_from([2, 3]),
        response=st.sampled_from(["elastic", "bounce", "merge"]),

@@ -353,7 +353,11 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
                     if low > min(hi[i, c], hi[j, c] - shift):
                         home = False                   # the boxes do not even overlap
                         break
-                    kc = _wrap_index(int(math.floor((low - origin[c]) * cell[c])), ncell[c])
+                    # the cell of the low corner, from the unshifted edge it came from: the
+                    # same arithmetic as that body's entries (a shift by a period would round
+                    # differently and could miss the cell at a boundary)
+                    edge = lo[i, c] if lo[i, c] >= lo[j, c] - shift else lo[j, c]
+                    kc = _wrap_index(int(math.floor((edge - origin[c]) * cell[c])), ncell[c])
                     if c == 0:
                         kx = kc
                     elif c == 1:

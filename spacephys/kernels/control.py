@@ -23,7 +23,7 @@ from collections import namedtuple
 import numpy as np
 
 from .._jit import kernel
-from .collide import _record, collide_step
+from .collide import _periods, _record, _wrap, collide_step
 
 # guidance laws
 NO_GUIDANCE, PURSUIT, PROPORTIONAL = 0, 1, 2
@@ -123,14 +123,14 @@ def _curve_factor(ctrl, i, speed):
 
 
 @kernel(inline=True)
-def _desired(ctrl, i, j, pos, vel, hx, hy, hz, a_max):
+def _desired(ctrl, i, j, pos, vel, hx, hy, hz, a_max, L):
     """The direction guidance asks missile i to accelerate in, toward target j; the heading
     when there is nothing to do. Pursuit: along the line of sight. Proportional navigation:
     the lateral acceleration N Vc (line-of-sight rate) = N Vc v_perp / |r|, plus whatever
     thrust is left along the line of sight to close; pursuit while the range opens."""
-    rx = pos[j, 0] - pos[i, 0]
-    ry = pos[j, 1] - pos[i, 1]
-    rz = pos[j, 2] - pos[i, 2]
+    rx = _wrap(pos[j, 0] - pos[i, 0], L[0])           # the nearest image when wrapping
+    ry = _wrap(pos[j, 1] - pos[i, 1], L[1])
+    rz = _wrap(pos[j, 2] - pos[i, 2], L[2])
     r = math.sqrt(rx * rx + ry * ry + rz * rz)
     if r == 0.0:
         return hx, hy, hz
@@ -265,6 +265,15 @@ def rk_thrust_fix(actors, burn, vel, a, b, dt):
 
 
 @kernel
+def snap_stops(actors, burn, now, eps):
+    """Burns stopping within eps of now stop now (exactly: a step starting there sees them
+    off, instead of on at its first node and off at the next)."""
+    for q in range(actors.size):
+        if burn[q, F] != 0.0 and abs(burn[q, T_STOP] - now) <= eps:
+            burn[q, T_STOP] = now
+
+
+@kernel
 def next_stop(actors, burn, after):
     """The earliest t_stop later than `after` (inf if none): where thrust switches off."""
     best = np.inf
@@ -279,6 +288,7 @@ def begin_step(ctrl, setup, pos, vel, mass, t0, dt, burn):
     """Arm fuses, turn every live actor over the step and set its burn (see the module)."""
     actors = ctrl.actors
     alive = setup.alive
+    L = _periods(setup)
     for q in range(actors.size):
         i = actors[q]
         for k in range(8):
@@ -299,7 +309,7 @@ def begin_step(ctrl, setup, pos, vel, mass, t0, dt, burn):
         if ctrl.guidance[i] != NO_GUIDANCE and j >= 0 and alive[j]:
             # a world-frame turn toward what guidance asks for, at most turn_rate dt
             a_max = main / mass[i] if mass[i] > 0.0 else 0.0
-            dx, dy, dz = _desired(ctrl, i, j, pos, vel, hx, hy, hz, a_max)
+            dx, dy, dz = _desired(ctrl, i, j, pos, vel, hx, hy, hz, a_max, L)
             ax, ay, az, angle = _turn_toward(q0, q1, q2, q3, hx, hy, hz, dx, dy, dz,
                                              ctrl.turn_rate[i] * dt, ctrl.dim)
             m0, m1, m2, m3 = _qexp(ax, ay, az, 0.5 * angle)
@@ -367,7 +377,10 @@ def end_burn(ctrl, setup, pos, mass, t0, dt, burn):
         if burn[q, F] != 0.0:
             t_burn = min(dt, burn[q, T_STOP])
             fuel = ctrl.fuel[i] - burn[q, MDOT] * t_burn
-            empty = ctrl.fuel[i] / burn[q, MDOT] <= min(dt, ctrl.burn_end[i] - t0)
+            # empty within the step, or left with the rounding of the subtractions (which
+            # would burn for a sliver of the next step)
+            empty = ctrl.fuel[i] / burn[q, MDOT] <= min(dt, ctrl.burn_end[i] - t0) or \
+                fuel <= 1e-9 * burn[q, MDOT] * dt
             if empty:
                 fuel = 0.0
                 if ctrl.flags[i] & _FLAG_EMPTY == 0:
@@ -401,6 +414,7 @@ def after_step(ctrl, setup, pos0, pos, mass, t0, dt):
     actors = ctrl.actors
     point = np.empty(3)
     normal = np.empty(3)
+    L = _periods(setup)
     for q in range(actors.size):
         i = actors[q]
         j = ctrl.target[i]
@@ -409,8 +423,9 @@ def after_step(ctrl, setup, pos0, pos, mass, t0, dt):
         d0 = np.empty(3)
         e = np.empty(3)
         for c in range(3):
-            d0[c] = pos0[j, c] - pos0[i, c]
-            e[c] = (pos[j, c] - pos0[j, c]) - (pos[i, c] - pos0[i, c])
+            # nearest images when wrapping: pos is already wrapped into the box
+            d0[c] = _wrap(pos0[j, c] - pos0[i, c], L[c])
+            e[c] = _wrap(pos[j, c] - pos0[j, c], L[c]) - _wrap(pos[i, c] - pos0[i, c], L[c])
         ee = e[0] * e[0] + e[1] * e[1] + e[2] * e[2]
         s = 0.0
         if ee > 0.0:
@@ -432,7 +447,7 @@ def after_step(ctrl, setup, pos0, pos, mass, t0, dt):
         dist = math.sqrt(dist2)
         closing = 0.0
         for c in range(3):
-            point[c] = pos0[i, c] + s * (pos[i, c] - pos0[i, c])
+            point[c] = pos0[i, c] + s * _wrap(pos[i, c] - pos0[i, c], L[c])
             if dist > 0.0:
                 normal[c] /= dist
                 closing -= normal[c] * e[c] / dt

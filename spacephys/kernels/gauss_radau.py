@@ -18,7 +18,7 @@ import numpy as np
 
 from .._jit import kernel
 from .arrays import copy_into
-from .control import add_thrust, begin_step, finish_step, next_stop
+from .control import add_thrust, begin_step, finish_step, next_stop, snap_stops
 from .gravity import ALL, PASSIVE, PULLING, _pull, accelerations
 from .integrate import _scratch
 
@@ -486,7 +486,10 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             if landing:
                 h = dt_out - elapsed
             # end the step where a burn stops: thrust jumps there
-            stop = next_stop(actors, burn, elapsed + 1e-12 * dt_out) if burn.shape[0] else np.inf
+            stop = np.inf
+            if burn.shape[0]:
+                snap_stops(actors, burn, elapsed, 1e-12 * dt_out)
+                stop = next_stop(actors, burn, elapsed)
             clipped = stop < elapsed + h and stop < dt_out * (1.0 - 1e-12)
             if clipped:
                 h = stop - elapsed
@@ -575,7 +578,7 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
                          csx, csv, a0, b, h)
             needy_mask[needy] = False
             stats[STEPS] += 1
-            elapsed = 0.0 if landing else elapsed + h
+            elapsed = 0.0 if landing else (stop if clipped else elapsed + h)
             h_next = min(dt_new, max_step, dt_out - elapsed)     # the next step, as far as known
             if h_next / h > 1.0 / _SAFETY:
                 # a short landing step's fit, extrapolated far past its interval, is mostly

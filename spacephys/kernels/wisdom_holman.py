@@ -355,8 +355,9 @@ def _schedule(q, nsteps, dt, corrector):
 def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
                         order, m, dt, nsteps, corrector, setup, ctrl, work):
     """Advance nsteps steps of dt with the Wisdom-Holman map. Returns (steps taken, ok): ok
-    False if a Kepler solve did not converge (the state is then unreliable); fewer steps when
-    a collision removed or merged bodies.
+    False if a Kepler solve did not converge; the state is then that after the steps taken
+    when stepping one at a time (collisions or actors), unreliable otherwise (the caller keeps
+    a copy). Fewer steps when a collision removed or merged bodies.
 
     pos, vel : (n, 3), updated in place; order : (n,) int64, the central body first, then the
     other pulling bodies, then the passive ones; m : (n,) masses in that order, 0 for passive
@@ -378,6 +379,8 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
     burn = np.zeros((actors.size, 8))
     thrust = np.zeros((actors.size, 3))
     none = np.zeros((actors.size, 3))
+    quat0 = np.empty((actors.size, 4))
+    omega0 = np.empty((actors.size, 3))
     ok = True
     # In chunks of steps between synchronisations: all of them at once, or one at a time when
     # collisions need the state after every step. Within a chunk, one loop of drift-then-kick
@@ -392,6 +395,11 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
             copy_into(pos0, pos)
             copy_into(vel0, vel)
         if ctrl.enabled:
+            for q in range(actors.size):       # kept to undo a failed step's turn
+                for c in range(4):
+                    quat0[q, c] = ctrl.quat[actors[q], c]
+                for c in range(3):
+                    omega0[q, c] = ctrl.omega[actors[q], c]
             begin_step(ctrl, setup, pos, vel, mass, t0, dt, burn)
             for q in range(actors.size):
                 dv = thrust_dv(burn, q, dt) if burn[q, F] != 0.0 else 0.0
@@ -414,6 +422,16 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
                 if not (abs(pos[i, c]) < np.inf and abs(vel[i, c]) < np.inf):
                     ok = False
         if not ok:
+            if setup.enabled or ctrl.enabled:
+                # undo the failed step alone: the state is that after `done` steps, as the
+                # actors' fuel and the collisions already booked say
+                copy_into(pos, pos0)
+                copy_into(vel, vel0)
+                for q in range(actors.size):
+                    for c in range(4):
+                        ctrl.quat[actors[q], c] = quat0[q, c]
+                    for c in range(3):
+                        ctrl.omega[actors[q], c] = omega0[q, c]
             return done, ok
         done += steps
         if (setup.enabled or ctrl.enabled) and \
