@@ -6,6 +6,7 @@ from .entities import GUIDANCE, ExplosionSpec, MissileSpec, ShipSpec
 from .events import EVENT_DTYPE, EVENT_KINDS
 from .geometry import polygon_center_of_mass
 from .integrators import INTEGRATORS, Integrator, get_integrator
+from .runlog import Run, RunLog, RunLogError, open_run, replay, resume
 from .orbits import elements_to_state, kepler_state, period, solve_kepler
 from .units import UNITS, UnitSystem, get_units
 from .world import BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, RESPONSES, Body, World
@@ -19,6 +20,7 @@ __all__ = [
     "INTEGRATORS", "Integrator", "get_integrator",
     "UNITS", "UnitSystem", "get_units",
     "polygon_center_of_mass",
+    "RunLog", "Run", "RunLogError", "open_run", "replay", "resume",
     "elements_to_state", "kepler_state", "period", "solve_kepler",
     "__version__",
 ]

@@ -17,6 +17,7 @@ from .kernels import gauss_radau as gr
 from .kernels.gravity import CENTRAL, DIRECT, NONE, UNIFORM
 from .kernels.integrate import rk_steps, splitting_steps
 from .kernels.wisdom_holman import wisdom_holman_steps
+from .runlog import journaled
 from .state import Bodies
 from .units import get_units
 
@@ -175,6 +176,7 @@ class World(Actors):
         self._curves = np.zeros((0, 2))
         self._queued_events = []
         self._work = None                  # kernels' scratch (see _workspace)
+        self._log = None                   # the RunLog recording this World, if one is
 
     # ---------------------------------------------------------------- settings
     @property
@@ -546,7 +548,70 @@ class World(Actors):
         state = self.__dict__.copy()
         state["_event_box"] = self._event_box[0]
         state["_work"] = None                          # scratch: not part of the state
+        state["_log"] = None                           # a copy is not recorded
         return state
+
+    def __setattr__(self, name, value):
+        # a recording journals settings changed by assignment (w.dt = ..., w.integrator = ...)
+        log = self.__dict__.get("_log")
+        if log is None or name.startswith("_") or log.depth:
+            object.__setattr__(self, name, value)
+        else:
+            log.call(self, "setattr", object.__setattr__, (name, value), {})
+
+    # ---------------------------------------------------------------- run logs and files
+    def record(self, path, *, every=1, every_time=None, checkpoint_every=100,
+               flush_seconds=1.0, compression="gzip", scenario=None):
+        """Record this World into an HDF5 run log (see spacephys/runlog.py, docs/runlog.md);
+        returns the RunLog (close it, or use it in a with-block).
+
+        every : a frame every this many steps, or every_time : a frame whenever the time
+        passes a multiple of it [time] (then every=None); frames hold ids, pos, vel, mass,
+        radius and kind of the live bodies. Every step's events and every call that changes
+        the World are recorded too; a checkpoint (the whole state) every checkpoint_every
+        frames; the file is written every flush_seconds of wall time. compression: "gzip",
+        "lzf" or None. scenario: a text kept with the log. The file is created at once, so an
+        unwritable path fails here, before anything runs.
+        """
+        from .runlog import RunLog
+        if self._log is not None:
+            raise ValueError(f"this World is already recorded into {self._log.path!r}")
+        if every_time is not None:
+            every_time = check.scalar("every_time", every_time, positive=True)
+            if every not in (None, 1):
+                raise ValueError(f"every = {every!r} and every_time = {every_time}: give one")
+            every = None
+        else:
+            every = check.count("every", every, minimum=1)
+        checkpoint_every = check.count("checkpoint_every", checkpoint_every, minimum=1)
+        flush_seconds = check.scalar("flush_seconds", flush_seconds, minimum=0.0)
+        if compression not in ("gzip", "lzf", None):
+            raise ValueError(f"compression = {compression!r}: must be 'gzip', 'lzf' or None")
+        if scenario is not None and not isinstance(scenario, str):
+            raise ValueError(f"scenario = {scenario!r}: must be text")
+        log = RunLog(self, path, every=every, every_time=every_time,
+                     checkpoint_every=checkpoint_every, flush_seconds=flush_seconds,
+                     compression=compression, scenario=scenario)
+        self._log = log
+        return log
+
+    @property
+    def recording(self):
+        """The RunLog recording this World, or None."""
+        return self._log
+
+    def save(self, path):
+        """Write the whole state to an HDF5 file; World.load(path) continues it bit for
+        bit."""
+        from .runlog import save_world
+        save_world(self, path)
+
+    @staticmethod
+    def load(path, checkpoint=-1):
+        """A World from World.save's file or from a run log's checkpoint (default: the
+        last)."""
+        from .runlog import load_world
+        return load_world(path, checkpoint)
 
     def __setstate__(self, state):
         self.__dict__.update(state)
@@ -909,15 +974,28 @@ class World(Actors):
         n = check.count("n", n)
         self._event_count[:] = 0
         self._write_queued_events()
-        b = self._b
-        if not (n and b.n):
-            self._steps += n
-            return self.t
-        if n > 1:
-            self._run(n - 1)
-        b.prev[:b.n] = b.pos[:b.n]
-        self._run(1)
+        if n:
+            if n > 1:
+                self._run_framed(n - 1)
+            b = self._b
+            b.prev[:b.n] = b.pos[:b.n]
+            self._run_framed(1)
+        if self._log is not None:
+            self._log.record_events(self.events)
         return self.t
+
+    def _run_framed(self, n):
+        """_run, cut where a recording takes its frames."""
+        log = self._log
+        while n:
+            k = n if log is None else min(n, log.until_frame(self))
+            if self._b.n:
+                self._run(k)
+            else:
+                self._steps += k
+            n -= k
+            if log is not None:
+                log.stepped(self, k)
 
     def _write_queued_events(self):
         """Launches made since the last step open this step's events."""
@@ -1024,3 +1102,11 @@ class World(Actors):
     def __repr__(self):
         return (f"World(dim={self._dim}, n={self.n}, gravity={self._gravity!r}, "
                 f"integrator={self.integrator!r}, dt={self._dt!r}, t={self.t!r})")
+
+
+# the calls a run log records (runlog.py): every public method that changes the World
+for _name in ("add_kind", "add_body", "add_bodies", "set_body", "remove", "set_collision",
+              "add_plane", "add_segment", "clear_walls", "set_boundary", "step", "advance",
+              "move_to_center_of_mass", "add_ship", "control", "set_heading", "set_fuel",
+              "launch", "explode"):
+    setattr(World, _name, journaled(getattr(World, _name)))

@@ -1,0 +1,687 @@
+"""HDF5 run logs: frames, events, inputs (every call that changed the World) and
+checkpoints; the writer (World.record), the reader (open_run), resume and replay.
+
+Layout (format version 1; docs/runlog.md has every dataset and attribute):
+
+    /                      attrs: format = "spacephys-run", format_version, versions, settings
+    /frames/step, t        (F,) int64 / float64: when each frame was taken
+    /frames/first, count   (F,) int64: frame f is rows first[f] : first[f] + count[f] of...
+    /frames/ids ... kind   (R,) / (R, dim): ids, pos, vel, mass, radius, kind of the live bodies
+    /events                (E,) compound: "step" and the fields of spacephys.EVENT_DTYPE
+    /inputs/step, t, call  (I,): the calls that changed the World, as JSON, in order
+    /checkpoints/NNNNNN    the whole World (snapshot.py) and the lengths of the tables then
+
+Writes are buffered in memory and go to the file at each flush (every `flush_seconds` of wall
+time, at checkpoints and at close), followed by an HDF5 flush; between flushes the file is not
+touched, so a process killed outside a flush leaves a file holding everything flushed.
+"""
+import dataclasses
+import functools
+import json
+import math
+import os
+import time
+from collections import namedtuple
+
+import h5py
+import numpy as np
+
+from . import snapshot
+from .entities import ExplosionSpec, MissileSpec, ShipSpec
+from .events import EVENT_DTYPE, EVENT_KINDS
+
+FORMAT = "spacephys-run"
+WORLD_FORMAT = "spacephys-world"
+FORMAT_VERSION = 1
+LOG_EVENT_DTYPE = np.dtype([("step", np.int64)] + EVENT_DTYPE.descr)
+_SPECS = {"ShipSpec": ShipSpec, "MissileSpec": MissileSpec, "ExplosionSpec": ExplosionSpec}
+_ROWS = ("ids", "pos", "vel", "mass", "radius", "kind")
+_CHUNK_ROWS = 8192
+
+Frame = namedtuple("Frame", "index step t ids pos vel mass radius kind")
+Frame.__doc__ = ("One frame: its index, step and time, and (k,) ids, (k, dim) pos and vel, "
+                 "(k,) mass, radius and kind codes of the bodies alive then.")
+Trajectory = namedtuple("Trajectory", "t pos vel alive")
+Trajectory.__doc__ = ("One body through the frames: (F,) times, (F, dim) pos and vel (NaN "
+                      "where it was not alive), (F,) alive.")
+ReplayResult = namedtuple("ReplayResult", "ok frames diverged_at max_difference world message")
+ReplayResult.__doc__ = ("ok: every frame and the final state equal, bit for bit; frames: "
+                        "frames compared; diverged_at: the first frame that differs (None); "
+                        "max_difference: its largest |difference|; world: the replayed World.")
+
+
+class RunLogError(ValueError):
+    """A run log that cannot be written or read; the message names the file and why."""
+
+
+# ----------------------------------------------------------------------------- journal
+
+def _encode(value):
+    """A call argument as JSON-able data (floats exact: json writes them with repr)."""
+    if isinstance(value, np.ndarray):
+        return {"__array__": value.tolist(), "dtype": value.dtype.str}
+    if isinstance(value, np.generic):
+        return value.item()
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {"__spec__": type(value).__name__,
+                "fields": {f.name: _encode(getattr(value, f.name))
+                           for f in dataclasses.fields(value)}}
+    if isinstance(value, (list, tuple)):
+        return [_encode(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _encode(v) for k, v in value.items()}
+    return value
+
+
+def _decode(value):
+    if isinstance(value, list):
+        return [_decode(v) for v in value]
+    if isinstance(value, dict):
+        if "__array__" in value:
+            return np.array(value["__array__"], dtype=np.dtype(value["dtype"]))
+        if "__spec__" in value:
+            return _SPECS[value["__spec__"]](**{k: _decode(v)
+                                               for k, v in value["fields"].items()})
+        return {k: _decode(v) for k, v in value.items()}
+    return value
+
+
+def journaled(method):
+    """Wrap a public World method that changes the World: a run log attached to the World
+    records the call (the outermost one only: advance() calling step() is one input)."""
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        log = self.__dict__.get("_log")
+        if log is None or log.depth:
+            return method(self, *args, **kwargs)
+        return log.call(self, method.__name__, method, args, kwargs)
+    return wrapper
+
+
+# ----------------------------------------------------------------------------- writing
+
+def _metadata(world, every, every_time, checkpoint_every, flush_seconds, scenario):
+    import numba
+    from . import __version__
+    meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "spacephys_version": __version__,
+            "numpy_version": np.__version__, "numba_version": numba.__version__,
+            "h5py_version": h5py.__version__, "dim": world.dim, "G": world.G,
+            "units": world.units.name, "gravity": world.gravity, "integrator": world.integrator,
+            "dt": world.dt, "tolerance": world.tolerance,
+            "max_step": world.max_step if world.max_step is not None else math.inf,
+            "min_step": world.min_step, "step_control": world.step_control,
+            "softening": world.softening, "seed": world._seed,
+            "every": every or 0, "every_time": every_time or 0.0,
+            "checkpoint_every": checkpoint_every, "flush_seconds": flush_seconds,
+            "scenario": scenario or "", "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "closed": False}
+    return meta
+
+
+class RunLog:
+    """Records a World into an HDF5 file; made by World.record (see there), closed by close()
+    or a with-block. Frames every `every` steps or every `every_time` of simulation time,
+    the events of every step, every call that changed the World, a checkpoint every
+    `checkpoint_every` frames (at the end of the call in which it fell due)."""
+
+    def __init__(self, world, path, *, every=1, every_time=None, checkpoint_every=100,
+                 flush_seconds=1.0, compression="gzip", scenario=None, _resume=None):
+        self.path = os.fspath(path)
+        self.world = world
+        self.depth = 0                   # > 0 inside a journaled call
+        self._broken = None
+        self._compression = compression
+        self._last_flush = time.monotonic()
+        self._frames, self._rows, self._events, self._inputs = [], [], [], []
+        if _resume is not None:          # an open file, truncated to its last checkpoint
+            self._file, state = _resume
+            self.every, self.every_time = state["every"], state["every_time"]
+            self.checkpoint_every, self.flush_seconds = state["checkpoint_every"], \
+                state["flush_seconds"]
+            self.steps, self._next_time = state["log_steps"], state["next_time"]
+            self._counts = state["counts"]
+            self._since_checkpoint = 0
+            self._checkpoint_due = False
+            return
+        self.every, self.every_time = every, every_time
+        self.checkpoint_every, self.flush_seconds = checkpoint_every, flush_seconds
+        self.steps = 0                   # steps since the log began
+        self._next_time = world.t
+        self._counts = {"frames": 0, "rows": 0, "events": 0, "inputs": 0, "checkpoints": 0}
+        self._since_checkpoint = 0
+        self._checkpoint_due = False
+        try:
+            self._file = h5py.File(self.path, "w")
+        except OSError as e:
+            raise RunLogError(f"cannot write the run log {self.path!r}: {e}") from None
+        try:
+            self._create(world, _metadata(world, every, every_time, checkpoint_every,
+                                          flush_seconds, scenario))
+            self._frame(world)
+            self._checkpoint(world)
+        except OSError as e:
+            self._file.close()
+            raise RunLogError(f"cannot write the run log {self.path!r}: {e}") from None
+
+    def _create(self, world, meta):
+        f = self._file
+        f.attrs.update(meta)
+        dim = world.dim
+        opts = {} if self._compression is None else {"compression": self._compression}
+        if self._compression == "gzip":
+            opts["compression_opts"] = 1
+        frames = f.create_group("frames")
+        for name, dtype in (("step", np.int64), ("t", np.float64), ("first", np.int64),
+                            ("count", np.int64)):
+            frames.create_dataset(name, (0,), dtype, maxshape=(None,), chunks=(4096,), **opts)
+        for name, shape, dtype in (("ids", (), np.int64), ("pos", (dim,), np.float64),
+                                   ("vel", (dim,), np.float64), ("mass", (), np.float64),
+                                   ("radius", (), np.float64), ("kind", (), np.int16)):
+            frames.create_dataset(name, (0,) + shape, dtype, maxshape=(None,) + shape,
+                                  chunks=(_CHUNK_ROWS,) + shape, shuffle=bool(opts), **opts)
+        frames.attrs["kinds"] = json.dumps(list(world.kinds))
+        f.create_dataset("events", (0,), LOG_EVENT_DTYPE, maxshape=(None,), chunks=(1024,),
+                         **opts)
+        f["events"].attrs["kinds"] = json.dumps({str(k): v for k, v in EVENT_KINDS.items()})
+        inputs = f.create_group("inputs")
+        inputs.create_dataset("step", (0,), np.int64, maxshape=(None,), chunks=(1024,))
+        inputs.create_dataset("t", (0,), np.float64, maxshape=(None,), chunks=(1024,))
+        inputs.create_dataset("call", (0,), h5py.string_dtype(), maxshape=(None,),
+                              chunks=(256,))
+        f.create_group("checkpoints")
+
+    # -- what World calls
+    def call(self, world, name, method, args, kwargs):
+        """Run a journaled call and record it (with the exception it raised, if any)."""
+        step, t = self.steps, world.t
+        self.depth += 1
+        error = None
+        try:
+            return method(world, *args, **kwargs)
+        except Exception as e:
+            error = type(e).__name__
+            raise
+        finally:
+            self.depth -= 1
+            entry = {"call": name, "args": _encode(list(args)), "kwargs": _encode(kwargs)}
+            if error:
+                entry["raised"] = error
+            self._inputs.append((step, t, json.dumps(entry)))
+            if self._checkpoint_due and not error:
+                self._checkpoint(world)
+            self._maybe_flush()
+
+    def until_frame(self, world):
+        """Steps from now to the next frame."""
+        if self.every:
+            return self.every - self.steps % self.every
+        # steps of dt until t reaches the next multiple of every_time (rounding-tolerant)
+        left = (self._next_time - world.t) / world.dt
+        return max(1, math.ceil(left - 1e-9))
+
+    def stepped(self, world, k):
+        """k steps were taken: frame when one is due, flush when it is time."""
+        self.steps += k
+        due = self.steps % self.every == 0 if self.every else \
+            world.t >= self._next_time - 1e-9 * world.dt
+        if due:
+            self._frame(world)
+        self._maybe_flush()
+
+    def record_events(self, events):
+        if len(events):
+            rows = np.zeros(len(events), LOG_EVENT_DTYPE)
+            for name in EVENT_DTYPE.names:
+                rows[name] = events[name]
+            rows["step"] = self.steps
+            self._events.append(rows)
+
+    # -- frames, checkpoints, flushing
+    def _frame(self, world):
+        b = world._b
+        n, dim = b.n, world.dim
+        self._frames.append((self.steps, world.t, self._counts["rows"], n))
+        self._counts["rows"] += n
+        self._rows.append((b.ids[:n].copy(), b.pos[:n, :dim].copy(), b.vel[:n, :dim].copy(),
+                           b.mass[:n].copy(), b.radius[:n].copy(), b.kind[:n].copy()))
+        if self.every_time:
+            while self._next_time <= world.t + 1e-9 * world.dt:
+                self._next_time += self.every_time
+        self._since_checkpoint += 1
+        if self._since_checkpoint >= self.checkpoint_every:
+            self._checkpoint_due = True
+
+    def _checkpoint(self, world):
+        """The whole World now, with the table lengths it corresponds to (flushed first)."""
+        self.flush()
+        self._guarded(self._write_checkpoint, world)
+        self._since_checkpoint = 0
+        self._checkpoint_due = False
+
+    def _write_checkpoint(self, world):
+        c = self._counts
+        group = self._file["checkpoints"].create_group(f"{c['checkpoints']:06d}")
+        group.attrs.update({"step": self.steps, "t": world.t, "frames": c["frames"],
+                            "rows": c["rows"], "events": c["events"], "inputs": c["inputs"],
+                            "next_time": self._next_time})
+        snapshot.save_world(group.create_group("world"), world)
+        c["checkpoints"] += 1
+        self._file.flush()
+
+    def _maybe_flush(self):
+        if time.monotonic() - self._last_flush >= self.flush_seconds:
+            self.flush()
+
+    def flush(self):
+        """Write everything buffered to the file, then flush it to disk."""
+        self._guarded(self._write_buffers)
+        self._last_flush = time.monotonic()
+
+    def _guarded(self, write, *args):
+        if self._broken:
+            raise RunLogError(self._broken)
+        if self._file is None:
+            raise RunLogError(f"the run log {self.path!r} is closed")
+        try:
+            write(*args)
+        except OSError as e:
+            self._broken = (f"writing the run log {self.path!r} failed: {e} (is the disk "
+                            f"full?). It holds everything flushed before, up to frame "
+                            f"{self._counts['frames'] - 1}; nothing more is written")
+            raise RunLogError(self._broken) from None
+
+    def _write_buffers(self):
+        f, c = self._file, self._counts
+        if self._frames:
+            self._append(f["frames/step"], np.array([fr[0] for fr in self._frames], np.int64))
+            self._append(f["frames/t"], np.array([fr[1] for fr in self._frames]))
+            self._append(f["frames/first"], np.array([fr[2] for fr in self._frames], np.int64))
+            self._append(f["frames/count"], np.array([fr[3] for fr in self._frames], np.int64))
+            for k, name in enumerate(_ROWS):
+                self._append(f["frames/" + name], np.concatenate([r[k] for r in self._rows]))
+            c["frames"] += len(self._frames)
+            self._frames, self._rows = [], []
+        if self._events:
+            self._append(f["events"], np.concatenate(self._events))
+            c["events"] = f["events"].shape[0]
+            self._events = []
+        if self._inputs:
+            self._append(f["inputs/step"], np.array([e[0] for e in self._inputs], np.int64))
+            self._append(f["inputs/t"], np.array([e[1] for e in self._inputs]))
+            self._append(f["inputs/call"], np.array([e[2] for e in self._inputs], object))
+            c["inputs"] += len(self._inputs)
+            self._inputs = []
+        f.flush()
+
+    @staticmethod
+    def _append(dataset, data):
+        n = dataset.shape[0]
+        dataset.resize(n + len(data), axis=0)
+        dataset[n:] = data
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self):
+        """Flush, write a last frame (unless one was just taken) and a last checkpoint,
+        mark the log closed and stop recording the World."""
+        if self._file is None:
+            return
+        world = self.world
+        if world.__dict__.get("_log") is self:
+            world._log = None
+        try:
+            if not self._broken:
+                if self._frames_at() != self.steps:
+                    self._frame(world)
+                self._checkpoint(world)
+                self._file.attrs["closed"] = True
+                self._file.flush()
+        finally:
+            self._file.close()
+            self._file = None
+
+    def _frames_at(self):
+        """The step of the last frame taken."""
+        if self._frames:
+            return self._frames[-1][0]
+        return int(self._file["frames/step"][-1]) if self._counts["frames"] else -1
+
+
+# ----------------------------------------------------------------------------- reading
+
+def _open(path, mode="r"):
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise RunLogError(f"{path!r}: no such file")
+    try:
+        f = h5py.File(path, mode)
+    except OSError as e:
+        text = str(e)
+        why = "not an HDF5 file" if "signature" in text else "truncated or corrupt"
+        raise RunLogError(f"{path!r}: {why} ({text})") from None
+    try:
+        kind = f.attrs.get("format")
+        if kind not in (FORMAT, WORLD_FORMAT):
+            raise RunLogError(f"{path!r}: not a spacephys run log (no format attribute "
+                              f"'{FORMAT}'; found {kind!r})")
+        version = int(f.attrs.get("format_version", -1))
+        if version > FORMAT_VERSION:
+            raise RunLogError(f"{path!r}: format version {version} is newer than this "
+                              f"spacephys reads ({FORMAT_VERSION}); upgrade spacephys")
+        if version < 1:
+            raise RunLogError(f"{path!r}: no valid format_version ({version})")
+        need = ("world",) if kind == WORLD_FORMAT else \
+            ("frames/step", "frames/t", "frames/first", "frames/count", "frames/ids",
+             "events", "inputs/call", "checkpoints")
+        for name in need:
+            if name not in f:
+                raise RunLogError(f"{path!r}: corrupt spacephys log: {name!r} is missing")
+    except Exception:
+        f.close()
+        raise
+    return f
+
+
+def _checkpoint_world(f, path, index=-1):
+    names = sorted(f["checkpoints"].keys())
+    if not names:
+        raise RunLogError(f"{path!r}: the log holds no checkpoint")
+    try:
+        name = names[index]
+    except IndexError:
+        raise RunLogError(f"checkpoint {index}: the log {path!r} holds {len(names)}") from None
+    group = f["checkpoints"][name]
+    try:
+        return snapshot.load_world(group["world"]), dict(group.attrs)
+    except (KeyError, OSError, ValueError, TypeError) as e:
+        raise RunLogError(f"{path!r}: checkpoint {name} is corrupt ({e})") from None
+
+
+class Run:
+    """A run log opened for reading (sp.open_run): lazy, nothing is loaded until asked for.
+
+    meta: the root attributes; times, steps: (F,) of the frames; frame(i), frame_at(t),
+    trajectory(id), events(kind=, id=), inputs(), checkpoints, world(k)."""
+
+    def __init__(self, path):
+        self.path = os.fspath(path)
+        self._f = _open(self.path)
+        self.meta = {k: (v.item() if isinstance(v, np.generic) else v)
+                     for k, v in self._f.attrs.items()}
+        self.kinds = tuple(json.loads(self._f["frames"].attrs["kinds"]))
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self):
+        self._f.close()
+
+    def __len__(self):
+        return self._f["frames/step"].shape[0]
+
+    @property
+    def times(self):
+        return self._f["frames/t"][:]
+
+    @property
+    def steps(self):
+        return self._f["frames/step"][:]
+
+    def frame(self, index):
+        n = len(self)
+        if not -n <= index < n:
+            raise IndexError(f"frame {index}: the log holds {n} frames")
+        index %= n
+        fr = self._f["frames"]
+        first, count = int(fr["first"][index]), int(fr["count"][index])
+        rows = slice(first, first + count)
+        return Frame(index, int(fr["step"][index]), float(fr["t"][index]),
+                     *(fr[name][rows] for name in _ROWS))
+
+    def frame_at(self, t):
+        """The last frame taken at or before time t."""
+        times = self.times
+        k = int(np.searchsorted(times, t + 1e-12 * max(abs(t), 1.0), side="right")) - 1
+        if k < 0:
+            raise IndexError(f"t = {t}: before the first frame (t = {times[0]})")
+        return self.frame(k)
+
+    def trajectory(self, body_id):
+        """Trajectory of one id through every frame (read in blocks: O(rows) time, O(block)
+        memory)."""
+        fr = self._f["frames"]
+        first = fr["first"][:]
+        F, dim = first.size, int(self.meta["dim"])
+        pos, vel = np.full((F, dim), np.nan), np.full((F, dim), np.nan)
+        alive = np.zeros(F, dtype=bool)
+        ids = fr["ids"]
+        block = 1 << 20
+        for start in range(0, ids.shape[0], block):
+            rows = start + np.flatnonzero(ids[start:start + block] == body_id)
+            if rows.size:
+                frames = np.searchsorted(first, rows, side="right") - 1
+                alive[frames] = True
+                pos[frames] = fr["pos"][rows]
+                vel[frames] = fr["vel"][rows]
+        return Trajectory(self.times, pos, vel, alive)
+
+    def events(self, kind=None, id=None):
+        """Events (LOG_EVENT_DTYPE: the step and EVENT_DTYPE's fields), optionally those of
+        one kind (name or code) or involving one id (as a or b)."""
+        ev = self._f["events"][:]
+        if kind is not None:
+            names = {v: k for k, v in EVENT_KINDS.items()}
+            code = names.get(kind, kind)
+            if code not in EVENT_KINDS:
+                raise ValueError(f"kind = {kind!r}: not an event kind; valid: "
+                                 f"{', '.join(EVENT_KINDS.values())}")
+            ev = ev[ev["kind"] == code]
+        if id is not None:
+            ev = ev[(ev["a"] == id) | (ev["b"] == id)]
+        return ev
+
+    def inputs(self):
+        """The recorded calls, in order: dicts with step, t, call, args, kwargs (and raised,
+        the exception it raised, if it did)."""
+        g = self._f["inputs"]
+        steps, times = g["step"][:], g["t"][:]
+        out = []
+        for s, t, text in zip(steps, times, g["call"].asstr()[:]):
+            entry = json.loads(text)
+            entry.update(step=int(s), t=float(t))
+            out.append(entry)
+        return out
+
+    @property
+    def checkpoints(self):
+        """(step, t) of each checkpoint."""
+        return [(int(g.attrs["step"]), float(g.attrs["t"]))
+                for _, g in sorted(self._f["checkpoints"].items())]
+
+    def world(self, checkpoint=-1):
+        """The World saved at a checkpoint (default: the last)."""
+        return _checkpoint_world(self._f, self.path, checkpoint)[0]
+
+
+def open_run(path):
+    """Open a run log for reading (see Run)."""
+    return Run(path)
+
+
+# ----------------------------------------------------------------------------- world files
+
+def save_world(world, path):
+    """Write the World's whole state to an HDF5 file (World.save)."""
+    path = os.fspath(path)
+    try:
+        with h5py.File(path, "w") as f:
+            f.attrs.update({"format": WORLD_FORMAT, "format_version": FORMAT_VERSION})
+            snapshot.save_world(f.create_group("world"), world)
+    except OSError as e:
+        raise RunLogError(f"cannot write {path!r}: {e}") from None
+
+
+def load_world(path, checkpoint=-1):
+    """A World from World.save's file, or from a run log's checkpoint (default: the last)."""
+    path = os.fspath(path)
+    f = _open(path)
+    try:
+        if f.attrs["format"] == WORLD_FORMAT:
+            try:
+                return snapshot.load_world(f["world"])
+            except (KeyError, OSError, ValueError, TypeError) as e:
+                raise RunLogError(f"{path!r}: corrupt world file ({e})") from None
+        return _checkpoint_world(f, path, checkpoint)[0]
+    finally:
+        f.close()
+
+
+# ----------------------------------------------------------------------------- resume, replay
+
+def resume(path):
+    """Reopen a run log (closed, or left by a killed process) at its last checkpoint: the
+    World as it was then, recording again into the same file. Frames, events and inputs after
+    that checkpoint are dropped (the calls that made them are not known to this process).
+    Returns the World (its log: world.recording)."""
+    path = os.fspath(path)
+    f = _open(path, "r+")
+    try:
+        if f.attrs["format"] != FORMAT:
+            raise RunLogError(f"{path!r}: a world file, not a run log: nothing to resume")
+        world, attrs = _checkpoint_world(f, path)
+        names = sorted(f["checkpoints"].keys())
+        counts = {"frames": int(attrs["frames"]), "rows": int(attrs["rows"]),
+                  "events": int(attrs["events"]), "inputs": int(attrs["inputs"]),
+                  "checkpoints": len(names)}
+        for name in ("step", "t", "first", "count"):
+            f["frames/" + name].resize(counts["frames"], axis=0)
+        for name in _ROWS:
+            f["frames/" + name].resize(counts["rows"], axis=0)
+        f["events"].resize(counts["events"], axis=0)
+        for name in ("step", "t", "call"):
+            f["inputs/" + name].resize(counts["inputs"], axis=0)
+        f.attrs["closed"] = False
+        f.flush()
+    except Exception:
+        f.close()
+        raise
+    meta = f.attrs
+    state = {"every": int(meta["every"]), "every_time": float(meta["every_time"]) or None,
+             "checkpoint_every": int(meta["checkpoint_every"]),
+             "flush_seconds": float(meta["flush_seconds"]), "log_steps": int(attrs["step"]),
+             "next_time": float(attrs["next_time"]), "counts": counts}
+    state["every"] = state["every"] or None
+    log = RunLog(world, path, _resume=(f, state))
+    world._log = log
+    return world
+
+
+class _Replayer:
+    """Stands in for a RunLog while a log is replayed: the same frame schedule, but each
+    frame is compared with the recorded one instead of written."""
+
+    def __init__(self, run, start_steps, next_time, first_frame):
+        meta = run.meta
+        self.run = run
+        self.every = int(meta["every"]) or None
+        self.every_time = float(meta["every_time"]) or None
+        self.steps = start_steps
+        self._next_time = next_time
+        self.frame_index = first_frame
+        self.depth = 0
+        self.diverged = None            # (frame, max difference)
+
+    def call(self, world, name, method, args, kwargs):
+        self.depth += 1
+        try:
+            return method(world, *args, **kwargs)
+        finally:
+            self.depth -= 1
+
+    until_frame = RunLog.until_frame
+
+    def stepped(self, world, k):
+        self.steps += k
+        due = self.steps % self.every == 0 if self.every else \
+            world.t >= self._next_time - 1e-9 * world.dt
+        if due:
+            self.compare(world)
+            if self.every_time:
+                while self._next_time <= world.t + 1e-9 * world.dt:
+                    self._next_time += self.every_time
+
+    def compare(self, world):
+        if self.diverged is not None or self.frame_index >= len(self.run):
+            self.frame_index += 1
+            return
+        fr = self.run.frame(self.frame_index)
+        b, dim = world._b, world.dim
+        n = b.n
+        mine = (b.ids[:n], b.pos[:n, :dim], b.vel[:n, :dim], b.mass[:n], b.radius[:n],
+                b.kind[:n])
+        same = fr.step == self.steps and all(
+            a.shape == r.shape and np.array_equal(a, r) for a, r in zip(mine, fr[3:]))
+        if not same:
+            diff = np.inf
+            if mine[1].shape == fr.pos.shape and np.array_equal(mine[0], fr.ids):
+                diff = float(max(np.max(np.abs(mine[1] - fr.pos), initial=0.0),
+                                 np.max(np.abs(mine[2] - fr.vel), initial=0.0)))
+            self.diverged = (self.frame_index, diff)
+        self.frame_index += 1
+
+    def record_events(self, events):
+        pass
+
+
+def replay(path):
+    """Re-run a log from its first checkpoint and its recorded calls; compare every frame
+    and the final state (the last checkpoint of a closed log) bit for bit. Returns a
+    ReplayResult naming the first frame that differs, if one does."""
+    with Run(path) as run:
+        world, attrs = _checkpoint_world(run._f, run.path, 0)
+        # checkpoint 0 is taken just after frame 0, at the same step
+        rep = _Replayer(run, int(attrs["step"]), float(attrs["next_time"]), 0)
+        rep.compare(world)
+        world._log = rep
+        for entry in run.inputs():
+            method = getattr(type(world), entry["call"]) if entry["call"] != "setattr" else None
+            args, kwargs = _decode(entry["args"]), _decode(entry["kwargs"])
+            try:
+                if method is None:
+                    object.__setattr__(world, *args)
+                else:
+                    method(world, *args, **kwargs)
+            except Exception as e:
+                if type(e).__name__ != entry.get("raised"):
+                    raise
+        closed = bool(run.meta.get("closed"))
+        if closed and len(run) > rep.frame_index:
+            rep.compare(world)                               # close()'s last frame
+        frames = rep.frame_index
+        world._log = None
+        if rep.diverged is not None:
+            k, diff = rep.diverged
+            return ReplayResult(False, frames, k, diff, world,
+                                f"frame {k} (t = {run.times[k]:g}) differs: largest "
+                                f"difference {diff:.3g}")
+        if frames != len(run):
+            return ReplayResult(False, frames, None, None, world,
+                                f"the replay made {frames} frames, the log holds {len(run)}")
+        if closed:
+            final = run.world(-1)
+            n = final._b.n
+            for name in ("ids", "pos", "vel", "mass", "radius", "kind"):
+                if not np.array_equal(getattr(final._b, name)[:n],
+                                      getattr(world._b, name)[:world._b.n]) \
+                        or final.t != world.t:
+                    return ReplayResult(False, frames, None, None, world,
+                                        f"the final state differs in {name}")
+        return ReplayResult(True, frames, None, None, world,
+                            f"{frames} frames and the final state equal, bit for bit")
