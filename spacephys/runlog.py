@@ -20,6 +20,7 @@ import functools
 import json
 import math
 import os
+import resource
 import time
 from collections import namedtuple
 
@@ -48,6 +49,11 @@ ReplayResult = namedtuple("ReplayResult", "ok frames diverged_at max_difference 
 ReplayResult.__doc__ = ("ok: every frame and the final state equal, bit for bit; frames: "
                         "frames compared; diverged_at: the first frame that differs (None); "
                         "max_difference: its largest |difference|; world: the replayed World.")
+
+
+def _next_multiple(t, every_time, dt):
+    """The first multiple of every_time after t (a hair of dt of slack for rounding)."""
+    return (math.floor((t + 1e-9 * dt) / every_time) + 1) * every_time
 
 
 class RunLogError(ValueError):
@@ -146,21 +152,21 @@ class RunLog:
         self.every, self.every_time = every, every_time
         self.checkpoint_every, self.flush_seconds = checkpoint_every, flush_seconds
         self.steps = 0                   # steps since the log began
-        self._next_time = world.t
+        self._next_time = world.t            # the first frame: now
         self._counts = {"frames": 0, "rows": 0, "events": 0, "inputs": 0, "checkpoints": 0}
         self._since_checkpoint = 0
         self._checkpoint_due = False
         try:
             self._file = h5py.File(self.path, "w")
-        except OSError as e:
+        except (OSError, RuntimeError) as e:
             raise RunLogError(f"cannot write the run log {self.path!r}: {e}") from None
         try:
             self._create(world, _metadata(world, every, every_time, checkpoint_every,
                                           flush_seconds, scenario))
             self._frame(world)
             self._checkpoint(world)
-        except OSError as e:
-            self._file.close()
+        except (OSError, RuntimeError, RunLogError) as e:
+            self._abandon()
             raise RunLogError(f"cannot write the run log {self.path!r}: {e}") from None
 
     def _create(self, world, meta):
@@ -245,25 +251,27 @@ class RunLog:
         self._rows.append((b.ids[:n].copy(), b.pos[:n, :dim].copy(), b.vel[:n, :dim].copy(),
                            b.mass[:n].copy(), b.radius[:n].copy(), b.kind[:n].copy()))
         if self.every_time:
-            while self._next_time <= world.t + 1e-9 * world.dt:
-                self._next_time += self.every_time
+            self._next_time = _next_multiple(world.t, self.every_time, world.dt)
         self._since_checkpoint += 1
         if self._since_checkpoint >= self.checkpoint_every:
             self._checkpoint_due = True
 
-    def _checkpoint(self, world):
-        """The whole World now, with the table lengths it corresponds to (flushed first)."""
+    def _checkpoint(self, world, extra_frame=False):
+        """The whole World now, with the table lengths it corresponds to (flushed first);
+        extra_frame: the last frame is close()'s, off the schedule (resume drops it)."""
         self.flush()
-        self._guarded(self._write_checkpoint, world)
+        self._guarded(self._write_checkpoint, world, extra_frame)
         self._since_checkpoint = 0
         self._checkpoint_due = False
 
-    def _write_checkpoint(self, world):
+    def _write_checkpoint(self, world, extra_frame):
         c = self._counts
+        b = world._b
+        self._room(sum(getattr(b, name).nbytes for name in b.columns))
         group = self._file["checkpoints"].create_group(f"{c['checkpoints']:06d}")
         group.attrs.update({"step": self.steps, "t": world.t, "frames": c["frames"],
                             "rows": c["rows"], "events": c["events"], "inputs": c["inputs"],
-                            "next_time": self._next_time})
+                            "next_time": self._next_time, "extra_frame": extra_frame})
         snapshot.save_world(group.create_group("world"), world)
         c["checkpoints"] += 1
         self._file.flush()
@@ -284,14 +292,45 @@ class RunLog:
             raise RunLogError(f"the run log {self.path!r} is closed")
         try:
             write(*args)
-        except OSError as e:
+        except (OSError, RuntimeError) as e:       # h5py reports a failed flush as either
+            refused = str(e).startswith("no room")
             self._broken = (f"writing the run log {self.path!r} failed: {e} (is the disk "
-                            f"full?). It holds everything flushed before, up to frame "
-                            f"{self._counts['frames'] - 1}; nothing more is written")
+                            f"full?). " + (
+                                f"The log holds everything up to frame "
+                                f"{self._counts['frames'] - 1}" if refused else
+                                f"The file may be unreadable past frame "
+                                f"{self._counts['frames'] - 1}") +
+                            "; nothing more is written to it")
+            self._abandon()
             raise RunLogError(self._broken) from None
+
+    def _abandon(self):
+        """Close the file after a failed write, ignoring what closing it reports."""
+        try:
+            self._file.close()
+        except Exception:
+            pass
+        self._file = None
+
+    def _room(self, need):
+        """Refuse a write that would not fit on the disk (or under the file size limit)
+        before HDF5 starts it: a write that fails half-way can leave the file unreadable."""
+        need = 2 * need + (1 << 20)           # chunks are allocated whole; some slack
+        folder = os.path.dirname(os.path.abspath(self.path))
+        st = os.statvfs(folder)
+        free = st.f_bavail * st.f_frsize
+        size = os.path.getsize(self.path)
+        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+        if limit != resource.RLIM_INFINITY:
+            free = min(free, limit - size)
+        if need > free:
+            raise OSError(f"no room: writing needs about {need} bytes, {max(free, 0)} are "
+                          f"free (disk space or the file size limit)")
 
     def _write_buffers(self):
         f, c = self._file, self._counts
+        self._room(sum(a.nbytes for row in self._rows for a in row) +
+                   sum(e.nbytes for e in self._events) + sum(len(e[2]) for e in self._inputs))
         if self._frames:
             self._append(f["frames/step"], np.array([fr[0] for fr in self._frames], np.int64))
             self._append(f["frames/t"], np.array([fr[1] for fr in self._frames]))
@@ -328,16 +367,19 @@ class RunLog:
     def close(self):
         """Flush, write a last frame (unless one was just taken) and a last checkpoint,
         mark the log closed and stop recording the World."""
-        if self._file is None:
-            return
         world = self.world
+        if self._file is None and not self._broken:
+            return
         if world.__dict__.get("_log") is self:
             world._log = None
+        if self._file is None:                     # abandoned after a failed write
+            return
         try:
             if not self._broken:
-                if self._frames_at() != self.steps:
-                    self._frame(world)
-                self._checkpoint(world)
+                extra = self._frames_at() != self.steps
+                if extra:
+                    self._frame(world)       # the end state, off the frame schedule
+                self._checkpoint(world, extra_frame=extra)
                 self._file.attrs["closed"] = True
                 self._file.flush()
         finally:
@@ -560,6 +602,10 @@ def resume(path):
         counts = {"frames": int(attrs["frames"]), "rows": int(attrs["rows"]),
                   "events": int(attrs["events"]), "inputs": int(attrs["inputs"]),
                   "checkpoints": len(names)}
+        if attrs.get("extra_frame"):
+            # close()'s frame of the end state, off the schedule: the run goes on from here
+            counts["frames"] -= 1
+            counts["rows"] = int(f["frames/first"][counts["frames"]])
         for name in ("step", "t", "first", "count"):
             f["frames/" + name].resize(counts["frames"], axis=0)
         for name in _ROWS:
@@ -614,8 +660,7 @@ class _Replayer:
         if due:
             self.compare(world)
             if self.every_time:
-                while self._next_time <= world.t + 1e-9 * world.dt:
-                    self._next_time += self.every_time
+                self._next_time = _next_multiple(world.t, self.every_time, world.dt)
 
     def compare(self, world):
         if self.diverged is not None or self.frame_index >= len(self.run):

@@ -15,11 +15,18 @@ from .kernels import collide
 from .kernels.arrays import Work
 from .kernels import gauss_radau as gr
 from .kernels.gravity import CENTRAL, DIRECT, NONE, UNIFORM
-from .kernels.integrate import rk_steps, splitting_steps
-from .kernels.wisdom_holman import wisdom_holman_steps
+from ._dispatch import fast_call
+from .kernels import integrate
+from .kernels.wisdom_holman import wisdom_holman_steps as _wisdom_holman_steps
 from .runlog import journaled
 from .state import Bodies
 from .units import get_units
+
+# the step kernels, called past numba's per-call typing (see _dispatch.py)
+splitting_steps = fast_call(integrate.splitting_steps)
+rk_steps = fast_call(integrate.rk_steps)
+gauss_radau_steps = fast_call(gr.gauss_radau_steps)
+wisdom_holman_steps = fast_call(_wisdom_holman_steps)
 
 GRAVITY_MODELS = {"none": NONE, "direct": DIRECT, "uniform": UNIFORM, "central": CENTRAL}
 STEP_CONTROLS = ("auto", "pulling", "all")
@@ -937,7 +944,7 @@ class World(Actors):
         spec = self._spec
         stats = self._adaptive_stats
         before = stats.copy()
-        done = gr.gauss_radau_steps(b.pos[:n], b.vel[:n], *args, *cols, control, riders,
+        done = gauss_radau_steps(b.pos[:n], b.vel[:n], *args, *cols, control, riders,
                                     spec.nodes, spec.c_gb, spec.d_bg, self._dt, nsteps,
                                     self._adaptive, stats, setup, ctrl, self._workspace())
         if stats[gr.FAILED]:
