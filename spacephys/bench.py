@@ -475,11 +475,108 @@ def fleet(quick=False):
             "gravity_ratio": rebound_ms / ours_ms}
 
 
+def log(quick=False):
+    """What recording costs: a 1 000-body 3D leapfrog run (equal masses in a unit sphere,
+    softened) stepped in one call, without a log and recording a frame every step or every
+    10th step (default settings: positions and velocities raw, the rest gzip; and with
+    compress_state=True); wall time overhead and bytes per frame, medians of alternating
+    repeats. REBOUND's Simulationarchive on the same run (a snapshot every step / every 10th
+    step) for comparison, as time per frame."""
+    import tempfile
+    import numba
+    from .world import World
+    rebound = _rebound()
+    n, steps, reps = 1000, (500 if quick else 3000), (3 if quick else 5)
+    rng = np.random.default_rng(7)
+    pos = rng.normal(size=(n, 3))
+    vel = rng.normal(scale=0.1, size=(n, 3))
+    folder = tempfile.mkdtemp(prefix="spacephys-bench-log-")
+    path = os.path.join(folder, "run.h5")
+
+    def ours(every, **kw):
+        w = World(dim=3, dt=1e-3, softening=1e-3)
+        w.add_bodies(np.full(n, 1.0 / n), pos, vel)
+        w.step(1)
+        log = w.record(path, every=every, **kw) if every else None
+        start = time.perf_counter()
+        w.step(steps)
+        if log is not None:
+            log.flush()
+        seconds = time.perf_counter() - start
+        size = 0
+        if log is not None:
+            log.close()
+            size = os.path.getsize(path) / (steps // every + 2)
+        return seconds, size
+
+    def theirs(every):
+        sim = rebound.Simulation()
+        sim.integrator, sim.gravity, sim.dt, sim.softening = "leapfrog", "basic", 1e-3, 1e-3
+        for p, v in zip(pos, vel):
+            sim.add(m=1.0 / n, x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
+        if every:
+            sim.save_to_file(os.path.join(folder, "run.bin"), step=every, delete_file=True)
+        start = time.perf_counter()
+        sim.steps(steps // 4)
+        return time.perf_counter() - start
+
+    cases = {"none": {}, "every step": {"every": 1}, "every 10th step": {"every": 10},
+             "every step, compress_state": {"every": 1, "compress_state": True},
+             "every 10th step, compress_state": {"every": 10, "compress_state": True}}
+    ours(1)                                       # compile or load the kernels once
+    runs = {name: [] for name in cases}
+    rb = {0: [], 1: [], 10: []}
+    for _ in range(reps):
+        for name, kw in cases.items():
+            runs[name].append(ours(kw.get("every", 0),
+                                   **{k: v for k, v in kw.items() if k != "every"}))
+        for every in rb:
+            rb[every].append(theirs(every))
+    base = float(np.median([r[0] for r in runs["none"]]))
+    rows = []
+    for name, kw in cases.items():
+        if name == "none":
+            continue
+        t = float(np.median([r[0] for r in runs[name]]))
+        every = kw["every"]
+        rows.append({"case": name, "seconds": t, "overhead": t / base - 1.0,
+                     "us_per_frame": (t - base) / (steps / every) * 1e6,
+                     "bytes_per_frame": float(np.median([r[1] for r in runs[name]]))})
+    rb_base = float(np.median(rb[0]))
+    rebound_rows = [{"every": every, "overhead": float(np.median(rb[every])) / rb_base - 1.0,
+                     "us_per_frame": (float(np.median(rb[every])) - rb_base) /
+                     (steps // 4 / every) * 1e6} for every in (1, 10)]
+    for name in os.listdir(folder):
+        os.unlink(os.path.join(folder, name))
+    os.rmdir(folder)
+    return {"benchmark": "log", "quick": quick,
+            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
+            "numba_threads": numba.get_num_threads(),
+            "versions": {"numba": numba.__version__, "numpy": np.__version__,
+                         "rebound": rebound.__version__},
+            "bodies": n, "steps": steps, "base_seconds": base,
+            "base_us_per_step": base / steps * 1e6, "cases": rows,
+            "rebound_us_per_step": rb_base / (steps // 4) * 1e6, "rebound": rebound_rows}
+
+
 def format_table(results):
     lines = [f"{results['benchmark']} benchmark on {results['machine']} "
              f"({results['numba_threads']} numba threads; {results['versions']})",
              f"{'case':40s} {'spacephys':>14s} {'REBOUND':>14s} {'speed-up':>9s} "
              f"{'pairs/s (ours)':>15s} {'max rel. diff':>14s}"]
+    if results["benchmark"] == "log":
+        lines = lines[:1] + [
+            f"{results['bodies']} bodies, 3D leapfrog, {results['steps']} steps in one call: "
+            f"{results['base_us_per_step']:.0f} us per step without a log"]
+        for c in results["cases"]:
+            lines.append(f"{c['case']:34s} {c['overhead']:+7.1%} wall time, "
+                         f"{c['us_per_frame']:6.1f} us and {c['bytes_per_frame'] / 1e3:6.1f} kB "
+                         f"per frame")
+        for r in results["rebound"]:
+            lines.append(f"REBOUND Simulationarchive, a snapshot every {r['every']:>2} steps: "
+                         f"{r['overhead']:+7.1%} wall time of its {results['rebound_us_per_step']:.0f}"
+                         f" us steps, {r['us_per_frame']:6.1f} us per snapshot")
+        return "\n".join(lines)
     if results["benchmark"] == "fleet":
         s = results["split_ms"]
         rest = results["median_ms"] - sum(s.values())
@@ -539,4 +636,4 @@ def format_table(results):
 
 
 BENCHMARKS = {"gravity": gravity, "integrators": integrators, "collisions": collisions,
-              "fleet": fleet}
+              "fleet": fleet, "log": log}

@@ -60,7 +60,7 @@ def main(argv=None):
     run.set_defaults(func=_run)
 
     bench = sub.add_parser("bench", help="benchmark side by side with REBOUND")
-    bench.add_argument("what", choices=["gravity", "integrators", "collisions", "fleet"])
+    bench.add_argument("what", choices=["gravity", "integrators", "collisions", "fleet", "log"])
     bench.add_argument("--quick", action="store_true", help="fewer repeats, smaller cases")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.set_defaults(func=_bench)

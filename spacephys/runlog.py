@@ -5,8 +5,12 @@ Layout (format version 1; docs/runlog.md has every dataset and attribute):
 
     /                      attrs: format = "spacephys-run", format_version, versions, settings
     /frames/step, t        (F,) int64 / float64: when each frame was taken
-    /frames/first, count   (F,) int64: frame f is rows first[f] : first[f] + count[f] of...
-    /frames/ids ... kind   (R,) / (R, dim): ids, pos, vel, mass, radius, kind of the live bodies
+    /frames/first, count   (F,) int64: frame f's bodies are rows first[f] : first[f] + count[f]
+    /frames/pos, vel       (R, dim) float64: of the live bodies, in the order of its layout
+    /frames/layout         (F,) int64: the frame's row in /layouts
+    /layouts/first, count  (L,) int64: a layout's rows in...
+    /layouts/ids, mass, radius, kind   (Rl,): who the bodies are, written only when they
+                           change (bodies added, removed, or a mass or radius changed)
     /events                (E,) compound: "step" and the fields of spacephys.EVENT_DTYPE
     /inputs/step, t, call  (I,): the calls that changed the World, as JSON, in order
     /checkpoints/NNNNNN    the whole World (snapshot.py) and the lengths of the tables then
@@ -37,6 +41,7 @@ FORMAT_VERSION = 1
 LOG_EVENT_DTYPE = np.dtype([("step", np.int64)] + EVENT_DTYPE.descr)
 _SPECS = {"ShipSpec": ShipSpec, "MissileSpec": MissileSpec, "ExplosionSpec": ExplosionSpec}
 _ROWS = ("ids", "pos", "vel", "mass", "radius", "kind")
+_LAYOUT = ("ids", "mass", "radius", "kind")
 _CHUNK_ROWS = 8192
 
 Frame = namedtuple("Frame", "index step t ids pos vel mass radius kind")
@@ -106,7 +111,8 @@ def journaled(method):
 
 # ----------------------------------------------------------------------------- writing
 
-def _metadata(world, every, every_time, checkpoint_every, flush_seconds, scenario):
+def _metadata(world, every, every_time, checkpoint_every, checkpoint_seconds, flush_seconds,
+              scenario):
     import numba
     from . import __version__
     meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "spacephys_version": __version__,
@@ -118,32 +124,127 @@ def _metadata(world, every, every_time, checkpoint_every, flush_seconds, scenari
             "min_step": world.min_step, "step_control": world.step_control,
             "softening": world.softening, "seed": world._seed,
             "every": every or 0, "every_time": every_time or 0.0,
-            "checkpoint_every": checkpoint_every, "flush_seconds": flush_seconds,
+            "checkpoint_every": checkpoint_every or 0, "checkpoint_seconds": checkpoint_seconds,
+            "flush_seconds": flush_seconds,
             "scenario": scenario or "", "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "closed": False}
     return meta
 
 
-class RunLog:
+class _Schedule:
+    """When frames fall due (every `every` steps, or at the first step at or past each
+    multiple of `every_time`), shared by the writer and the replayer; subclasses take the
+    frame in _add_frame(step, t, ids, pos, vel, mass, radius, kind)."""
+
+    def until_frame(self, world):
+        """Steps from now to the next frame."""
+        if self.every:
+            return self.every - self.steps % self.every
+        return self._steps_to(world, self._next_time, 1)
+
+    @staticmethod
+    def _steps_to(world, when, least):
+        """The fewest steps d >= least after which the World's time reaches `when` (with a
+        hair of dt of slack), computed as World.t computes the time."""
+        base, steps, dt = world._t_base, world._steps, world._dt
+        reached = lambda d: base + (steps + d) * dt >= when - 1e-9 * dt
+        d = max(least, math.ceil((when - base) / dt - steps - 1e-9))
+        while not reached(d):
+            d += 1
+        while d > least and reached(d - 1):
+            d -= 1
+        return d
+
+    def frame_offsets(self, world, n, limit):
+        """(k,) int64: the step counts in [1, n] from now after which frames fall due, at most
+        `limit` of them."""
+        if self.every:
+            first = self.every - self.steps % self.every
+            return np.arange(first, n + 1, self.every, dtype=np.int64)[:limit]
+        out, when, d = [], self._next_time, 1
+        while len(out) < limit:
+            d = self._steps_to(world, when, d)
+            if d > n:
+                break
+            out.append(d)
+            t = world._t_base + (world._steps + d) * world._dt
+            when = _next_multiple(t, self.every_time, world._dt)
+            d += 1
+        return np.array(out, dtype=np.int64)
+
+    def stepped(self, world, k):
+        """k steps were taken (by a kernel cut at frames): frame when one is due."""
+        self.steps += k
+        due = self.steps % self.every == 0 if self.every else \
+            world.t >= self._next_time - 1e-9 * world.dt
+        if due:
+            self._world_frame(world)
+        self._after_steps()
+
+    def captured(self, world, at, fpos, fvel, fmass, done):
+        """A kernel took `done` steps and the frames at the step counts `at` inside it: those
+        before the last step are taken here (World has not yet booked the steps or removed
+        anyone); the one at the last step, if due, by captured_last once World has."""
+        b, dim = world._b, world.dim
+        n = b.n
+        for j in range(at.size):
+            if at[j] >= done:
+                break
+            t = world._t_base + (world._steps + int(at[j])) * world._dt
+            # rows do not change within a kernel call: who they are is compared once; the
+            # state is where frame_buffers put it
+            self._add_frame(self.steps + int(at[j]), t, b.ids[:n], fpos[j, :n, :dim],
+                            fvel[j, :n, :dim], fmass[j, :n], b.radius[:n], b.kind[:n],
+                            known=j > 0, staged=True)
+            if self.every_time:
+                self._next_time = _next_multiple(t, self.every_time, world.dt)
+        self.steps += done
+
+    def captured_last(self, world, at, done):
+        """After captured: World has booked the steps and settled removals and debris."""
+        if np.any(at == done):
+            self._world_frame(world)
+        self._after_steps()
+
+    def _world_frame(self, world):
+        b, dim = world._b, world.dim
+        n = b.n
+        self._add_frame(self.steps, world.t, b.ids[:n], b.pos[:n, :dim], b.vel[:n, :dim],
+                        b.mass[:n], b.radius[:n], b.kind[:n])
+        if self.every_time:
+            self._next_time = _next_multiple(world.t, self.every_time, world.dt)
+
+    def _after_steps(self):
+        pass
+
+
+class RunLog(_Schedule):
     """Records a World into an HDF5 file; made by World.record (see there), closed by close()
     or a with-block. Frames every `every` steps or every `every_time` of simulation time,
     the events of every step, every call that changed the World, a checkpoint every
-    `checkpoint_every` frames (at the end of the call in which it fell due)."""
+    `checkpoint_seconds` of wall time or `checkpoint_every` frames, whichever comes first (at
+    the end of the call in which it fell due)."""
 
-    def __init__(self, world, path, *, every=1, every_time=None, checkpoint_every=100,
-                 flush_seconds=1.0, compression="gzip", scenario=None, _resume=None):
+    def __init__(self, world, path, *, every=1, every_time=None, checkpoint_every=None,
+                 checkpoint_seconds=10.0, flush_seconds=1.0, compression="gzip", compress_state=False, scenario=None,
+                 _resume=None):
         self.path = os.fspath(path)
         self.world = world
         self.depth = 0                   # > 0 inside a journaled call
         self._broken = None
         self._compression = compression
         self._last_flush = time.monotonic()
-        self._frames, self._rows, self._events, self._inputs = [], [], [], []
+        self._frames, self._events, self._inputs = [], [], []
+        self._layouts, self._layout = [], None      # buffered layouts; the latest one
+        # positions and velocities (2, rows, 3), rows used; frame masses for the kernels
+        self._stage, self._staged, self._mass = None, 0, None
         if _resume is not None:          # an open file, truncated to its last checkpoint
             self._file, state = _resume
             self.every, self.every_time = state["every"], state["every_time"]
             self.checkpoint_every, self.flush_seconds = state["checkpoint_every"], \
                 state["flush_seconds"]
+            self.checkpoint_seconds = state["checkpoint_seconds"]
+            self._last_checkpoint = time.monotonic()
             self.steps, self._next_time = state["log_steps"], state["next_time"]
             self._counts = state["counts"]
             self._since_checkpoint = 0
@@ -151,9 +252,12 @@ class RunLog:
             return
         self.every, self.every_time = every, every_time
         self.checkpoint_every, self.flush_seconds = checkpoint_every, flush_seconds
+        self.checkpoint_seconds = checkpoint_seconds
+        self._last_checkpoint = time.monotonic()
         self.steps = 0                   # steps since the log began
         self._next_time = world.t            # the first frame: now
-        self._counts = {"frames": 0, "rows": 0, "events": 0, "inputs": 0, "checkpoints": 0}
+        self._counts = {"frames": 0, "rows": 0, "layouts": 0, "layout_rows": 0, "events": 0,
+                        "inputs": 0, "checkpoints": 0}
         self._since_checkpoint = 0
         self._checkpoint_due = False
         try:
@@ -161,33 +265,43 @@ class RunLog:
         except (OSError, RuntimeError) as e:
             raise RunLogError(f"cannot write the run log {self.path!r}: {e}") from None
         try:
-            self._create(world, _metadata(world, every, every_time, checkpoint_every,
-                                          flush_seconds, scenario))
-            self._frame(world)
+            meta = _metadata(world, every, every_time, checkpoint_every, checkpoint_seconds,
+                             flush_seconds, scenario)
+            meta.update(compression=compression or "none", compress_state=compress_state)
+            self._create(world, meta, compress_state)
+            self._world_frame(world)
             self._checkpoint(world)
         except (OSError, RuntimeError, RunLogError) as e:
             self._abandon()
             raise RunLogError(f"cannot write the run log {self.path!r}: {e}") from None
 
-    def _create(self, world, meta):
+    def _create(self, world, meta, compress_state):
         f = self._file
         f.attrs.update(meta)
         dim = world.dim
         opts = {} if self._compression is None else {"compression": self._compression}
         if self._compression == "gzip":
             opts["compression_opts"] = 1
+
+        def table(group, name, shape, dtype, chunk, compress=True):
+            o = opts if compress else {}
+            group.create_dataset(name, (0,) + shape, dtype, maxshape=(None,) + shape,
+                                 chunks=(chunk,) + shape, shuffle=bool(o), **o)
+
         frames = f.create_group("frames")
         for name, dtype in (("step", np.int64), ("t", np.float64), ("first", np.int64),
-                            ("count", np.int64)):
-            frames.create_dataset(name, (0,), dtype, maxshape=(None,), chunks=(4096,), **opts)
-        for name, shape, dtype in (("ids", (), np.int64), ("pos", (dim,), np.float64),
-                                   ("vel", (dim,), np.float64), ("mass", (), np.float64),
-                                   ("radius", (), np.float64), ("kind", (), np.int16)):
-            frames.create_dataset(name, (0,) + shape, dtype, maxshape=(None,) + shape,
-                                  chunks=(_CHUNK_ROWS,) + shape, shuffle=bool(opts), **opts)
+                            ("count", np.int64), ("layout", np.int64)):
+            table(frames, name, (), dtype, 4096)
+        for name in ("pos", "vel"):
+            table(frames, name, (dim,), np.float64, _CHUNK_ROWS, compress_state)
         frames.attrs["kinds"] = json.dumps(list(world.kinds))
-        f.create_dataset("events", (0,), LOG_EVENT_DTYPE, maxshape=(None,), chunks=(1024,),
-                         **opts)
+        layouts = f.create_group("layouts")
+        for name in ("first", "count"):
+            table(layouts, name, (), np.int64, 1024)
+        for name, dtype in (("ids", np.int64), ("mass", np.float64), ("radius", np.float64),
+                            ("kind", np.int16)):
+            table(layouts, name, (), dtype, _CHUNK_ROWS)
+        table(f, "events", (), LOG_EVENT_DTYPE, 1024)
         f["events"].attrs["kinds"] = json.dumps({str(k): v for k, v in EVENT_KINDS.items()})
         inputs = f.create_group("inputs")
         inputs.create_dataset("step", (0,), np.int64, maxshape=(None,), chunks=(1024,))
@@ -213,26 +327,11 @@ class RunLog:
             if error:
                 entry["raised"] = error
             self._inputs.append((step, t, json.dumps(entry)))
-            if self._checkpoint_due and not error:
+            due = self._checkpoint_due or \
+                time.monotonic() - self._last_checkpoint >= self.checkpoint_seconds
+            if due and not error:
                 self._checkpoint(world)
             self._maybe_flush()
-
-    def until_frame(self, world):
-        """Steps from now to the next frame."""
-        if self.every:
-            return self.every - self.steps % self.every
-        # steps of dt until t reaches the next multiple of every_time (rounding-tolerant)
-        left = (self._next_time - world.t) / world.dt
-        return max(1, math.ceil(left - 1e-9))
-
-    def stepped(self, world, k):
-        """k steps were taken: frame when one is due, flush when it is time."""
-        self.steps += k
-        due = self.steps % self.every == 0 if self.every else \
-            world.t >= self._next_time - 1e-9 * world.dt
-        if due:
-            self._frame(world)
-        self._maybe_flush()
 
     def record_events(self, events):
         if len(events):
@@ -243,18 +342,52 @@ class RunLog:
             self._events.append(rows)
 
     # -- frames, checkpoints, flushing
-    def _frame(self, world):
-        b = world._b
-        n, dim = b.n, world.dim
-        self._frames.append((self.steps, world.t, self._counts["rows"], n))
-        self._counts["rows"] += n
-        self._rows.append((b.ids[:n].copy(), b.pos[:n, :dim].copy(), b.vel[:n, :dim].copy(),
-                           b.mass[:n].copy(), b.radius[:n].copy(), b.kind[:n].copy()))
-        if self.every_time:
-            self._next_time = _next_multiple(world.t, self.every_time, world.dt)
+    def frame_buffers(self, F, n):
+        """(fpos, fvel (F, n, 3), fmass (F, n)) for a kernel to capture F frames into: the
+        state goes straight into the staging rows, in the order the frames will be added."""
+        self._reserve(F * n)
+        s = self._staged
+        if self._mass is None or self._mass.size < F * n:
+            self._mass = np.empty(max(F * n, 1 << 14))
+        return (self._stage[0, s:s + F * n].reshape(F, n, 3),
+                self._stage[1, s:s + F * n].reshape(F, n, 3), self._mass[:F * n].reshape(F, n))
+
+    def _reserve(self, rows):
+        """Room for `rows` more staged rows (growing keeps the staged ones)."""
+        need = self._staged + rows
+        if self._stage is None or need > self._stage.shape[1]:
+            grown = np.empty((2, max(2 * need, 1 << 14), 3))
+            if self._stage is not None:
+                grown[:, :self._staged] = self._stage[:, :self._staged]
+            self._stage = grown
+
+    def _add_frame(self, step, t, ids, pos, vel, mass, radius, kind, known=False,
+                   staged=False):
+        """Buffer one frame; known: ids, radius and kind are those of the latest layout;
+        staged: pos and vel are already in the staging rows (frame_buffers)."""
+        c = self._counts
+        last = self._layout
+        same = last is not None and (known or last[0].shape == ids.shape and all(
+            np.array_equal(a, b) for a, b in zip((last[0], last[2], last[3]), (ids, radius, kind))))
+        if not (same and np.array_equal(last[1], mass)):
+            self._layout = tuple(np.array(a) for a in (ids, mass, radius, kind))
+            self._layouts.append(self._layout)
+            c["layouts"] += 1
+        self._frames.append((step, t, c["rows"], ids.size, c["layouts"] - 1))
+        # into the staging rows, kept from flush to flush (no allocation per frame)
+        n, dim = ids.size, pos.shape[1]
+        if not staged:
+            self._reserve(n)
+            self._stage[0, self._staged:self._staged + n, :dim] = pos
+            self._stage[1, self._staged:self._staged + n, :dim] = vel
+        self._staged += n
+        c["rows"] += n
         self._since_checkpoint += 1
-        if self._since_checkpoint >= self.checkpoint_every:
+        if self.checkpoint_every and self._since_checkpoint >= self.checkpoint_every:
             self._checkpoint_due = True
+
+    def _after_steps(self):
+        self._maybe_flush()
 
     def _checkpoint(self, world, extra_frame=False):
         """The whole World now, with the table lengths it corresponds to (flushed first);
@@ -263,6 +396,7 @@ class RunLog:
         self._guarded(self._write_checkpoint, world, extra_frame)
         self._since_checkpoint = 0
         self._checkpoint_due = False
+        self._last_checkpoint = time.monotonic()
 
     def _write_checkpoint(self, world, extra_frame):
         c = self._counts
@@ -270,14 +404,20 @@ class RunLog:
         self._room(sum(getattr(b, name).nbytes for name in b.columns))
         group = self._file["checkpoints"].create_group(f"{c['checkpoints']:06d}")
         group.attrs.update({"step": self.steps, "t": world.t, "frames": c["frames"],
-                            "rows": c["rows"], "events": c["events"], "inputs": c["inputs"],
-                            "next_time": self._next_time, "extra_frame": extra_frame})
+                            "rows": c["rows"], "layouts": c["layouts"],
+                            "layout_rows": c["layout_rows"], "events": c["events"],
+                            "inputs": c["inputs"], "next_time": self._next_time,
+                            "extra_frame": extra_frame})
         snapshot.save_world(group.create_group("world"), world)
         c["checkpoints"] += 1
         self._file.flush()
 
     def _maybe_flush(self):
-        if time.monotonic() - self._last_flush >= self.flush_seconds:
+        # on time, or when the staged state passes 8 MB: a fast run must not pile up, and a
+        # small staging area stays warm (first touches of fresh pages cost more here than
+        # the copies)
+        if time.monotonic() - self._last_flush >= self.flush_seconds or \
+                self._staged * 16 * self.world.dim > 8 << 20:
             self.flush()
 
     def flush(self):
@@ -329,17 +469,29 @@ class RunLog:
 
     def _write_buffers(self):
         f, c = self._file, self._counts
-        self._room(sum(a.nbytes for row in self._rows for a in row) +
+        dim = self.world.dim
+        self._room(self._staged * 16 * self.world.dim +
+                   sum(a.nbytes for lay in self._layouts for a in lay) +
                    sum(e.nbytes for e in self._events) + sum(len(e[2]) for e in self._inputs))
+        if self._layouts:
+            first = c["layout_rows"]
+            counts = np.array([lay[0].size for lay in self._layouts], np.int64)
+            self._append(f["layouts/first"], first + np.cumsum(counts) - counts)
+            self._append(f["layouts/count"], counts)
+            for k, name in enumerate(_LAYOUT):
+                self._append(f["layouts/" + name], np.concatenate([lay[k]
+                                                                    for lay in self._layouts]))
+            c["layout_rows"] += int(counts.sum())
+            self._layouts = []
         if self._frames:
-            self._append(f["frames/step"], np.array([fr[0] for fr in self._frames], np.int64))
-            self._append(f["frames/t"], np.array([fr[1] for fr in self._frames]))
-            self._append(f["frames/first"], np.array([fr[2] for fr in self._frames], np.int64))
-            self._append(f["frames/count"], np.array([fr[3] for fr in self._frames], np.int64))
-            for k, name in enumerate(_ROWS):
-                self._append(f["frames/" + name], np.concatenate([r[k] for r in self._rows]))
+            for k, name in enumerate(("step", "t", "first", "count", "layout")):
+                dtype = np.float64 if name == "t" else np.int64
+                self._append(f["frames/" + name], np.array([fr[k] for fr in self._frames],
+                                                            dtype))
+            for k, name in enumerate(("pos", "vel")):
+                self._append(f["frames/" + name], self._stage[k, :self._staged, :dim])
             c["frames"] += len(self._frames)
-            self._frames, self._rows = [], []
+            self._frames, self._staged = [], 0
         if self._events:
             self._append(f["events"], np.concatenate(self._events))
             c["events"] = f["events"].shape[0]
@@ -378,7 +530,7 @@ class RunLog:
             if not self._broken:
                 extra = self._frames_at() != self.steps
                 if extra:
-                    self._frame(world)       # the end state, off the frame schedule
+                    self._world_frame(world)    # the end state, off the frame schedule
                 self._checkpoint(world, extra_frame=extra)
                 self._file.attrs["closed"] = True
                 self._file.flush()
@@ -417,8 +569,10 @@ def _open(path, mode="r"):
         if version < 1:
             raise RunLogError(f"{path!r}: no valid format_version ({version})")
         need = ("world",) if kind == WORLD_FORMAT else \
-            ("frames/step", "frames/t", "frames/first", "frames/count", "frames/ids",
-             "events", "inputs/call", "checkpoints")
+            ("frames/step", "frames/t", "frames/first", "frames/count", "frames/layout",
+             "frames/pos", "frames/vel", "layouts/first", "layouts/count", "layouts/ids",
+             "layouts/mass", "layouts/radius", "layouts/kind", "events", "inputs/call",
+             "checkpoints")
         for name in need:
             if name not in f:
                 raise RunLogError(f"{path!r}: corrupt spacephys log: {name!r} is missing")
@@ -481,11 +635,13 @@ class Run:
         if not -n <= index < n:
             raise IndexError(f"frame {index}: the log holds {n} frames")
         index %= n
-        fr = self._f["frames"]
+        fr, lay = self._f["frames"], self._f["layouts"]
         first, count = int(fr["first"][index]), int(fr["count"][index])
-        rows = slice(first, first + count)
-        return Frame(index, int(fr["step"][index]), float(fr["t"][index]),
-                     *(fr[name][rows] for name in _ROWS))
+        k = int(fr["layout"][index])
+        lf = int(lay["first"][k])
+        who = [lay[name][lf:lf + count] for name in _LAYOUT]
+        return Frame(index, int(fr["step"][index]), float(fr["t"][index]), who[0],
+                     fr["pos"][first:first + count], fr["vel"][first:first + count], *who[1:])
 
     def frame_at(self, t):
         """The last frame taken at or before time t."""
@@ -498,20 +654,33 @@ class Run:
     def trajectory(self, body_id):
         """Trajectory of one id through every frame (read in blocks: O(rows) time, O(block)
         memory)."""
-        fr = self._f["frames"]
-        first = fr["first"][:]
-        F, dim = first.size, int(self.meta["dim"])
-        pos, vel = np.full((F, dim), np.nan), np.full((F, dim), np.nan)
-        alive = np.zeros(F, dtype=bool)
-        ids = fr["ids"]
+        fr, lay = self._f["frames"], self._f["layouts"]
         block = 1 << 20
+        # where the id sits in each layout (-1: absent)
+        lfirst = lay["first"][:]
+        where = np.full(lfirst.size, -1, np.int64)
+        ids = lay["ids"]
         for start in range(0, ids.shape[0], block):
             rows = start + np.flatnonzero(ids[start:start + block] == body_id)
-            if rows.size:
-                frames = np.searchsorted(first, rows, side="right") - 1
-                alive[frames] = True
-                pos[frames] = fr["pos"][rows]
-                vel[frames] = fr["vel"][rows]
+            layout = np.searchsorted(lfirst, rows, side="right") - 1
+            where[layout] = rows - lfirst[layout]
+        local = where[fr["layout"][:]]
+        alive = local >= 0
+        F, dim = alive.size, int(self.meta["dim"])
+        pos, vel = np.full((F, dim), np.nan), np.full((F, dim), np.nan)
+        rows = fr["first"][:] + local
+        # read the state in blocks of whole rows and pick the id's row in each frame
+        frames = np.flatnonzero(alive)
+        k = 0
+        while k < frames.size:
+            lo = rows[frames[k]]
+            end = int(np.searchsorted(rows[frames], lo + block, side="left"))
+            end = max(end, k + 1)
+            hi = rows[frames[end - 1]] + 1
+            pick = rows[frames[k:end]] - lo
+            pos[frames[k:end]] = fr["pos"][lo:hi][pick]
+            vel[frames[k:end]] = fr["vel"][lo:hi][pick]
+            k = end
         return Trajectory(self.times, pos, vel, alive)
 
     def events(self, kind=None, id=None):
@@ -602,14 +771,19 @@ def resume(path):
         counts = {"frames": int(attrs["frames"]), "rows": int(attrs["rows"]),
                   "events": int(attrs["events"]), "inputs": int(attrs["inputs"]),
                   "checkpoints": len(names)}
+        counts.update(layouts=int(attrs["layouts"]), layout_rows=int(attrs["layout_rows"]))
         if attrs.get("extra_frame"):
             # close()'s frame of the end state, off the schedule: the run goes on from here
             counts["frames"] -= 1
             counts["rows"] = int(f["frames/first"][counts["frames"]])
-        for name in ("step", "t", "first", "count"):
+        for name in ("step", "t", "first", "count", "layout"):
             f["frames/" + name].resize(counts["frames"], axis=0)
-        for name in _ROWS:
+        for name in ("pos", "vel"):
             f["frames/" + name].resize(counts["rows"], axis=0)
+        for name in ("first", "count"):
+            f["layouts/" + name].resize(counts["layouts"], axis=0)
+        for name in _LAYOUT:
+            f["layouts/" + name].resize(counts["layout_rows"], axis=0)
         f["events"].resize(counts["events"], axis=0)
         for name in ("step", "t", "call"):
             f["inputs/" + name].resize(counts["inputs"], axis=0)
@@ -620,7 +794,8 @@ def resume(path):
         raise
     meta = f.attrs
     state = {"every": int(meta["every"]), "every_time": float(meta["every_time"]) or None,
-             "checkpoint_every": int(meta["checkpoint_every"]),
+             "checkpoint_every": int(meta["checkpoint_every"]) or None,
+             "checkpoint_seconds": float(meta["checkpoint_seconds"]),
              "flush_seconds": float(meta["flush_seconds"]), "log_steps": int(attrs["step"]),
              "next_time": float(attrs["next_time"]), "counts": counts}
     state["every"] = state["every"] or None
@@ -629,18 +804,18 @@ def resume(path):
     return world
 
 
-class _Replayer:
+class _Replayer(_Schedule):
     """Stands in for a RunLog while a log is replayed: the same frame schedule, but each
     frame is compared with the recorded one instead of written."""
 
-    def __init__(self, run, start_steps, next_time, first_frame):
+    def __init__(self, run, start_steps, next_time):
         meta = run.meta
         self.run = run
         self.every = int(meta["every"]) or None
         self.every_time = float(meta["every_time"]) or None
         self.steps = start_steps
         self._next_time = next_time
-        self.frame_index = first_frame
+        self.frame_index = 0
         self.depth = 0
         self.diverged = None            # (frame, max difference)
 
@@ -651,38 +826,30 @@ class _Replayer:
         finally:
             self.depth -= 1
 
-    until_frame = RunLog.until_frame
-
-    def stepped(self, world, k):
-        self.steps += k
-        due = self.steps % self.every == 0 if self.every else \
-            world.t >= self._next_time - 1e-9 * world.dt
-        if due:
-            self.compare(world)
-            if self.every_time:
-                self._next_time = _next_multiple(world.t, self.every_time, world.dt)
-
-    def compare(self, world):
-        if self.diverged is not None or self.frame_index >= len(self.run):
-            self.frame_index += 1
+    def _add_frame(self, step, t, ids, pos, vel, mass, radius, kind, known=False,
+                   staged=False):
+        k = self.frame_index
+        self.frame_index += 1
+        if self.diverged is not None or k >= len(self.run):
             return
-        fr = self.run.frame(self.frame_index)
-        b, dim = world._b, world.dim
-        n = b.n
-        mine = (b.ids[:n], b.pos[:n, :dim], b.vel[:n, :dim], b.mass[:n], b.radius[:n],
-                b.kind[:n])
-        same = fr.step == self.steps and all(
-            a.shape == r.shape and np.array_equal(a, r) for a, r in zip(mine, fr[3:]))
+        fr = self.run.frame(k)
+        mine = (ids, pos, vel, mass, radius, kind)
+        theirs = (fr.ids, fr.pos, fr.vel, fr.mass, fr.radius, fr.kind)
+        same = fr.step == step and fr.t == t and all(
+            a.shape == r.shape and np.array_equal(a, r) for a, r in zip(mine, theirs))
         if not same:
             diff = np.inf
-            if mine[1].shape == fr.pos.shape and np.array_equal(mine[0], fr.ids):
-                diff = float(max(np.max(np.abs(mine[1] - fr.pos), initial=0.0),
-                                 np.max(np.abs(mine[2] - fr.vel), initial=0.0)))
-            self.diverged = (self.frame_index, diff)
-        self.frame_index += 1
+            if pos.shape == fr.pos.shape and np.array_equal(ids, fr.ids):
+                diff = float(max(np.max(np.abs(pos - fr.pos), initial=0.0),
+                                 np.max(np.abs(vel - fr.vel), initial=0.0)))
+            self.diverged = (k, diff)
 
     def record_events(self, events):
         pass
+
+    @staticmethod
+    def frame_buffers(F, n):
+        return np.empty((F, n, 3)), np.empty((F, n, 3)), np.empty((F, n))
 
 
 def replay(path):
@@ -692,8 +859,8 @@ def replay(path):
     with Run(path) as run:
         world, attrs = _checkpoint_world(run._f, run.path, 0)
         # checkpoint 0 is taken just after frame 0, at the same step
-        rep = _Replayer(run, int(attrs["step"]), float(attrs["next_time"]), 0)
-        rep.compare(world)
+        rep = _Replayer(run, int(attrs["step"]), world.t)
+        rep._world_frame(world)
         world._log = rep
         for entry in run.inputs():
             method = getattr(type(world), entry["call"]) if entry["call"] != "setattr" else None
@@ -708,7 +875,7 @@ def replay(path):
                     raise
         closed = bool(run.meta.get("closed"))
         if closed and len(run) > rep.frame_index:
-            rep.compare(world)                               # close()'s last frame
+            rep._world_frame(world)                          # close()'s last frame
         frames = rep.frame_index
         world._log = None
         if rep.diverged is not None:

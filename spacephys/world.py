@@ -27,6 +27,8 @@ splitting_steps = fast_call(integrate.splitting_steps)
 rk_steps = fast_call(integrate.rk_steps)
 gauss_radau_steps = fast_call(gr.gauss_radau_steps)
 wisdom_holman_steps = fast_call(_wisdom_holman_steps)
+# no frames to capture (the step kernels' last four arguments, see integrate.splitting_steps)
+_NO_FRAMES = (np.zeros(0, np.int64), np.zeros((0, 0, 3)), np.zeros((0, 0, 3)), np.zeros((0, 0)))
 
 GRAVITY_MODELS = {"none": NONE, "direct": DIRECT, "uniform": UNIFORM, "central": CENTRAL}
 STEP_CONTROLS = ("auto", "pulling", "all")
@@ -567,18 +569,22 @@ class World(Actors):
             log.call(self, "setattr", object.__setattr__, (name, value), {})
 
     # ---------------------------------------------------------------- run logs and files
-    def record(self, path, *, every=1, every_time=None, checkpoint_every=100,
-               flush_seconds=1.0, compression="gzip", scenario=None):
+    def record(self, path, *, every=1, every_time=None, checkpoint_every=None,
+               checkpoint_seconds=10.0, flush_seconds=1.0, compression="gzip", compress_state=False, scenario=None):
         """Record this World into an HDF5 run log (see spacephys/runlog.py, docs/runlog.md);
         returns the RunLog (close it, or use it in a with-block).
 
         every : a frame every this many steps, or every_time : a frame whenever the time
         passes a multiple of it [time] (then every=None); frames hold ids, pos, vel, mass,
         radius and kind of the live bodies. Every step's events and every call that changes
-        the World are recorded too; a checkpoint (the whole state) every checkpoint_every
-        frames; the file is written every flush_seconds of wall time. compression: "gzip",
-        "lzf" or None. scenario: a text kept with the log. The file is created at once, so an
-        unwritable path fails here, before anything runs.
+        the World are recorded too; a checkpoint (the whole state, for resume) every
+        checkpoint_seconds of wall time, or every checkpoint_every frames if that comes
+        first, at the end of the call in which it fell due; the file is written every
+        flush_seconds of wall time (and when 8 MB of state are waiting). compression: "gzip",
+        "lzf" or None, for every table but positions and velocities, which are compressed
+        too with compress_state=True (they shrink by about a fifth, at 20-50x the cost of
+        writing them: see the README's figures). scenario: a text kept with the log. The file
+        is created at once, so an unwritable path fails here, before anything runs.
         """
         from .runlog import RunLog
         if self._log is not None:
@@ -590,15 +596,22 @@ class World(Actors):
             every = None
         else:
             every = check.count("every", every, minimum=1)
-        checkpoint_every = check.count("checkpoint_every", checkpoint_every, minimum=1)
+        if checkpoint_every is not None:
+            checkpoint_every = check.count("checkpoint_every", checkpoint_every, minimum=1)
+        checkpoint_seconds = check.scalar("checkpoint_seconds", checkpoint_seconds,
+                                          minimum=0.0)
         flush_seconds = check.scalar("flush_seconds", flush_seconds, minimum=0.0)
         if compression not in ("gzip", "lzf", None):
             raise ValueError(f"compression = {compression!r}: must be 'gzip', 'lzf' or None")
+        if not isinstance(compress_state, (bool, np.bool_)):
+            raise ValueError(f"compress_state = {compress_state!r}: must be True or False")
         if scenario is not None and not isinstance(scenario, str):
             raise ValueError(f"scenario = {scenario!r}: must be text")
         log = RunLog(self, path, every=every, every_time=every_time,
-                     checkpoint_every=checkpoint_every, flush_seconds=flush_seconds,
-                     compression=compression, scenario=scenario)
+                     checkpoint_every=checkpoint_every,
+                     checkpoint_seconds=checkpoint_seconds, flush_seconds=flush_seconds,
+                     compression=compression, compress_state=bool(compress_state),
+                     scenario=scenario)
         self._log = log
         return log
 
@@ -826,19 +839,26 @@ class World(Actors):
         return (self._model, b.mass[:b.n], src, passive, self._G, self._softening ** 2,
                 self._field, self._field_mass, still)
 
-    def _run(self, nsteps):
+    def _run(self, nsteps, frame_at=None):
         """Take nsteps steps; a kernel call ends early after a collision removed or merged
-        bodies (or filled the event buffer), and is resumed once World has caught up."""
+        bodies (or filled the event buffer), and is resumed once World has caught up.
+        frame_at : sorted step counts (from now) after which the recording takes a frame
+        inside the kernel (fixed-step integrators only)."""
+        consumed = 0
         while nsteps:
             setup = self._collision_setup()
             ctrl = self._control_setup(setup)
             first_event = int(self._event_count[0])
+            frames = None if frame_at is None else self._frame_buffers(frame_at, consumed)
+            done = None
             try:
-                done = self._run_kernel(nsteps, setup, ctrl)
+                done = self._run_kernel(nsteps, setup, ctrl, frames)
             finally:
                 # bodies destroyed or merged away leave, even if the integration then failed;
                 # the destroyed ones with an explosion throw out their debris
                 self._merged_actors(first_event)
+                if frames is not None and done is not None:
+                    self._log.captured(self, *frames, done)
                 dead = np.flatnonzero(~setup.alive)
                 if dead.size:
                     blasts = self._explode_dead(setup, first_event)
@@ -846,10 +866,23 @@ class World(Actors):
                     self._invalidate()
                     self._spawn_debris(blasts)
             self._steps += done
+            if frames is not None:
+                self._log.captured_last(self, frames[0], done)
             nsteps -= done
+            consumed += done
             if self._pending_warning:
                 message, self._pending_warning = self._pending_warning, None
                 warnings.warn(message, RuntimeWarning, stacklevel=4)
+
+    def _frame_room(self):
+        """Frames one kernel call may capture: buffers of at most 8 MB."""
+        return max(1, min(256, (8 << 20) // (56 * self._b.capacity)))
+
+    def _frame_buffers(self, frame_at, consumed):
+        """(at, fpos, fvel, fmass) for a kernel call starting `consumed` steps into the run:
+        the frame step counts relative to it, and the recording's buffers to capture into."""
+        at = frame_at[frame_at > consumed] - consumed
+        return (at,) + self._log.frame_buffers(at.size, self._b.n)
 
     def _workspace(self):
         """arrays.Work with n rows, views of buffers kept at the capacity (see arrays.Work)."""
@@ -862,15 +895,17 @@ class World(Actors):
                                 else np.zeros((cap, 3)) for name in Work._fields))
         return Work(*(a[:n] for a in self._work))
 
-    def _run_kernel(self, nsteps, setup, ctrl):
+    def _run_kernel(self, nsteps, setup, ctrl, frames=None):
         b = self._b
         spec = self._spec
+        frames = _NO_FRAMES if frames is None else frames
         if spec.family == "splitting":
             return splitting_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.drift,
-                                   spec.kick, self._dt, nsteps, setup, ctrl, self._workspace())
+                                   spec.kick, self._dt, nsteps, setup, ctrl, self._workspace(),
+                                   *frames)
         if spec.family == "rk":
             return rk_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.a, spec.b,
-                            self._dt, nsteps, setup, ctrl, self._workspace())
+                            self._dt, nsteps, setup, ctrl, self._workspace(), *frames)
         if spec.family == "gauss_radau":
             return self._run_gauss_radau(nsteps, setup, ctrl)
         return self._run_wisdom_holman(nsteps, setup, ctrl)
@@ -992,17 +1027,25 @@ class World(Actors):
         return self.t
 
     def _run_framed(self, n):
-        """_run, cut where a recording takes its frames."""
+        """_run, with the frames a recording takes: captured inside the fixed-step kernels,
+        or by cutting the run at each frame for the adaptive and Wisdom-Holman ones."""
         log = self._log
+        inside = self._spec.family in ("splitting", "rk")
         while n:
-            k = n if log is None else min(n, log.until_frame(self))
-            if self._b.n:
-                self._run(k)
+            if log is not None and inside and self._b.n:
+                room = self._frame_room()
+                at = log.frame_offsets(self, n, room)
+                k = int(at[-1]) if at.size == room else n
+                self._run(k, at)
             else:
-                self._steps += k
+                k = n if log is None else min(n, log.until_frame(self))
+                if self._b.n:
+                    self._run(k)
+                else:
+                    self._steps += k
+                if log is not None:
+                    log.stepped(self, k)
             n -= k
-            if log is not None:
-                log.stepped(self, k)
 
     def _write_queued_events(self):
         """Launches made since the last step open this step's events."""

@@ -90,7 +90,7 @@ def test_step_runs_the_loop_in_one_kernel_call(monkeypatch):
     calls = []
     real = world_module.splitting_steps
     monkeypatch.setattr(world_module, "splitting_steps",
-                        lambda *a: calls.append(a[-4]) or real(*a))
+                        lambda *a: calls.append(a[-8]) or real(*a))   # nsteps
     w = kepler(0.5, integrator="leapfrog", dt=1e-3)
     w.step(1000)
     # one call for the first n - 1 steps, one for the last (so positions before it are kept

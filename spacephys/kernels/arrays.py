@@ -33,6 +33,20 @@ def copy_into(dst, src):
 
 
 @kernel
+def capture(frame_at, k, done, fpos, fvel, fmass, pos, vel, mass):
+    """A recording's frame taken inside a step loop: when frame_at[k] == done (steps done in
+    this call), copy pos, vel (n, 3) and mass (n,) into fpos[k], fvel[k], fmass[k]. Returns
+    the index of the next frame to take."""
+    if k < frame_at.size and frame_at[k] == done:
+        copy_into(fpos[k], pos)
+        copy_into(fvel[k], vel)
+        for i in range(mass.size):
+            fmass[k, i] = mass[i]
+        return k + 1
+    return k
+
+
+@kernel
 def grown_pairs(pairs, m):
     """A (2m, 2) int64 array holding pairs[:m]."""
     grown = np.empty((2 * m, 2), np.int64)

@@ -10,7 +10,7 @@ and integrated exactly into the velocity of a Runge-Kutta step).
 import numpy as np
 
 from .._jit import kernel
-from .arrays import copy_into
+from .arrays import capture, copy_into
 from .control import add_thrust, begin_step, drift_thrust, finish_step, rk_thrust_fix
 from .gravity import DIRECT, accelerations
 
@@ -23,14 +23,15 @@ def _scratch(model, src):
 
 @kernel(parallel=True)
 def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
-                    drift, kick, dt, nsteps, setup, ctrl, work):
+                    drift, kick, dt, nsteps, setup, ctrl, work, frame_at, fpos, fvel, fmass):
     """Advance nsteps steps of dt with the drift/kick sequence (drift[s], kick[s]).
 
     Stage s: pos += drift[s] dt vel, then vel += kick[s] dt a(pos) (skipped where kick[s] == 0).
     pos, vel : (n, 3) float64, updated in place; mass : (n,) float64; drift, kick : (S,) float64.
     model ... still : the gravity arguments of gravity.accelerations; setup : collide.Setup;
     ctrl : control.Control (ships, missiles, lifetimes); work : arrays.Work, n rows of
-    scratch.
+    scratch; frame_at : (F,) int64, the step counts after which a recording takes a frame,
+    into fpos, fvel (F, n, 3) and fmass (F, n) (see arrays.capture; F = 0: none).
     Returns the steps taken: fewer than nsteps when a collision, a detonation or an expiry
     removed or merged bodies.
     """
@@ -38,6 +39,7 @@ def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_m
     acc, pos0, vel0 = work.acc, work.pos0, work.vel0
     burn = np.zeros((ctrl.actors.size, 8))
     scratch = _scratch(model, src)
+    frame = 0
     for step in range(nsteps):
         t0 = setup.t0 + step * dt
         if setup.enabled or ctrl.enabled:
@@ -66,20 +68,22 @@ def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_m
                     vel[i, 2] += h * acc[i, 2]
         # (a call passing the Setup and Control tuples costs a reference count per array:
         # made only when there is something to do)
-        if (setup.enabled or ctrl.enabled) and \
-                finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work):
+        stop = (setup.enabled or ctrl.enabled) and \
+            finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work)
+        frame = capture(frame_at, frame, step + 1, fpos, fvel, fmass, pos, vel, mass)
+        if stop:
             return step + 1
     return nsteps
 
 
 @kernel(parallel=True)
 def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
-             a, b, dt, nsteps, setup, ctrl, work):
+             a, b, dt, nsteps, setup, ctrl, work, frame_at, fpos, fvel, fmass):
     """Advance nsteps steps of dt with the explicit Runge-Kutta tableau (a, b).
 
     a : (S, S) float64, strictly lower triangular; b : (S,) float64 weights.
     Stage s evaluates x_s = x + dt sum_j a[s, j] v_j, v_s = v + dt sum_j a[s, j] a_j, a_s = a(x_s).
-    Collisions, actors and the return value as in splitting_steps.
+    Collisions, actors, frames and the return value as in splitting_steps.
     """
     n = pos.shape[0]
     S = b.size
@@ -90,6 +94,7 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, st
     burn = np.zeros((ctrl.actors.size, 8))
     no_mask = np.zeros(0, np.bool_)
     scratch = _scratch(model, src)
+    frame = 0
     for step in range(nsteps):
         t0 = setup.t0 + step * dt
         if setup.enabled or ctrl.enabled:
@@ -126,7 +131,9 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, st
                 vel[i, c] += dt * dv
         if burn.shape[0]:
             rk_thrust_fix(ctrl.actors, burn, vel, a, b, dt)
-        if (setup.enabled or ctrl.enabled) and \
-                finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work):
+        stop = (setup.enabled or ctrl.enabled) and \
+            finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work)
+        frame = capture(frame_at, frame, step + 1, fpos, fvel, fmass, pos, vel, mass)
+        if stop:
             return step + 1
     return nsteps
