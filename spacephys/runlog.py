@@ -261,7 +261,7 @@ class RunLog(_Schedule):
         self._since_checkpoint = 0
         self._checkpoint_due = False
         try:
-            self._file = h5py.File(self.path, "w")
+            self._file = h5py.File(self.path, "w", rdcc_nbytes=0)
         except (OSError, RuntimeError) as e:
             raise RunLogError(f"cannot write the run log {self.path!r}: {e}") from None
         try:

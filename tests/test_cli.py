@@ -85,6 +85,20 @@ def test_readme_ships_example_runs_as_pasted():
     assert lines[-1].startswith("debris: 50 ")       # the prey's explosion
 
 
+def test_readme_runlog_example_runs_as_pasted():
+    text = (ROOT / "README.md").read_text()
+    block = re.search(r"<!-- runlog -->\s*```python\n(.*?)```", text, re.S).group(1)
+    res = subprocess.run([sys.executable, "-c", block], capture_output=True, text=True,
+                         cwd=ROOT, timeout=600)
+    assert res.returncode == 0, res.stderr
+    lines = res.stdout.splitlines()
+    # 300 steps / 5 + 100 / 5 + the first = 81 frames; 1 fuel at 1/3 per time: empty at 3
+    assert lines[0] == "81 frames; last at t = 3.5"
+    assert lines[1] == "fuel burned out at t = [3.]"
+    assert lines[2] == "['control', 'step', 'setattr', 'step']"
+    assert lines[3] == "81 frames and the final state equal, bit for bit"
+
+
 def test_readme_commands_are_what_ci_runs():
     readme = (ROOT / "README.md").read_text()
     ci = (ROOT / ".ci" / "run").read_text()
