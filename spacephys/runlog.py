@@ -187,15 +187,18 @@ class _Schedule:
         anyone); the one at the last step, if due, by captured_last once World has."""
         b, dim = world._b, world.dim
         n = b.n
-        for j in range(at.size):
-            if at[j] >= done:
-                break
+        k = int(np.searchsorted(at, done))              # the frames before the last step
+        # rows do not change within a kernel call: who they are is compared once, and the
+        # masses (ships burn fuel) frame to frame in one go; the state is where
+        # frame_buffers put it
+        same = np.ones(k, dtype=bool)
+        if k > 1:
+            same[1:] = (fmass[1:k] == fmass[:k - 1]).all(axis=1)
+        for j in range(k):
             t = world._t_base + (world._steps + int(at[j])) * world._dt
-            # rows do not change within a kernel call: who they are is compared once; the
-            # state is where frame_buffers put it
             self._add_frame(self.steps + int(at[j]), t, b.ids[:n], fpos[j, :n, :dim],
                             fvel[j, :n, :dim], fmass[j, :n], b.radius[:n], b.kind[:n],
-                            known=j > 0, staged=True)
+                            known=j > 0 and same[j], staged=True)
             if self.every_time:
                 self._next_time = _next_multiple(t, self.every_time, world.dt)
         self.steps += done
@@ -356,20 +359,20 @@ class RunLog(_Schedule):
         """Room for `rows` more staged rows (growing keeps the staged ones)."""
         need = self._staged + rows
         if self._stage is None or need > self._stage.shape[1]:
-            grown = np.empty((2, max(2 * need, 1 << 14), 3))
+            # room for what a flush lets pile up (8 MB) and one kernel call's frames more
+            grown = np.empty((2, max(2 * need, (8 << 20) // 48 + rows), 3))
             if self._stage is not None:
                 grown[:, :self._staged] = self._stage[:, :self._staged]
             self._stage = grown
 
     def _add_frame(self, step, t, ids, pos, vel, mass, radius, kind, known=False,
                    staged=False):
-        """Buffer one frame; known: ids, radius and kind are those of the latest layout;
-        staged: pos and vel are already in the staging rows (frame_buffers)."""
+        """Buffer one frame; known: the bodies are those of the latest layout, masses
+        included; staged: pos and vel are already in the staging rows (frame_buffers)."""
         c = self._counts
         last = self._layout
-        same = last is not None and (known or last[0].shape == ids.shape and all(
-            np.array_equal(a, b) for a, b in zip((last[0], last[2], last[3]), (ids, radius, kind))))
-        if not (same and np.array_equal(last[1], mass)):
+        if not (known or last is not None and last[0].shape == ids.shape and all(
+                np.array_equal(a, b) for a, b in zip(last, (ids, mass, radius, kind)))):
             self._layout = tuple(np.array(a) for a in (ids, mass, radius, kind))
             self._layouts.append(self._layout)
             c["layouts"] += 1
