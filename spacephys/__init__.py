@@ -7,6 +7,8 @@ from .events import EVENT_DTYPE, EVENT_KINDS
 from .geometry import polygon_center_of_mass
 from .integrators import INTEGRATORS, Integrator, get_integrator
 from .runlog import Run, RunLog, RunLogError, open_run, replay, resume
+from .runner import RunResult, run_scenario
+from .scenario import Scenario, ScenarioError, load_scenario
 from .orbits import elements_to_state, kepler_state, period, solve_kepler
 from .units import UNITS, UnitSystem, get_units
 from .world import BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, RESPONSES, Body, World
@@ -21,6 +23,7 @@ __all__ = [
     "UNITS", "UnitSystem", "get_units",
     "polygon_center_of_mass",
     "RunLog", "Run", "RunLogError", "open_run", "replay", "resume",
+    "Scenario", "ScenarioError", "load_scenario", "run_scenario", "RunResult",
     "elements_to_state", "kepler_state", "period", "solve_kepler",
     "__version__",
 ]

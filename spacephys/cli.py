@@ -2,6 +2,7 @@
 import argparse
 import json
 import sys
+from pathlib import Path
 
 from .integrators import INTEGRATORS
 from .scenes import SCENES
@@ -12,11 +13,28 @@ def _problem_names():
     return list(PROBLEMS)
 
 
+SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
+
+
 def _run(args):
-    from .runner import default_progress, run_scene
-    result = run_scene(args.scene, integrator=args.integrator, dt=args.dt, duration=args.duration,
-                       progress=None if args.quiet else default_progress())
+    from .runner import default_progress, run_scenario, run_scene
+    kw = dict(integrator=args.integrator, dt=args.dt, duration=args.duration, out=args.out,
+              progress=None if args.quiet else default_progress())
+    scene = args.scene
+    if scene in SCENES:
+        result = run_scene(scene, **kw)
+    else:
+        path = Path(scene)
+        if not path.suffix and (SCENARIOS / (scene + ".toml")).exists():
+            path = SCENARIOS / (scene + ".toml")
+        if path.suffix != ".toml" or not path.exists():
+            known = sorted(SCENES) + sorted(p.stem for p in SCENARIOS.glob("*.toml"))
+            raise ValueError(f"{scene!r} is neither a scenario file (.toml) nor a known scene "
+                             f"or scenario: {', '.join(known)}")
+        result = run_scenario(path, **kw)
     print(result.summary())
+    if args.out:
+        print(f"log           {args.out}")
     return 0
 
 
@@ -51,8 +69,11 @@ def main(argv=None):
     parser = argparse.ArgumentParser(prog="spacephys", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
 
-    run = sub.add_parser("run", help="run a scene and print a summary")
-    run.add_argument("scene", nargs="?", default="star_system", choices=list(SCENES))
+    run = sub.add_parser("run", help="run a scene or a scenario file and print a summary")
+    run.add_argument("scene", nargs="?", default="star_system",
+                     help="a scenario file (.toml), a scenario of scenarios/ by name, or a "
+                          "built-in scene: " + ", ".join(SCENES))
+    run.add_argument("--out", metavar="RUN.h5", help="record the run into an HDF5 log")
     run.add_argument("--integrator", choices=list(INTEGRATORS))
     run.add_argument("--dt", type=float, help="step [time units]")
     run.add_argument("--duration", type=float, help="simulated time [time units]")

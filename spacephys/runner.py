@@ -1,5 +1,6 @@
 """Run a scene for a duration and summarise it: steps, wall time, conservation errors."""
 import math
+import os
 import sys
 import time
 from dataclasses import dataclass
@@ -61,16 +62,47 @@ def _norm_L(w):
     return float(np.linalg.norm(w.angular_momentum(True)))
 
 
-def run_scene(name="star_system", *, integrator=None, dt=None, duration=None, progress=None):
+def run_scene(name="star_system", *, integrator=None, dt=None, duration=None, progress=None,
+              out=None):
     """Build the scene `name` of scenes.SCENES and run it for `duration` [time].
 
-    integrator, dt : override the scene's; progress : a file to draw a progress bar on.
+    integrator, dt : override the scene's; progress : a file to draw a progress bar on;
+    out : record the run into this HDF5 log (see World.record).
     """
     if name not in SCENES:
         raise ValueError(f"scene {name!r} is not known; valid: {', '.join(SCENES)}")
     build, default_duration, default_integrator, default_dt = SCENES[name]
     w = build(integrator=integrator or default_integrator, dt=default_dt if dt is None else dt)
     duration = default_duration if duration is None else float(duration)
+    return _run_world(w, name, duration, [], {}, {}, progress, out, None)
+
+
+def run_scenario(scenario, *, integrator=None, dt=None, duration=None, progress=None,
+                 out=None):
+    """Run a scenario (a path, its text, or a loaded Scenario) for its duration; its timeline
+    is carried out at the first step at or after each entry's time. Returns a RunResult.
+
+    integrator, dt, duration : override the scenario's; out : an HDF5 log path (default: the
+    scenario's [log] path, if it has one); progress : a file to draw a progress bar on.
+    """
+    from .scenario import Scenario, load_scenario
+    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+    if integrator is not None:
+        sc.data["world"]["integrator"] = integrator
+    if dt is not None:
+        sc.data["world"]["dt"] = dt
+    w, ids = sc.build()
+    log = sc.log or {}
+    out = out if out is not None else log.get("path")
+    every = {"every": log["every"]} if log.get("every") else \
+        {"every_time": log["every_time"]} if log.get("every_time") else {}
+    return _run_world(w, sc.title or os.path.basename(sc.source), sc.duration if duration is None
+                      else float(duration), sc.timeline, ids, sc.data["missiles"], progress,
+                      out, sc.text, every)
+
+
+def _run_world(w, name, duration, timeline, ids, missiles, progress, out, text, every=None):
+    from .scenario import apply
     if not math.isfinite(duration) or duration <= 0:
         raise ValueError(f"duration = {duration}: must be > 0")
     if duration < w.dt:
@@ -80,6 +112,11 @@ def run_scene(name="star_system", *, integrator=None, dt=None, duration=None, pr
     if not ratio <= 1e12:
         raise ValueError(f"duration / dt = {ratio:.3g} steps: too many (max 1e12)")
     total = round(ratio)
+    # the timeline as step counts: each entry at the first step at or after its time
+    plan = [(max(0, math.ceil(t / w.dt - 1e-9)), action, value) for t, action, value in timeline]
+    log = None
+    if out is not None:
+        log = w.record(out, scenario=text, **(every or {}))
     # the conserved quantities: with massive passive bodies (ships) those of the pulling ones
     t0, E0, P0, L0 = w.t, w.energy(True), w.momentum(True), _norm_L(w)
     scale = float(np.sum(w.mass * w.pulls * np.linalg.norm(w.vel, axis=1))) or 1.0
@@ -91,6 +128,12 @@ def run_scene(name="star_system", *, integrator=None, dt=None, duration=None, pr
         for k, c in zip(kinds, number):
             counts[EVENT_KINDS[int(k)]] = counts.get(EVENT_KINDS[int(k)], 0) + int(c)
 
+    def act(upto):
+        while plan and plan[0][0] <= upto:
+            _, action, value = plan.pop(0)
+            apply(w, ids, missiles, action, value)
+
+    act(0)
     start = time.perf_counter()
     w.step(1)
     compile_wall = time.perf_counter() - start
@@ -98,8 +141,11 @@ def run_scene(name="star_system", *, integrator=None, dt=None, duration=None, pr
     done, chunks = 1, 50
     start = time.perf_counter()
     for c in range(1, chunks + 1):
-        n = total * c // chunks - done
-        if n > 0:
+        goal = total * c // chunks
+        while done < goal:
+            act(done)
+            n = min(goal, plan[0][0] if plan else goal) - done
+            n = max(n, 1)
             w.step(n)
             tally()
             done += n
@@ -110,6 +156,8 @@ def run_scene(name="star_system", *, integrator=None, dt=None, duration=None, pr
     wall = time.perf_counter() - start
     if progress is not None:
         print(file=progress)
+    if log is not None:
+        log.close()
     return RunResult(w, name, done, wall, compile_wall, t0, E0, w.energy(True),
                      float(np.linalg.norm(w.momentum(True) - P0)) / scale, L0, _norm_L(w),
                      dict(sorted(counts.items())))

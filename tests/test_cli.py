@@ -40,7 +40,7 @@ def test_run_overrides_integrator_and_dt():
     (["run", "kepler", "--dt", "-1"], "spacephys run: error: dt = -1.0: must be > 0"),
     (["run", "kepler", "--duration", "0"], "spacephys run: error: duration = 0.0: must be > 0"),
     (["run", "kepler", "--duration", "nan"], "spacephys run: error: duration = nan: must be > 0"),
-    (["run", "jupiter"], "invalid choice: 'jupiter'"),
+    (["run", "jupiter"], "spacephys run: error: 'jupiter' is neither a scenario file"),
     (["run", "--integrator", "ias15"], "invalid choice: 'ias15'"),
     (["bench", "everything"], "invalid choice: 'everything'"),
     (["run", "kepler", "--duration", "1e-9"],

@@ -1,0 +1,437 @@
+"""TOML scenarios: the schema in code, every problem reported with its key path, and the
+World and timeline they describe (docs/scenarios.md has the format).
+
+load_scenario(path or text) checks the whole file first and raises ScenarioError listing
+every problem (`bodies[2].mass: must be >= 0 (got -1.0)`), so nothing is built or run from
+a file with a mistake in it.
+"""
+import math
+import os
+import tomllib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .entities import ExplosionSpec, MissileSpec, ShipSpec
+from .integrators import INTEGRATORS
+from .orbits import elements_to_state
+from .units import UNITS
+from .world import BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, RESPONSES, World
+
+REQUIRED = object()
+# key -> (type, default); types: float, int, str, bool, vec (dim floats), strs, table, any
+_WORLD = {"dim": ("int", 2), "units": ("str", "game"), "G": ("float", None),
+          "integrator": ("str", "leapfrog"), "dt": ("float", REQUIRED),
+          "duration": ("float", REQUIRED), "tolerance": ("float", None),
+          "max_step": ("float", None), "min_step": ("float", None),
+          "gravity": ("str", "direct"), "g": ("vec", None), "central_mass": ("float", None),
+          "central_pos": ("vec", None), "softening": ("float", 0.0), "seed": ("int", 0),
+          "kinds": ("strs", [])}
+_PLACE = {"pos": ("vec", None), "vel": ("vec", None), "parent": ("str", None),
+          "a": ("float", None), "e": ("float", 0.0), "i": ("float", 0.0),
+          "Omega": ("float", 0.0), "omega": ("float", 0.0), "M": ("float", None),
+          "f": ("float", None)}
+_BODY = {"name": ("str", REQUIRED), "mass": ("float", REQUIRED), "radius": ("float", 0.0),
+         "kind": ("str", "body"), "active": ("bool", None), "fixed": ("bool", False),
+         "lifetime": ("float", None), **_PLACE}
+_SHIP = {"name": ("str", REQUIRED), "spec": ("table", REQUIRED), "heading": ("any", None),
+         **_PLACE}
+_COLLISION = {"a": ("str", REQUIRED), "b": ("str", REQUIRED), "response": ("str", REQUIRED),
+              "restitution": ("float", None)}
+_BOUNDARY = {"mode": ("str", REQUIRED), "lo": ("vec", None), "hi": ("vec", None),
+             "restitution": ("float", 1.0)}
+_WALL = {"a": ("vec", None), "b": ("vec", None), "point": ("vec", None),
+         "normal": ("vec", None), "restitution": ("float", 1.0)}
+_CONTROL = {"ship": ("str", REQUIRED), "throttle": ("float", None), "turn": ("any", None),
+            "strafe": ("any", None)}
+_LAUNCH = {"from": ("str", REQUIRED), "missile": ("str", REQUIRED), "target": ("str", None),
+           "heading": ("any", None), "name": ("str", None)}
+_EVENT = {"t": ("float", REQUIRED), "control": ("table", None), "launch": ("table", None),
+          "spawn": ("table", None), "remove": ("str", None), "explode": ("str", None)}
+_LOG = {"path": ("str", REQUIRED), "every": ("int", None), "every_time": ("float", None)}
+_TOP = {"title": ("str", ""), "description": ("str", ""), "world": ("table", REQUIRED),
+        "bodies": ("tables", []), "ships": ("tables", []), "missiles": ("table", {}),
+        "collisions": ("tables", []), "boundary": ("table", None), "walls": ("tables", []),
+        "timeline": ("tables", []), "log": ("table", None)}
+
+
+class ScenarioError(ValueError):
+    """A scenario with mistakes: .problems lists (key path, message), one per mistake."""
+
+    def __init__(self, source, problems):
+        self.problems = problems
+        lines = [f"{source}: {len(problems)} problem{'s' if len(problems) > 1 else ''}"]
+        lines += [f"  {path}: {message}" for path, message in problems]
+        super().__init__("\n".join(lines))
+
+
+@dataclass
+class Scenario:
+    """A checked scenario: the World it builds (build()) and what happens when."""
+    source: str
+    text: str
+    data: dict
+    title: str = ""
+    duration: float = 0.0
+    timeline: list = field(default_factory=list)      # (t, action, table) sorted by t
+    log: dict = None
+
+    def build(self):
+        """A new World at t = 0 with the scenario's bodies, ships and rules; and name -> id."""
+        return _build(self.data)
+
+
+class _Checker:
+    def __init__(self, dim):
+        self.dim = dim
+        self.problems = []
+
+    def bad(self, path, message):
+        self.problems.append((path, message))
+
+    def has(self, path):
+        return any(p == path for p, _ in self.problems)
+
+    def table(self, path, value, schema):
+        """value checked against schema: a dict with every key (defaults filled in), or
+        None if it is not a table at all."""
+        if not isinstance(value, dict):
+            self.bad(path, f"must be a table, got {type(value).__name__}")
+            return None
+        out = {}
+        for key in value:
+            if key not in schema:
+                self.bad(f"{path}.{key}" if path else key,
+                         f"unknown key; valid: {', '.join(schema)}")
+        for key, (kind, default) in schema.items():
+            where = f"{path}.{key}" if path else key
+            if key not in value:
+                if default is REQUIRED:
+                    self.bad(where, "missing")
+                out[key] = None if default is REQUIRED else default
+                continue
+            out[key] = self.value(where, value[key], kind)
+        return out
+
+    def value(self, path, v, kind):
+        ok = {"float": lambda: isinstance(v, (int, float)) and not isinstance(v, bool),
+              "int": lambda: isinstance(v, int) and not isinstance(v, bool),
+              "str": lambda: isinstance(v, str), "bool": lambda: isinstance(v, bool),
+              "strs": lambda: isinstance(v, list) and all(isinstance(x, str) for x in v),
+              "table": lambda: isinstance(v, dict),
+              "tables": lambda: isinstance(v, list) and all(isinstance(x, dict) for x in v),
+              "vec": lambda: isinstance(v, list) and len(v) == self.dim and all(
+                  isinstance(x, (int, float)) and not isinstance(x, bool) for x in v),
+              "any": lambda: True}[kind]()
+        if not ok:
+            want = {"float": "a number", "int": "an integer", "str": "text",
+                    "bool": "true or false", "strs": "a list of text", "table": "a table",
+                    "tables": "an array of tables", "vec": f"{self.dim} numbers"}[kind]
+            self.bad(path, f"must be {want}, got {v!r}")
+            return None
+        if kind == "float" and not math.isfinite(v):
+            self.bad(path, f"must be finite, got {v!r}")
+            return None
+        return float(v) if kind == "float" else v
+
+    def minimum(self, path, v, low, strict=False):
+        if v is not None and (v <= low if strict else v < low):
+            self.bad(path, f"must be {'>' if strict else '>='} {low:g} (got {v!r})")
+
+
+def _parse(source, text):
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ScenarioError(source, [("(file)", f"not valid TOML: {e}")]) from None
+
+
+def load_scenario(path_or_text):
+    """Read and check a scenario (a path to a .toml file, or its text); ScenarioError lists
+    every problem."""
+    if isinstance(path_or_text, (str, os.PathLike)) and not str(path_or_text).lstrip().startswith(
+            ("[", "#", "title")) and os.path.splitext(str(path_or_text))[1] == ".toml":
+        source = os.fspath(path_or_text)
+        try:
+            with open(source, encoding="utf-8") as f:
+                text = f.read()
+        except OSError as e:
+            raise ScenarioError(source, [("(file)", f"cannot be read: {e.strerror}")]) from None
+    else:
+        source, text = "<scenario>", str(path_or_text)
+    data = _parse(source, text)
+    dim = data.get("world", {}).get("dim", 2) if isinstance(data.get("world"), dict) else 2
+    chk = _Checker(dim if dim in (2, 3) else 2)
+    top = chk.table("", data, _TOP)
+    if top is None or top["world"] is None:
+        raise ScenarioError(source, chk.problems or [("world", "missing")])
+    world = chk.table("world", top["world"], _WORLD)
+    if world:
+        _check_world(chk, world)
+    names = {}
+    for key, schema in (("bodies", _BODY), ("ships", _SHIP)):
+        for k, item in enumerate(top[key] or []):
+            path = f"{key}[{k}]"
+            t = chk.table(path, item, schema)
+            if t is None:
+                continue
+            _check_place(chk, path, t, names, key)
+            if key == "bodies":
+                chk.minimum(f"{path}.mass", t["mass"], 0.0)
+                chk.minimum(f"{path}.radius", t["radius"], 0.0)
+                chk.minimum(f"{path}.lifetime", t["lifetime"], 0.0, strict=True)
+            elif t["spec"] is not None:
+                _spec(chk, f"{path}.spec", ShipSpec, t["spec"])
+            top[key][k] = t
+    missiles = {}
+    for name, spec in (top["missiles"] or {}).items():
+        if not isinstance(spec, dict):
+            chk.bad(f"missiles.{name}", "must be a table of MissileSpec fields")
+            continue
+        missiles[name] = _spec(chk, f"missiles.{name}", MissileSpec, spec)
+    for k, item in enumerate(top["collisions"] or []):
+        t = chk.table(f"collisions[{k}]", item, _COLLISION)
+        if t and t["response"] is not None and t["response"] not in RESPONSES:
+            chk.bad(f"collisions[{k}].response", f"{t['response']!r} is not a response; "
+                                                  f"valid: {', '.join(RESPONSES)}")
+        if t:
+            top["collisions"][k] = t
+    if top["boundary"] is not None:
+        t = chk.table("boundary", top["boundary"], _BOUNDARY)
+        if t and t["mode"] is not None and t["mode"] not in BOUNDARIES:
+            chk.bad("boundary.mode", f"{t['mode']!r} is not a boundary; valid: "
+                                     f"{', '.join(BOUNDARIES)}")
+        top["boundary"] = t
+    for k, item in enumerate(top["walls"] or []):
+        t = chk.table(f"walls[{k}]", item, _WALL)
+        if t and (t["a"] is None) == (t["point"] is None):
+            chk.bad(f"walls[{k}]", "give a segment (a, b) or a plane (point, normal)")
+        top["walls"][k] = t
+    timeline = _check_timeline(chk, top["timeline"] or [], names, missiles)
+    _check_kinds(chk, top, world, missiles)
+    if top["log"] is not None:
+        top["log"] = chk.table("log", top["log"], _LOG)
+    if chk.problems:
+        raise ScenarioError(source, chk.problems)
+    top["missiles"] = missiles
+    top["world"] = world
+    return Scenario(source, text, top, top["title"], world["duration"], timeline, top["log"])
+
+
+def _check_kinds(chk, top, world, missiles):
+    """Kinds named by bodies and collision rules must be declared (world.kinds) or be
+    those of the built-in set or of a ship, missile or explosion spec: a typo in a rule would
+    otherwise silently match nothing."""
+    known = set(DEFAULT_KINDS) | set((world or {}).get("kinds") or [])
+    for t in top["ships"] or []:
+        if isinstance(t, dict) and isinstance(t.get("spec"), dict):
+            known.add(t["spec"].get("kind", "ship"))
+    for spec in missiles.values():
+        if spec is not None:
+            known.add(spec.kind)
+            if spec.explosion is not None:
+                known.add(spec.explosion.kind)
+    for k, t in enumerate(top["bodies"] or []):
+        if isinstance(t, dict) and isinstance(t.get("kind"), str) and t["kind"] not in known:
+            chk.bad(f"bodies[{k}].kind", f"{t['kind']!r} is not declared; add it to "
+                                         f"world.kinds (known: {', '.join(sorted(known))})")
+    for k, t in enumerate(top["collisions"] or []):
+        for side in ("a", "b"):
+            v = t.get(side) if isinstance(t, dict) else None
+            if isinstance(v, str) and v != "*" and v not in known:
+                chk.bad(f"collisions[{k}].{side}", f"{v!r} is not a declared kind (known: "
+                                                   f"{', '.join(sorted(known))})")
+
+
+def _check_world(chk, w):
+    if w["dim"] not in (2, 3):
+        chk.bad("world.dim", f"must be 2 or 3 (got {w['dim']!r})")
+    for key, valid in (("units", UNITS), ("integrator", INTEGRATORS),
+                       ("gravity", GRAVITY_MODELS)):
+        if w[key] is not None and w[key] not in valid:
+            chk.bad(f"world.{key}", f"{w[key]!r} is not known; valid: {', '.join(valid)}")
+    chk.minimum("world.dt", w["dt"], 0.0, strict=True)
+    chk.minimum("world.duration", w["duration"], 0.0, strict=True)
+    chk.minimum("world.G", w["G"], 0.0)
+    chk.minimum("world.softening", w["softening"], 0.0)
+    chk.minimum("world.seed", w["seed"], 0)
+    if w["gravity"] == "uniform" and w["g"] is None:
+        chk.bad("world.g", "missing: gravity = 'uniform' needs the field vector g")
+    if w["gravity"] == "central" and w["central_mass"] is None:
+        chk.bad("world.central_mass", "missing: gravity = 'central' needs it")
+
+
+def _check_place(chk, path, t, names, key):
+    name = t["name"]
+    if name is not None:
+        if name in names:
+            chk.bad(f"{path}.name", f"{name!r} is used twice (also {names[name]})")
+        names[name] = path
+    if t["parent"] is None:
+        if t["pos"] is None and not chk.has(f"{path}.pos"):
+            chk.bad(f"{path}.pos", "missing (or give parent and orbital elements)")
+        for k in ("a", "M", "f"):
+            if t[k] is not None:
+                chk.bad(f"{path}.{k}", "orbital elements need a parent")
+        return
+    if t["parent"] not in names or names[t["parent"]] == path:
+        chk.bad(f"{path}.parent", f"{t['parent']!r} names no body defined before it")
+    for k in ("pos", "vel"):
+        if t[k] is not None:
+            chk.bad(f"{path}.{k}", "give either pos/vel or parent and orbital elements")
+    if t["a"] is None:
+        chk.bad(f"{path}.a", "missing: the semi-major axis of the orbit about the parent")
+    else:
+        chk.minimum(f"{path}.a", t["a"], 0.0, strict=True)
+    if t["e"] is not None and not 0.0 <= t["e"] < 1.0:
+        chk.bad(f"{path}.e", f"must be in [0, 1) for an orbit with a > 0 (got {t['e']!r})")
+    if t["M"] is not None and t["f"] is not None:
+        chk.bad(f"{path}.f", "give M (mean anomaly) or f (true anomaly), not both")
+    if chk.dim == 2 and (t["i"] or t["Omega"]):
+        chk.bad(f"{path}.i", "a 2D orbit lies in the plane: i and Omega must be 0")
+
+
+def _spec(chk, path, cls, table):
+    fields = dict(table)
+    if "explosion" in fields:
+        if not isinstance(fields["explosion"], dict):
+            chk.bad(f"{path}.explosion", "must be a table of ExplosionSpec fields")
+            return None
+        fields["explosion"] = _spec(chk, f"{path}.explosion", ExplosionSpec,
+                                    fields["explosion"])
+        if fields["explosion"] is None:
+            return None
+    try:
+        return cls(**fields)
+    except TypeError as e:              # an unknown field
+        chk.bad(path, f"{e}".replace("__init__() ", "").replace(cls.__name__ + ".", ""))
+    except ValueError as e:
+        chk.bad(path, str(e))
+    return None
+
+
+def _check_timeline(chk, entries, names, missiles):
+    out = []
+    for k, item in enumerate(entries):
+        path = f"timeline[{k}]"
+        t = chk.table(path, item, _EVENT)
+        if t is None:
+            continue
+        actions = [a for a in ("control", "launch", "spawn", "remove", "explode")
+                   if t[a] is not None]
+        if len(actions) != 1:
+            chk.bad(path, "give exactly one of control, launch, spawn, remove, explode")
+            continue
+        chk.minimum(f"{path}.t", t["t"], 0.0)
+        action = actions[0]
+        value = t[action]
+        if action == "control":
+            value = chk.table(f"{path}.control", value, _CONTROL)
+            if value and value["ship"] not in names:
+                chk.bad(f"{path}.control.ship", f"{value['ship']!r} names no ship")
+        elif action == "launch":
+            value = chk.table(f"{path}.launch", value, _LAUNCH)
+            if value:
+                if value["from"] not in names:
+                    chk.bad(f"{path}.launch.from", f"{value['from']!r} names no body")
+                if value["missile"] not in missiles:
+                    chk.bad(f"{path}.launch.missile", f"{value['missile']!r} is not in "
+                                                      f"[missiles]")
+                if value["target"] is not None and value["target"] not in names:
+                    chk.bad(f"{path}.launch.target", f"{value['target']!r} names no body")
+                if value["name"] is not None:
+                    names[value["name"]] = f"{path}.launch"
+        elif action == "spawn":
+            value = chk.table(f"{path}.spawn", value, _BODY)
+            if value:
+                _check_place(chk, f"{path}.spawn", value, names, "bodies")
+                chk.minimum(f"{path}.spawn.mass", value["mass"], 0.0)
+        elif value not in names:
+            chk.bad(f"{path}.{action}", f"{value!r} names no body")
+        out.append((t["t"], action, value))
+    out.sort(key=lambda e: e[0])          # stable: same-time entries keep their order
+    return out
+
+
+# ----------------------------------------------------------------------------- building
+
+def _place(w, t, ids):
+    """pos, vel (dim,) of a body table: given, or from elements about its parent."""
+    dim = w.dim
+    if t["parent"] is None:
+        vel = t["vel"] if t["vel"] is not None else [0.0] * dim
+        return np.array(t["pos"], float), np.array(vel, float)
+    parent = w.get(ids[t["parent"]])
+    mass = t.get("mass") or 0.0
+    deg = math.radians
+    kw = {"f": deg(t["f"])} if t["f"] is not None else {"M": deg(t["M"] or 0.0)}
+    pos, vel = elements_to_state(w.G * (parent.mass + mass), t["a"], t["e"], deg(t["i"]),
+                                 deg(t["Omega"]), deg(t["omega"]), **kw)
+    return parent.pos + pos[:dim], parent.vel + vel[:dim]
+
+
+def _add_body(w, t, ids):
+    pos, vel = _place(w, t, ids)
+    kw = {"radius": t["radius"], "kind": t["kind"], "fixed": t["fixed"]}
+    if t["active"] is not None:
+        kw["active"] = t["active"]
+    if t["lifetime"] is not None:
+        kw["lifetime"] = t["lifetime"]
+    ids[t["name"]] = w.add_body(t["mass"], pos, vel, **kw)
+
+
+def _heading(value):
+    """A heading of a scenario: an angle in degrees (2D) or a direction vector (3D)."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return math.radians(value)
+    return value
+
+
+def _build(data):
+    s = data["world"]
+    kw = {k: s[k] for k in ("dim", "units", "integrator", "dt", "softening", "gravity", "seed")}
+    for k in ("G", "tolerance", "max_step", "min_step", "g", "central_mass", "central_pos"):
+        if s[k] is not None:
+            kw[k] = s[k]
+    w = World(**kw)
+    for kind in s["kinds"]:
+        w.add_kind(kind)
+    ids = {}
+    for t in data["bodies"]:
+        _add_body(w, t, ids)
+    for t in data["ships"]:
+        spec = ShipSpec(**{k: (ExplosionSpec(**v) if k == "explosion" else v)
+                           for k, v in t["spec"].items()})
+        pos, vel = _place(w, {**t, "mass": spec.dry_mass + spec.fuel_mass}, ids)
+        ids[t["name"]] = w.add_ship(spec, pos, vel, heading=_heading(t["heading"]))
+    for c in data["collisions"]:
+        w.set_collision(c["a"], c["b"], c["response"], restitution=c["restitution"])
+    b = data["boundary"]
+    if b is not None:
+        w.set_boundary(b["mode"], lo=b["lo"], hi=b["hi"], restitution=b["restitution"])
+    for wall in data["walls"]:
+        if wall["a"] is not None:
+            w.add_segment(wall["a"], wall["b"], restitution=wall["restitution"])
+        else:
+            w.add_plane(wall["point"], wall["normal"], restitution=wall["restitution"])
+    return w, ids
+
+
+def apply(w, ids, missiles, action, value):
+    """Carry out one timeline entry on World w (ids: name -> id, grown by spawns and named
+    launches)."""
+    if action == "control":
+        w.control(ids[value["ship"]], **{k: value[k] for k in ("throttle", "turn", "strafe")
+                                         if value[k] is not None})
+    elif action == "launch":
+        target = ids[value["target"]] if value["target"] is not None else None
+        body = w.launch(ids[value["from"]], missiles[value["missile"]], target=target,
+                        heading=_heading(value["heading"]))
+        if value["name"] is not None:
+            ids[value["name"]] = body
+    elif action == "spawn":
+        _add_body(w, value, ids)
+    elif action == "remove":
+        w.remove(ids[value])
+    else:
+        w.explode(ids[value])

@@ -1,0 +1,161 @@
+"""TOML scenarios (spacephys/scenario.py), run_scenario and `spacephys run SCENARIO`."""
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import spacephys as sp
+from spacephys.runner import run_scenario
+from spacephys.scenario import ScenarioError, load_scenario
+
+ROOT = Path(__file__).resolve().parent.parent
+FILES = sorted((ROOT / "scenarios").glob("*.toml"))
+
+BASE = """
+[world]
+dim = 2
+dt = 0.01
+duration = 1.0
+
+[[bodies]]
+name = "star"
+mass = 1.0
+pos = [0.0, 0.0]
+"""
+
+
+def test_there_are_scenarios():
+    assert {"two_body", "figure_eight", "pythagorean", "dogfight"} <= {p.stem for p in FILES}
+
+
+@pytest.mark.parametrize("path", FILES, ids=lambda p: p.stem)
+def test_every_scenario_loads_and_runs_a_short_horizon(path):
+    sc = load_scenario(path)
+    result = run_scenario(sc, duration=min(sc.duration, 2.0))
+    w = result.world
+    assert w.t == pytest.approx(min(sc.duration, 2.0), abs=w.dt)
+    assert np.all(np.isfinite(w.pos)) and result.steps > 0
+    assert result.energy_error < 1e-3
+
+
+def test_orbital_elements_place_a_body_about_its_parent():
+    sc = load_scenario(BASE + """
+[[bodies]]
+name = "planet"
+mass = 0.001
+parent = "star"
+a = 2.0
+e = 0.25
+omega = 90.0
+M = 0.0
+""")
+    w, ids = sc.build()
+    r = w.get(ids["planet"]).pos - w.get(ids["star"]).pos
+    # pericentre (M = 0) along omega = 90 degrees: (0, a (1 - e))
+    np.testing.assert_allclose(r, [0.0, 1.5], atol=1e-15)
+    v = np.linalg.norm(w.get(ids["planet"]).vel)
+    assert v == pytest.approx(math.sqrt(1.001 * (2 / 1.5 - 1 / 2.0)), rel=1e-14)   # vis-viva
+
+
+def test_the_timeline_acts_at_the_first_step_at_or_after_its_time():
+    sc = load_scenario("""
+[world]
+dim = 2
+dt = 0.1
+duration = 2.0
+gravity = "none"
+
+[[ships]]
+name = "s"
+pos = [0.0, 0.0]
+heading = 90.0
+spec = { dry_mass = 1.0, fuel_mass = 1.0, max_thrust = 1.0, exhaust_speed = 10.0 }
+
+[[timeline]]
+t = 0.95
+control = { ship = "s", throttle = 1.0 }
+
+[[timeline]]
+t = 1.5
+control = { ship = "s", throttle = 0.0 }
+""")
+    result = run_scenario(sc)
+    w = result.world
+    # thrust along +y (90 degrees) from t = 1.0 to 1.5: Tsiolkovsky for 0.05 of fuel
+    v = w.get(0).vel
+    assert v[0] == pytest.approx(0.0, abs=1e-15)
+    assert v[1] == pytest.approx(10.0 * math.log(2.0 / (2.0 - 0.05)), rel=1e-12)
+    assert w.fuel(0) == pytest.approx(0.95, rel=1e-12)
+
+
+@pytest.mark.parametrize("text, path, words", [
+    (BASE.replace("mass = 1.0", "mass = -1.0"), "bodies[0].mass", ">= 0"),
+    (BASE.replace("mass = 1.0", 'mass = "heavy"'), "bodies[0].mass", "a number"),
+    (BASE.replace('name = "star"\n', ""), "bodies[0].name", "missing"),
+    (BASE + "colour = 3\n", "bodies[0].colour", "unknown key"),
+    (BASE.replace("pos = [0.0, 0.0]", "pos = [0.0, 0.0, 1.0]"), "bodies[0].pos", "2 numbers"),
+    (BASE.replace("dt = 0.01", "dt = 0.0"), "world.dt", "> 0"),
+    (BASE.replace("dim = 2", "dim = 2\nintegrator = 'rk5'"), "world.integrator", "rk5"),
+    (BASE + '[[bodies]]\nname = "p"\nmass = 0.0\nparent = "sun"\na = 1.0\n',
+     "bodies[1].parent", "'sun'"),
+    (BASE + '[[bodies]]\nname = "p"\nmass = 0.0\nparent = "star"\na = 1.0\ne = 1.2\n',
+     "bodies[1].e", "[0, 1)"),
+    (BASE + '[[bodies]]\nname = "star"\nmass = 0.0\npos = [1.0, 0.0]\n', "bodies[1].name",
+     "used twice"),
+    (BASE + '[[collisions]]\na = "rock"\nb = "star"\nresponse = "merge"\n',
+     "collisions[0].a", "not a declared kind"),
+    (BASE + '[[collisions]]\na = "star"\nb = "star"\nresponse = "glue"\n',
+     "collisions[0].response", "not a response"),
+    (BASE + '[[timeline]]\nt = 0.5\nlaunch = { from = "star", missile = "x" }\n',
+     "timeline[0].launch.missile", "not in [missiles]"),
+    (BASE + '[[ships]]\nname = "s"\npos = [1.0, 0.0]\nspec = { dry_mass = -1.0 }\n',
+     "ships[0].spec", "dry_mass"),
+    ("[world\n", "(file)", "not valid TOML"),
+])
+def test_each_mistake_is_reported_with_its_key_path(text, path, words):
+    with pytest.raises(ScenarioError) as err:
+        load_scenario(text)
+    problems = dict(err.value.problems)
+    assert path in problems, err.value.problems
+    assert words in problems[path], problems[path]
+
+
+def test_every_problem_is_reported_at_once():
+    text = BASE.replace("mass = 1.0", "mass = -1.0").replace("dt = 0.01", "dt = -1") + "x = 1\n"
+    with pytest.raises(ScenarioError) as err:
+        load_scenario(text)
+    assert {"bodies[0].mass", "world.dt", "bodies[0].x"} <= dict(err.value.problems).keys()
+    assert str(err.value).count("\n") == len(err.value.problems)
+
+
+def _cli(*args, cwd=ROOT):
+    return subprocess.run([sys.executable, "-m", "spacephys.cli", *args], capture_output=True,
+                          text=True, cwd=cwd, timeout=600)
+
+
+def test_cli_runs_a_scenario_file_into_a_log(tmp_path):
+    out = tmp_path / "run.h5"
+    res = _cli("run", str(ROOT / "scenarios" / "dogfight.toml"), "--duration", "3", "--quiet",
+               "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    assert "launch 2" in res.stdout and "steps         750 " in res.stdout
+    with sp.open_run(out) as run:
+        assert run.meta["scenario"].startswith('title = "dogfight"')
+        calls = [e["call"] for e in run.inputs()]
+        assert calls.count("launch") == 2 and calls.count("control") == 1   # t = 1, 1.5, 2
+    assert sp.replay(out).ok
+
+
+def test_cli_refuses_a_bad_scenario_without_a_traceback_or_a_file(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(BASE.replace("mass = 1.0", "mass = -1.0"))
+    out = tmp_path / "run.h5"
+    res = _cli("run", str(bad), "--out", str(out))
+    assert res.returncode == 2
+    assert "bodies[0].mass: must be >= 0" in res.stderr and "Traceback" not in res.stderr
+    assert not out.exists()
+    res = _cli("run", "no_such_scenario")
+    assert res.returncode == 2 and "two_body" in res.stderr
