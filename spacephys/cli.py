@@ -38,6 +38,13 @@ def _run(args):
     return 0
 
 
+def _plot(args):
+    from .plot import animate_run, plot_run
+    (plot_run if args.command == "plot" else animate_run)(args.run, args.output)
+    print(f"wrote {args.output}")
+    return 0
+
+
 def _bench(args):
     from . import bench
     results = bench.BENCHMARKS[args.what](quick=args.quick)
@@ -79,6 +86,13 @@ def main(argv=None):
     run.add_argument("--duration", type=float, help="simulated time [time units]")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)
+
+    for name, what, ext in (("plot", "trajectories and energy error", "png"),
+                            ("animate", "an animation of the bodies", "gif")):
+        p = sub.add_parser(name, help=f"draw a run log: {what}")
+        p.add_argument("run", metavar="RUN.h5", help="a log from spacephys run --out")
+        p.add_argument("-o", "--output", required=True, metavar=f"OUT.{ext}")
+        p.set_defaults(func=_plot)
 
     bench = sub.add_parser("bench", help="benchmark side by side with REBOUND")
     bench.add_argument("what", choices=["gravity", "integrators", "collisions", "fleet", "log"])

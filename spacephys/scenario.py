@@ -26,7 +26,7 @@ _WORLD = {"dim": ("int", 2), "units": ("str", "game"), "G": ("float", None),
           "max_step": ("float", None), "min_step": ("float", None),
           "gravity": ("str", "direct"), "g": ("vec", None), "central_mass": ("float", None),
           "central_pos": ("vec", None), "softening": ("float", 0.0), "seed": ("int", 0),
-          "kinds": ("strs", [])}
+          "kinds": ("strs", []), "center_of_mass": ("bool", False)}
 _PLACE = {"pos": ("vec", None), "vel": ("vec", None), "parent": ("str", None),
           "a": ("float", None), "e": ("float", 0.0), "i": ("float", 0.0),
           "Omega": ("float", 0.0), "omega": ("float", 0.0), "M": ("float", None),
@@ -404,6 +404,8 @@ def _build(data):
                            for k, v in t["spec"].items()})
         pos, vel = _place(w, {**t, "mass": spec.dry_mass + spec.fuel_mass}, ids)
         ids[t["name"]] = w.add_ship(spec, pos, vel, heading=_heading(t["heading"]))
+    if s["center_of_mass"]:
+        w.move_to_center_of_mass()
     for c in data["collisions"]:
         w.set_collision(c["a"], c["b"], c["response"], restitution=c["restitution"])
     b = data["boundary"]

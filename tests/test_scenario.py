@@ -159,3 +159,35 @@ def test_cli_refuses_a_bad_scenario_without_a_traceback_or_a_file(tmp_path):
     assert not out.exists()
     res = _cli("run", "no_such_scenario")
     assert res.returncode == 2 and "two_body" in res.stderr
+
+
+# ----------------------------------------------------------------------------- pictures
+
+def test_plot_and_animate_draw_a_run(tmp_path):
+    from PIL import Image
+    from spacephys.plot import _energy
+    log = tmp_path / "two.h5"
+    run_scenario(ROOT / "scenarios" / "two_body.toml", duration=6.3, out=log)
+    png, gif = tmp_path / "two.png", tmp_path / "two.gif"
+    res = _cli("plot", str(log), "-o", str(png))
+    assert res.returncode == 0, res.stderr
+    with Image.open(png) as im:
+        assert im.format == "PNG" and im.size[0] > 1000 and im.size[1] > 500
+        # not a blank canvas: the orbit and the energy curve put ink on it
+        assert len(im.convert("L").getcolors(1 << 16)) > 20
+    res = _cli("animate", str(log), "-o", str(gif))
+    assert res.returncode == 0, res.stderr
+    with Image.open(gif) as im:
+        assert im.format == "GIF" and im.n_frames == 150
+    # the energy the plot draws is the World's
+    with sp.open_run(log) as run:
+        w = run.world(-1)
+        assert _energy(run, run.frame(-1)) == pytest.approx(w.energy(), rel=1e-12)
+
+
+def test_plot_refuses_a_file_that_is_not_a_log(tmp_path):
+    bad = tmp_path / "x.h5"
+    bad.write_text("not a log")
+    res = _cli("plot", str(bad), "-o", str(tmp_path / "x.png"))
+    assert res.returncode == 2 and "not an HDF5 file" in res.stderr
+    assert "Traceback" not in res.stderr and not (tmp_path / "x.png").exists()
