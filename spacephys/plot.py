@@ -41,16 +41,21 @@ def _energy(run, fr):
 
 
 def _tracks(run, frames):
-    """id -> (times, positions) over the sampled frames for up to _TRACKED bodies (the
-    heaviest, then the longest-lived: ships and missiles before debris), and the last
-    frame."""
+    """id -> (times, positions) over the sampled frames for up to _TRACKED bodies (those
+    that move before those that do not, then the heaviest, then the longest-lived: ships
+    and missiles before debris), and the last frame."""
     data = [run.frame(int(f)) for f in frames]
-    heaviest, seen = {}, {}
+    heaviest, seen, start, moved = {}, {}, {}, set()
     for fr in data:
-        for i, m in zip(fr.ids.tolist(), fr.mass.tolist()):
+        for i, m, p in zip(fr.ids.tolist(), fr.mass.tolist(), fr.pos):
             heaviest[i] = max(heaviest.get(i, 0.0), m)
             seen[i] = seen.get(i, 0) + 1
-    chosen = sorted(heaviest, key=lambda i: (-(heaviest[i] > 0), -seen[i], -heaviest[i], i))
+            if i not in start:
+                start[i] = p
+            elif i not in moved and np.any(p != start[i]):
+                moved.add(i)
+    chosen = sorted(heaviest, key=lambda i: (i not in moved, -(heaviest[i] > 0), -seen[i],
+                                             -heaviest[i], i))
     chosen = chosen[:_TRACKED]
     tracks = {i: ([], []) for i in chosen}
     last = data[-1]
@@ -115,7 +120,8 @@ def plot_run(path, out, *, most_frames=1500):
             ax.text(0.5, 0.5, "no energy to show\n(no massive bodies, too many of them,\n"
                     "or a field not kept in the log)", ha="center", va="center")
         ax.set_xlabel("t")
-        fig.suptitle(f"{title}: {about}" if about else title, fontsize=10)
+        import textwrap
+        fig.suptitle(textwrap.fill(f"{title}: {about}" if about else title, 160), fontsize=10)
         fig.tight_layout()
         fig.savefig(out, dpi=110)
         plt.close(fig)

@@ -16,7 +16,7 @@ from .entities import ExplosionSpec, MissileSpec, ShipSpec
 from .integrators import INTEGRATORS
 from .orbits import elements_to_state
 from .units import UNITS
-from .world import BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, RESPONSES, World
+from .world import BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, PASSIVE_KINDS, RESPONSES, World
 
 REQUIRED = object()
 # key -> (type, default); types: float, int, str, bool, vec (dim floats), strs, table, any
@@ -34,6 +34,10 @@ _PLACE = {"pos": ("vec", None), "vel": ("vec", None), "parent": ("str", None),
 _BODY = {"name": ("str", REQUIRED), "mass": ("float", REQUIRED), "radius": ("float", 0.0),
          "kind": ("str", "body"), "active": ("bool", None), "fixed": ("bool", False),
          "lifetime": ("float", None), **_PLACE}
+_RING = {"name": ("str", REQUIRED), "count": ("int", REQUIRED), "parent": ("str", REQUIRED),
+         "a": ("range", REQUIRED), "e": ("range", [0.0, 0.0]), "i": ("range", [0.0, 0.0]),
+         "mass": ("range", [0.0, 0.0]), "radius": ("range", [0.0, 0.0]),
+         "kind": ("str", "asteroid"), "seed": ("int", 0)}
 _SHIP = {"name": ("str", REQUIRED), "spec": ("table", REQUIRED), "heading": ("any", None),
          **_PLACE}
 _COLLISION = {"a": ("str", REQUIRED), "b": ("str", REQUIRED), "response": ("str", REQUIRED),
@@ -43,14 +47,14 @@ _BOUNDARY = {"mode": ("str", REQUIRED), "lo": ("vec", None), "hi": ("vec", None)
 _WALL = {"a": ("vec", None), "b": ("vec", None), "point": ("vec", None),
          "normal": ("vec", None), "restitution": ("float", 1.0)}
 _CONTROL = {"ship": ("str", REQUIRED), "throttle": ("float", None), "turn": ("any", None),
-            "strafe": ("any", None)}
+            "strafe": ("any", None), "heading": ("any", None), "fuel": ("float", None)}
 _LAUNCH = {"from": ("str", REQUIRED), "missile": ("str", REQUIRED), "target": ("str", None),
            "heading": ("any", None), "name": ("str", None)}
 _EVENT = {"t": ("float", REQUIRED), "control": ("table", None), "launch": ("table", None),
           "spawn": ("table", None), "remove": ("str", None), "explode": ("str", None)}
 _LOG = {"path": ("str", REQUIRED), "every": ("int", None), "every_time": ("float", None)}
 _TOP = {"title": ("str", ""), "description": ("str", ""), "world": ("table", REQUIRED),
-        "bodies": ("tables", []), "ships": ("tables", []), "missiles": ("table", {}),
+        "bodies": ("tables", []), "rings": ("tables", []), "ships": ("tables", []), "missiles": ("table", {}),
         "collisions": ("tables", []), "boundary": ("table", None), "walls": ("tables", []),
         "timeline": ("tables", []), "log": ("table", None)}
 
@@ -122,11 +126,15 @@ class _Checker:
               "tables": lambda: isinstance(v, list) and all(isinstance(x, dict) for x in v),
               "vec": lambda: isinstance(v, list) and len(v) == self.dim and all(
                   isinstance(x, (int, float)) and not isinstance(x, bool) for x in v),
+              "range": lambda: isinstance(v, list) and len(v) == 2 and all(
+                  isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
+              and v[0] <= v[1],
               "any": lambda: True}[kind]()
         if not ok:
             want = {"float": "a number", "int": "an integer", "str": "text",
                     "bool": "true or false", "strs": "a list of text", "table": "a table",
-                    "tables": "an array of tables", "vec": f"{self.dim} numbers"}[kind]
+                    "tables": "an array of tables", "vec": f"{self.dim} numbers",
+                    "range": "[low, high] with low <= high"}[kind]
             self.bad(path, f"must be {want}, got {v!r}")
             return None
         if kind == "float" and not math.isfinite(v):
@@ -183,6 +191,25 @@ def load_scenario(path_or_text):
             elif t["spec"] is not None:
                 _spec(chk, f"{path}.spec", ShipSpec, t["spec"])
             top[key][k] = t
+    for k, item in enumerate(top["rings"] or []):
+        path = f"rings[{k}]"
+        t = chk.table(path, item, _RING)
+        if t is None:
+            continue
+        if t["parent"] is not None and t["parent"] not in names:
+            chk.bad(f"{path}.parent", f"{t['parent']!r} names no body defined before it")
+        chk.minimum(f"{path}.count", t["count"], 1)
+        for key in ("a", "mass", "radius"):
+            low = None if t[key] is None else t[key][0]
+            if key == "a" and low is not None and low <= 0:
+                chk.bad(f"{path}.a", f"must be > 0 (got {t['a']!r})")
+            elif low is not None and low < 0:
+                chk.bad(f"{path}.{key}", f"must be >= 0 (got {t[key]!r})")
+        if t["e"] is not None and not (0.0 <= t["e"][0] and t["e"][1] < 1.0):
+            chk.bad(f"{path}.e", f"must lie in [0, 1) (got {t['e']!r})")
+        if chk.dim == 2 and t["i"] and any(t["i"]):
+            chk.bad(f"{path}.i", "a 2D ring lies in the plane: i must be [0, 0]")
+        top["rings"][k] = t
     missiles = {}
     for name, spec in (top["missiles"] or {}).items():
         if not isinstance(spec, dict):
@@ -231,6 +258,10 @@ def _check_kinds(chk, top, world, missiles):
             known.add(spec.kind)
             if spec.explosion is not None:
                 known.add(spec.explosion.kind)
+    for k, t in enumerate(top["rings"] or []):
+        if isinstance(t, dict) and isinstance(t.get("kind"), str) and t["kind"] not in known:
+            chk.bad(f"rings[{k}].kind", f"{t['kind']!r} is not declared; add it to "
+                                        f"world.kinds")
     for k, t in enumerate(top["bodies"] or []):
         if isinstance(t, dict) and isinstance(t.get("kind"), str) and t["kind"] not in known:
             chk.bad(f"bodies[{k}].kind", f"{t['kind']!r} is not declared; add it to "
@@ -362,7 +393,8 @@ def _place(w, t, ids):
         vel = t["vel"] if t["vel"] is not None else [0.0] * dim
         return np.array(t["pos"], float), np.array(vel, float)
     parent = w.get(ids[t["parent"]])
-    mass = t.get("mass") or 0.0
+    # mu = G (M + m) for a body that pulls back; a passive one (a ship) orbits in M's field
+    mass = (t.get("mass") or 0.0) if t.get("pulls", True) else 0.0
     deg = math.radians
     kw = {"f": deg(t["f"])} if t["f"] is not None else {"M": deg(t["M"] or 0.0)}
     pos, vel = elements_to_state(w.G * (parent.mass + mass), t["a"], t["e"], deg(t["i"]),
@@ -371,13 +403,35 @@ def _place(w, t, ids):
 
 
 def _add_body(w, t, ids):
-    pos, vel = _place(w, t, ids)
+    pulls = t["active"] if t["active"] is not None else t["kind"] not in PASSIVE_KINDS
+    pos, vel = _place(w, {**t, "pulls": pulls}, ids)
     kw = {"radius": t["radius"], "kind": t["kind"], "fixed": t["fixed"]}
     if t["active"] is not None:
         kw["active"] = t["active"]
     if t["lifetime"] is not None:
         kw["lifetime"] = t["lifetime"]
     ids[t["name"]] = w.add_body(t["mass"], pos, vel, **kw)
+
+
+def _add_ring(w, t, ids):
+    """`count` bodies on orbits about the parent with elements drawn uniformly from the
+    ranges (mean anomaly, node and pericentre uniform in angle), from an RNG seeded by the
+    ring's seed: the same ring every run."""
+    rng = np.random.default_rng(t["seed"])
+    k = t["count"]
+    parent = w.get(ids[t["parent"]])
+    draw = lambda key: rng.uniform(*t[key], k)
+    a, e, inc, mass, radius = draw("a"), draw("e"), np.radians(draw("i")), draw("mass"), \
+        draw("radius")
+    node, peri, M = (rng.uniform(0, 2 * np.pi, k) for _ in range(3))
+    if w.dim == 2:
+        node[:] = 0.0
+    pos, vel = np.empty((k, w.dim)), np.empty((k, w.dim))
+    for j in range(k):
+        p, v = elements_to_state(w.G * (parent.mass + mass[j]), a[j], e[j], inc[j], node[j],
+                                 peri[j], M=M[j])
+        pos[j], vel[j] = parent.pos + p[:w.dim], parent.vel + v[:w.dim]
+    w.add_bodies(mass, pos, vel, radius=radius, kind=t["kind"])
 
 
 def _heading(value):
@@ -399,10 +453,13 @@ def _build(data):
     ids = {}
     for t in data["bodies"]:
         _add_body(w, t, ids)
+    for ring in data["rings"]:
+        _add_ring(w, ring, ids)
     for t in data["ships"]:
         spec = ShipSpec(**{k: (ExplosionSpec(**v) if k == "explosion" else v)
                            for k, v in t["spec"].items()})
-        pos, vel = _place(w, {**t, "mass": spec.dry_mass + spec.fuel_mass}, ids)
+        pos, vel = _place(w, {**t, "mass": spec.dry_mass + spec.fuel_mass,
+                              "pulls": spec.active}, ids)
         ids[t["name"]] = w.add_ship(spec, pos, vel, heading=_heading(t["heading"]))
     if s["center_of_mass"]:
         w.move_to_center_of_mass()
@@ -423,8 +480,13 @@ def apply(w, ids, missiles, action, value):
     """Carry out one timeline entry on World w (ids: name -> id, grown by spawns and named
     launches)."""
     if action == "control":
-        w.control(ids[value["ship"]], **{k: value[k] for k in ("throttle", "turn", "strafe")
-                                         if value[k] is not None})
+        ship = ids[value["ship"]]
+        if value["heading"] is not None:          # point the ship, then set the controls
+            w.set_heading(ship, _heading(value["heading"]))
+        if value["fuel"] is not None:             # refuel (or drain) first
+            w.set_fuel(ship, value["fuel"])
+        w.control(ship, **{k: value[k] for k in ("throttle", "turn", "strafe")
+                           if value[k] is not None})
     elif action == "launch":
         target = ids[value["target"]] if value["target"] is not None else None
         body = w.launch(ids[value["from"]], missiles[value["missile"]], target=target,

@@ -191,3 +191,71 @@ def test_plot_refuses_a_file_that_is_not_a_log(tmp_path):
     res = _cli("plot", str(bad), "-o", str(tmp_path / "x.png"))
     assert res.returncode == 2 and "not an HDF5 file" in res.stderr
     assert "Traceback" not in res.stderr and not (tmp_path / "x.png").exists()
+
+
+# ----------------------------------------------------------------------------- the scenarios
+
+def _track(tmp_path, name, body, **kw):
+    log = tmp_path / f"{name}.h5"
+    result = run_scenario(ROOT / "scenarios" / f"{name}.toml", out=log, **kw)
+    with sp.open_run(log) as run:
+        return result, run.trajectory(body), run.events()
+
+
+def test_projectile_apex_and_range_match_the_closed_form(tmp_path):
+    _, tr, _ = _track(tmp_path, "projectile", 0)
+    v0, angle, g = 20.0, math.radians(30.0), 10.0
+    apex = int(np.argmin(np.abs(tr.t - v0 * math.sin(angle) / g)))
+    land = int(np.argmin(np.abs(tr.t - 2 * v0 * math.sin(angle) / g)))
+    # leapfrog is exact for a constant field: only round-off separates it from the formula
+    np.testing.assert_allclose(tr.pos[apex], [v0 * math.cos(angle) * 1.0,
+                                              (v0 * math.sin(angle)) ** 2 / (2 * g)],
+                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(tr.pos[land], [v0 ** 2 * math.sin(2 * angle) / g, 0.0],
+                               rtol=0, atol=1e-12)
+    assert tr.vel[apex][1] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_hohmann_transfer_reaches_the_closed_form_orbit(tmp_path):
+    result, tr, events = _track(tmp_path, "orbit_transfer", 1)
+    r = np.linalg.norm(tr.pos, axis=1)
+    transfer = (tr.t > 0.5) & (tr.t < 5.772)         # up to the second burn
+    final = tr.t > 6.0
+    # r1 = 1 -> r2 = 2 about mu = 1: apoapsis 2 after the first burn, then a circle of 2;
+    # two burns of a few milliseconds depart from impulses by a few 1e-6
+    assert r[transfer].max() == pytest.approx(2.0, abs=1e-5)
+    assert r[final].min() == pytest.approx(2.0, abs=2e-5)
+    assert r[final].max() == pytest.approx(2.0, abs=2e-5)
+    assert np.linalg.norm(tr.vel[-1]) == pytest.approx(math.sqrt(0.5), rel=1e-5)
+    # each burn stopped when its fuel (exactly its delta-v by Tsiolkovsky) ran out
+    empty = events[events["kind"] == sp.events.FUEL_EMPTY]
+    assert len(empty) == 2 and result.world.fuel(1) == 0.0
+    assert empty["time"][0] == pytest.approx(math.expm1((math.sqrt(4 / 3) - 1) / 50), rel=1e-9)
+
+
+def test_solar_system_scenario_is_the_j2000_scene():
+    from spacephys.scenes import solar_system
+    w, ids = load_scenario(ROOT / "scenarios" / "solar_system.toml").build()
+    ref = solar_system()
+    np.testing.assert_allclose(w.pos, ref.pos, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(w.vel, ref.vel, rtol=0, atol=1e-12)
+    assert list(ids) == ["sun", "mercury", "venus", "earth", "mars", "jupiter", "saturn",
+                         "uranus", "neptune"]
+
+
+def test_asteroid_belt_merges_and_keeps_momentum():
+    result = run_scenario(ROOT / "scenarios" / "asteroid_belt.toml", duration=3.0)
+    w = result.world
+    assert result.events.get("merge", 0) > 20 and w.n == 402 - result.events["merge"]
+    assert result.momentum_error < 1e-12
+    # a ring is the same every run: seeded
+    again = run_scenario(ROOT / "scenarios" / "asteroid_belt.toml", duration=3.0).world
+    assert np.array_equal(again.pos, w.pos)
+
+
+def test_a_scenario_log_section_records_the_run(tmp_path):
+    log = tmp_path / "logged.h5"
+    text = BASE + f'[log]\npath = "{log}"\nevery = 10\n'
+    result = run_scenario(text)
+    with sp.open_run(log) as run:
+        assert run.meta["every"] == 10 and len(run) == result.steps // 10 + 1
