@@ -26,7 +26,8 @@ _WORLD = {"dim": ("int", 2), "units": ("str", "game"), "G": ("float", None),
           "max_step": ("float", None), "min_step": ("float", None),
           "gravity": ("str", "direct"), "g": ("vec", None), "central_mass": ("float", None),
           "central_pos": ("vec", None), "softening": ("float", 0.0), "seed": ("int", 0),
-          "kinds": ("strs", []), "center_of_mass": ("bool", False)}
+          "kinds": ("strs", []), "center_of_mass": ("bool", False), "drag": ("float", 0.0),
+          "wind": ("vec", None)}
 _PLACE = {"pos": ("vec", None), "vel": ("vec", None), "parent": ("str", None),
           "a": ("float", None), "e": ("float", 0.0), "i": ("float", 0.0),
           "Omega": ("float", 0.0), "omega": ("float", 0.0), "M": ("float", None),
@@ -285,6 +286,11 @@ def _check_world(chk, w):
     chk.minimum("world.duration", w["duration"], 0.0, strict=True)
     chk.minimum("world.G", w["G"], 0.0)
     chk.minimum("world.softening", w["softening"], 0.0)
+    chk.minimum("world.drag", w["drag"], 0.0)
+    if w["drag"] and w["integrator"] in INTEGRATORS and \
+            INTEGRATORS[w["integrator"]].family not in ("splitting", "rk"):
+        chk.bad("world.drag", f"integrator {w['integrator']!r} has no drag yet; use a "
+                              f"fixed-step one (leapfrog, yoshida4..8, rk4)")
     chk.minimum("world.seed", w["seed"], 0)
     if w["gravity"] == "uniform" and w["g"] is None:
         chk.bad("world.g", "missing: gravity = 'uniform' needs the field vector g")
@@ -443,8 +449,10 @@ def _heading(value):
 
 def _build(data):
     s = data["world"]
-    kw = {k: s[k] for k in ("dim", "units", "integrator", "dt", "softening", "gravity", "seed")}
-    for k in ("G", "tolerance", "max_step", "min_step", "g", "central_mass", "central_pos"):
+    kw = {k: s[k] for k in ("dim", "units", "integrator", "dt", "softening", "gravity", "seed",
+                            "drag")}
+    for k in ("G", "tolerance", "max_step", "min_step", "g", "central_mass", "central_pos",
+              "wind"):
         if s[k] is not None:
             kw[k] = s[k]
     w = World(**kw)

@@ -103,12 +103,15 @@ class World(Actors):
     max_substeps : int >= 1, most steps one advance() call may take (against the spiral of death)
     capacity : int, initial room for bodies (grows by doubling)
     seed : int >= 0, seeds every random choice (explosions): same seed, same run
+    drag : float >= 0, linear drag rate k [1/time]: every body also accelerates by
+           -k (v - wind) (an atmosphere, the seed's wind resistance); fixed-step integrators
+    wind : (dim,) the air's velocity [length/time] (default 0)
     """
 
     def __init__(self, dim=2, *, units="game", G=None, integrator="leapfrog", dt=1 / 240,
                  softening=0.0, gravity="direct", g=None, central_mass=None, central_pos=None,
                  tolerance=1e-9, max_step=None, min_step=0.0, step_control="auto",
-                 max_substeps=16, capacity=64, seed=0):
+                 max_substeps=16, capacity=64, seed=0, drag=0.0, wind=None):
         if isinstance(dim, bool) or not isinstance(dim, (int, np.integer)) or dim not in (2, 3):
             raise ValueError(f"dim = {dim!r}: must be the integer 2 or 3")
         unit_system = get_units(units)
@@ -138,10 +141,15 @@ class World(Actors):
         max_substeps = check.count("max_substeps", max_substeps, minimum=1)
         capacity = check.count("capacity", capacity, minimum=1)
         seed = check.count("seed", seed)
+        drag_table = np.zeros(4)
+        drag_table[0] = check.scalar("drag", drag, minimum=0.0)
+        if wind is not None:
+            drag_table[1:1 + dim] = check.floats("wind", wind, (dim,))
         tolerance, max_step, min_step = self._adaptive_settings(tolerance, max_step, min_step)
         step_control = self._checked_step_control(step_control)
 
         self._dim = int(dim)
+        self._drag = drag_table           # [k, wind (3,)]: the step kernels' drag argument
         self._max_substeps = max_substeps
         self._step_control = step_control
         self._units = unit_system
@@ -303,6 +311,24 @@ class World(Actors):
         return {"steps": int(s[gr.STEPS]), "rejected": int(s[gr.REJECTED]),
                 "at_min_step": int(s[gr.AT_MIN_STEP]), "not_converged": int(s[gr.NOT_CONVERGED]),
                 "sweeps": int(s[gr.SWEEPS]), "rider_substeps": int(s[gr.RIDER_SUBSTEPS])}
+
+    @property
+    def drag(self):
+        """Linear drag rate k [1/time]: each body accelerates by -k (v - wind)."""
+        return float(self._drag[0])
+
+    @drag.setter
+    def drag(self, value):
+        self._drag[0] = check.scalar("drag", value, minimum=0.0)
+
+    @property
+    def wind(self):
+        """(dim,) the velocity drag pulls bodies toward [length/time]."""
+        return self._drag[1:1 + self._dim].copy()
+
+    @wind.setter
+    def wind(self, value):
+        self._drag[1:1 + self._dim] = check.floats("wind", value, (self._dim,))
 
     @property
     def softening(self):
@@ -901,11 +927,15 @@ class World(Actors):
         frames = _NO_FRAMES if frames is None else frames
         if spec.family == "splitting":
             return splitting_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.drift,
-                                   spec.kick, self._dt, nsteps, setup, ctrl, self._workspace(),
-                                   *frames)
+                                   spec.kick, self._drag, self._dt, nsteps, setup, ctrl,
+                                   self._workspace(), *frames)
         if spec.family == "rk":
             return rk_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.a, spec.b,
-                            self._dt, nsteps, setup, ctrl, self._workspace(), *frames)
+                            self._drag, self._dt, nsteps, setup, ctrl, self._workspace(),
+                            *frames)
+        if self._drag[0] > 0.0:
+            raise ValueError(f"drag = {self._drag[0]:g}: integrator {spec.name!r} has no drag "
+                             f"yet; use a fixed-step one (leapfrog, yoshida4..8, rk4)")
         if spec.family == "gauss_radau":
             return self._run_gauss_radau(nsteps, setup, ctrl)
         return self._run_wisdom_holman(nsteps, setup, ctrl)

@@ -233,3 +233,52 @@ def test_test_particles_do_not_move_massive_bodies(name):
     assert np.array_equal(crowd.vel[:200], alone.vel)
     ships = crowd.vel[-50:]                  # they started at rest and fell toward the cluster
     assert np.all(np.linalg.norm(ships, axis=1) > 0)
+
+
+# ----------------------------------------------------------------------------- drag
+
+def _thrown(name, n, k=0.3, T=2.0, **kw):
+    """A body thrown in a uniform field into a wind with linear drag: (error at T against
+    the closed form x(t) = vt t + (v0 - vt)(1 - exp(-k t)) / k, vt = wind + g / k, World)."""
+    g, wind, v0 = np.array([0.0, -10.0]), np.array([4.0, 1.0]), np.array([17.3, 10.0])
+    w = sp.World(dim=2, gravity="uniform", g=g, drag=k, wind=wind, integrator=name,
+                 dt=T / n, **kw)
+    w.add_body(1.0, (0.0, 0.0), v0)
+    w.step(n)
+    if k == 0:
+        return None, w
+    vt = wind + g / k
+    exact = vt * T + (v0 - vt) * -np.expm1(-k * T) / k
+    return np.abs(w.pos[0] - exact).max(), w
+
+
+@pytest.mark.parametrize("name, n0", [("symplectic_euler", 400), ("leapfrog", 50),
+                                      ("yoshida4", 20), ("rk4", 20)])
+def test_drag_keeps_each_integrators_order(name, n0):
+    errors = [_thrown(name, n0 * 2 ** j)[0] for j in range(3)]
+    slopes = np.log2(np.array(errors[:-1]) / errors[1:])
+    assert np.all(np.abs(slopes - sp.INTEGRATORS[name].order) < 0.15), (slopes, errors)
+
+
+def test_drag_leaves_fixed_bodies_at_rest_and_changes_nothing_at_zero():
+    w = sp.World(dim=2, gravity="uniform", g=(0.0, -1.0), drag=0.5, wind=(3.0, 0.0), dt=0.01)
+    post = w.add_body(1.0, (0.0, 0.0), fixed=True)
+    w.step(100)
+    assert np.all(w.get(post).vel == 0) and np.all(w.get(post).pos == 0)
+    _, with_zero = _thrown("leapfrog", 100, k=0.0)
+    plain = sp.World(dim=2, gravity="uniform", g=(0.0, -10.0), integrator="leapfrog", dt=0.02)
+    plain.add_body(1.0, (0.0, 0.0), (17.3, 10.0))
+    plain.step(100)
+    assert np.array_equal(with_zero.pos, plain.pos)
+
+
+def test_bad_drag_is_refused_and_adaptive_integrators_say_they_lack_it():
+    with pytest.raises(ValueError, match="drag = -1"):
+        sp.World(dim=2, drag=-1.0)
+    with pytest.raises(ValueError, match=r"wind"):
+        sp.World(dim=2, drag=1.0, wind=(1.0, 2.0, 3.0))
+    w = sp.World(dim=2, integrator="gauss_radau", drag=0.2, dt=0.1)
+    w.add_body(1.0, (0.0, 0.0), (1.0, 0.0))
+    with pytest.raises(ValueError, match="no drag yet"):
+        w.step(1)
+    assert w.t == 0.0

@@ -7,6 +7,8 @@ Positions and velocities are updated in place; gravity comes from gravity.accele
 thrust from kernels/control.py (exact within each drift of a splitting, sampled at the stages
 and integrated exactly into the velocity of a Runge-Kutta step).
 """
+import math
+
 import numpy as np
 
 from .._jit import kernel
@@ -21,13 +23,32 @@ def _scratch(model, src):
     return np.empty((4, src.size if model == DIRECT else 1))
 
 
+@kernel(inline=True)
+def _drag_kick(vel, acc, h, drag, still):
+    """The kick with linear drag toward the wind, dv/dt = a - k (v - w) with a held: exact,
+    v <- v_t + (v - v_t) exp(-k h), v_t = w + a / k the terminal velocity. drag : (4,)
+    [k [1/time], w (3,) [length/time]]. Immovable bodies stay at rest."""
+    k = drag[0]
+    E = math.exp(-k * h)
+    for i in range(vel.shape[0]):
+        for c in range(3):
+            vt = drag[1 + c] + acc[i, c] / k
+            vel[i, c] = vt + (vel[i, c] - vt) * E
+    for j in range(still.size):
+        for c in range(3):
+            vel[still[j], c] = 0.0
+
+
 @kernel(parallel=True)
 def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
-                    drift, kick, dt, nsteps, setup, ctrl, work, frame_at, fpos, fvel, fmass):
+                    drift, kick, drag, dt, nsteps, setup, ctrl, work, frame_at, fpos, fvel,
+                    fmass):
     """Advance nsteps steps of dt with the drift/kick sequence (drift[s], kick[s]).
 
     Stage s: pos += drift[s] dt vel, then vel += kick[s] dt a(pos) (skipped where kick[s] == 0).
     pos, vel : (n, 3) float64, updated in place; mass : (n,) float64; drift, kick : (S,) float64.
+    drag : (4,) float64, [k, wind (3,)]: with k > 0 each kick also relaxes the velocities
+    toward the wind at rate k, exactly (see _drag_kick), so the splitting keeps its order.
     model ... still : the gravity arguments of gravity.accelerations; setup : collide.Setup;
     ctrl : control.Control (ships, missiles, lifetimes); work : arrays.Work, n rows of
     scratch; frame_at : (F,) int64, the step counts after which a recording takes a frame,
@@ -62,10 +83,13 @@ def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_m
             if h != 0.0:
                 accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass,
                               still, scratch, acc)
-                for i in range(n):
-                    vel[i, 0] += h * acc[i, 0]
-                    vel[i, 1] += h * acc[i, 1]
-                    vel[i, 2] += h * acc[i, 2]
+                if drag[0] > 0.0:
+                    _drag_kick(vel, acc, h, drag, still)
+                else:
+                    for i in range(n):
+                        vel[i, 0] += h * acc[i, 0]
+                        vel[i, 1] += h * acc[i, 1]
+                        vel[i, 2] += h * acc[i, 2]
         # (a call passing the Setup and Control tuples costs a reference count per array:
         # made only when there is something to do)
         stop = (setup.enabled or ctrl.enabled) and \
@@ -78,11 +102,12 @@ def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_m
 
 @kernel(parallel=True)
 def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
-             a, b, dt, nsteps, setup, ctrl, work, frame_at, fpos, fvel, fmass):
+             a, b, drag, dt, nsteps, setup, ctrl, work, frame_at, fpos, fvel, fmass):
     """Advance nsteps steps of dt with the explicit Runge-Kutta tableau (a, b).
 
     a : (S, S) float64, strictly lower triangular; b : (S,) float64 weights.
     Stage s evaluates x_s = x + dt sum_j a[s, j] v_j, v_s = v + dt sum_j a[s, j] a_j, a_s = a(x_s).
+    drag : (4,) [k, wind (3,)]: the stages' accelerations include -k (v_s - wind).
     Collisions, actors, frames and the return value as in splitting_steps.
     """
     n = pos.shape[0]
@@ -115,6 +140,13 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, st
                     kx[s, i, c] = vs
             accelerations(x, model, mass, src, passive, G, eps2, field, field_mass,
                           still, scratch, kv[s])
+            if drag[0] > 0.0:
+                for i in range(n):
+                    for c in range(3):
+                        kv[s, i, c] -= drag[0] * (kx[s, i, c] - drag[1 + c])
+                for j in range(still.size):
+                    for c in range(3):
+                        kv[s, still[j], c] = 0.0
             c_s = 0.0
             for j in range(s):
                 c_s += a[s, j]
