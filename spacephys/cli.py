@@ -21,12 +21,12 @@ def _run(args):
     kw = dict(integrator=args.integrator, dt=args.dt, duration=args.duration, out=args.out,
               progress=None if args.quiet else default_progress())
     scene = args.scene
-    if scene in SCENES:
+    path = Path(scene)
+    if not path.suffix and (SCENARIOS / (scene + ".toml")).exists():
+        path = SCENARIOS / (scene + ".toml")          # scenarios/NAME.toml first
+    if path.suffix != ".toml" and scene in SCENES:
         result = run_scene(scene, **kw)
     else:
-        path = Path(scene)
-        if not path.suffix and (SCENARIOS / (scene + ".toml")).exists():
-            path = SCENARIOS / (scene + ".toml")
         if path.suffix != ".toml" or not path.exists():
             known = sorted(SCENES) + sorted(p.stem for p in SCENARIOS.glob("*.toml"))
             raise ValueError(f"{scene!r} is neither a scenario file (.toml) nor a known scene "

@@ -98,13 +98,24 @@ def plot_run(path, out, *, most_frames=1500):
                 ax.plot(p[:, a], p[:, b], lw=0.8)
                 ax.plot(p[-1, a], p[-1, b], "o", ms=3, color=ax.lines[-1].get_color())
             others = ~np.isin(last.ids, list(tracks))
+            # the view: the tracked paths and most of the others (a few bodies flung far
+            # away would shrink everything else to a dot)
+            seen = [p[:, [a, b]] for _, p in tracks.values()]
+            if others.any():
+                pts = last.pos[others][:, [a, b]]
+                seen.append(np.percentile(pts, [1, 99], axis=0))
+            box = np.concatenate(seen)
+            lo, hi = box.min(axis=0), box.max(axis=0)
+            pad = 0.05 * max(hi - lo) + 1e-12
+            ax.set_xlim(lo[0] - pad, hi[0] + pad)
+            ax.set_ylim(lo[1] - pad, hi[1] + pad)
             if others.any():
                 ax.plot(last.pos[others, a], last.pos[others, b], ".", ms=1.5, color="0.5",
                         label=f"{int(others.sum())} more bodies (last frame)")
                 ax.legend(loc="upper right", fontsize=8)
             ax.set_xlabel(names[a])
             ax.set_ylabel(names[b])
-            ax.set_aspect("equal", adjustable="datalim")
+            ax.set_aspect("equal", adjustable="box")
             ax.set_title(f"trajectories ({names[a]}-{names[b]}), t = {times[0]:g} to "
                          f"{times[-1]:g}")
         ax = axes[-1]

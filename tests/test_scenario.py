@@ -275,3 +275,20 @@ def test_a_scenario_log_section_records_the_run(tmp_path):
     result = run_scenario(text)
     with sp.open_run(log) as run:
         assert run.meta["every"] == 10 and len(run) == result.steps // 10 + 1
+
+
+def test_star_system_scenario_is_the_demo_scene():
+    from spacephys.scenes import star_system
+    w, ids = load_scenario(ROOT / "scenarios" / "star_system.toml").build()
+    ref = star_system(asteroids=0)
+    rows = {"star": 0, "inner": 1, "red": 2, "giant": 3, "outer": 4, "comet": 6}
+    for name, row in rows.items():
+        np.testing.assert_allclose(w.get(ids[name]).pos, ref.pos[row], rtol=0, atol=1e-13)
+        np.testing.assert_allclose(w.get(ids[name]).vel, ref.vel[row], rtol=0, atol=1e-13)
+    # the moon: the scene orbits it in the giant's field alone, the scenario with mu =
+    # G (M + m) of a body that pulls back; both 0.03 from the giant on a circle
+    d = w.get(ids["moon"]).pos - w.get(ids["giant"]).pos
+    v = w.get(ids["moon"]).vel - w.get(ids["giant"]).vel
+    assert np.linalg.norm(d) == pytest.approx(0.03, rel=1e-12)
+    assert np.linalg.norm(v) == pytest.approx(math.sqrt((1e-3 + 1e-8) / 0.03), rel=1e-12)
+    assert w.n == 7 + 2000 and np.all(w.mass[7:] == 0)
