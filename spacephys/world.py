@@ -34,9 +34,11 @@ GRAVITY_MODELS = {"none": NONE, "direct": DIRECT, "uniform": UNIFORM, "central":
 STEP_CONTROLS = ("auto", "pulling", "all")
 RESPONSES = {"ignore": collide.IGNORE, "sensor": collide.SENSOR, "elastic": collide.ELASTIC,
              "bounce": collide.BOUNCE, "merge": collide.MERGE, "destroy_a": collide.DESTROY_A,
-             "destroy_b": collide.DESTROY_B, "destroy_both": collide.DESTROY_BOTH}
+             "destroy_b": collide.DESTROY_B, "destroy_both": collide.DESTROY_BOTH,
+             "break_a": collide.BREAK_A, "break_b": collide.BREAK_B}
 BOUNDARIES = {"open": collide.OPEN, "reflect": collide.REFLECT, "periodic": collide.PERIODIC}
-_MIRRORED = {collide.DESTROY_A: collide.DESTROY_B, collide.DESTROY_B: collide.DESTROY_A}
+_MIRRORED = {collide.DESTROY_A: collide.DESTROY_B, collide.DESTROY_B: collide.DESTROY_A,
+             collide.BREAK_A: collide.BREAK_B, collide.BREAK_B: collide.BREAK_A}
 # kinds whose bodies feel gravity but do not pull unless told to (active=True): their mass is
 # for thrust and collisions, and their pull on planets would only cost time
 PASSIVE_KINDS = ("ship", "missile", "debris")
@@ -682,14 +684,17 @@ class World(Actors):
         "elastic", "bounce" (with restitution in [0, 1]: 1 elastic, 0 no rebound), "merge"
         (one body with the pair's mass, momentum and centre of mass; radius from the summed
         volume in 3D, area in 2D), "destroy_a", "destroy_b", "destroy_both" (a: the body of
-        kind_a). A kind may be "*" for every kind.
+        kind_a), "break_a", "break_b" (a bounce, restitution default 1, after which that body
+        is destroyed: the seed's brick). A kind may be "*" for every kind.
         """
         codes_a = self._kind_list(kind_a, "kind_a")
         codes_b = self._kind_list(kind_b, "kind_b")
         if not isinstance(response, str) or response not in RESPONSES:
             raise ValueError(f"response={response!r} is not known; valid: {', '.join(RESPONSES)}")
         code = RESPONSES[response]
-        if code == collide.BOUNCE:
+        if code in (collide.BREAK_A, collide.BREAK_B) and restitution is None:
+            restitution = 1.0
+        if code in (collide.BOUNCE, collide.BREAK_A, collide.BREAK_B):
             if restitution is None:
                 raise ValueError("response='bounce' needs restitution, in [0, 1]")
             restitution = check.scalar("restitution", restitution, minimum=0.0)

@@ -479,3 +479,31 @@ def test_a_body_touching_two_others_merges_them_all():
     w.step(1)
     assert w.n == 1 and w.mass[0] == 3.0 and len(w.events) == 2
     np.testing.assert_allclose(w.pos[0], [0.9, 0, 0], atol=1e-15)
+
+
+def test_break_bounces_the_ball_and_destroys_the_brick():
+    w = sp.World(dim=2, gravity="none", dt=0.01)
+    w.add_kind("ball")
+    w.add_kind("brick")
+    w.set_collision("ball", "brick", "break_b")
+    assert w.collision("brick", "ball")[0] == "break_a"          # mirrored
+    brick = w.add_body(1.0, (0.0, 2.0), radius=0.5, kind="brick", fixed=True)
+    ball = w.add_body(0.1, (0.0, 0.0), (0.0, 5.0), radius=0.25, kind="ball")
+    w.step(40)
+    assert brick not in w and ball in w
+    assert w.get(ball).vel == pytest.approx([0.0, -5.0], abs=1e-12)     # reflected, elastic
+    hits = []
+    w2 = sp.World(dim=2, gravity="none", dt=0.01)
+    w2.add_kind("ball")
+    w2.add_kind("brick")
+    w2.set_collision("ball", "brick", "break_b", restitution=0.5)
+    b2 = w2.add_body(1.0, (0.0, 2.0), radius=0.5, kind="brick")        # movable: it recoils
+    ball2 = w2.add_body(1.0, (0.0, 0.0), (0.0, 5.0), radius=0.25, kind="ball")
+    for _ in range(40):
+        w2.step(1)
+        hits.extend(sp.EVENT_KINDS[int(k)] for k in w2.events["kind"])
+    assert hits == ["bounce", "destroy"] and b2 not in w2
+    # equal masses, e = 0.5: the ball keeps (1 - e) / 2 of its velocity
+    assert w2.get(ball2).vel == pytest.approx([0.0, 1.25], abs=1e-12)
+    with pytest.raises(ValueError, match="restitution"):
+        w2.set_collision("ball", "brick", "break_a", restitution=2.0)

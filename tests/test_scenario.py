@@ -292,3 +292,11 @@ def test_star_system_scenario_is_the_demo_scene():
     assert np.linalg.norm(d) == pytest.approx(0.03, rel=1e-12)
     assert np.linalg.norm(v) == pytest.approx(math.sqrt((1e-3 + 1e-8) / 0.03), rel=1e-12)
     assert w.n == 7 + 2000 and np.all(w.mass[7:] == 0)
+
+
+def test_arena_bricks_break_and_balls_bounce():
+    result = run_scenario(ROOT / "scenarios" / "arena.toml")
+    w = result.world
+    bricks = int(np.sum(w.kind == w.kind_code("brick")))
+    assert bricks < 30 and result.events["bounce"] >= 30 - bricks
+    assert result.events["destroy"] == (30 - bricks) + (2 - int(np.sum(w.kind == w.kind_code("ball"))))

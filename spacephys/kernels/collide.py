@@ -29,6 +29,7 @@ from .arrays import grown_pairs, stable_argsort
 
 # responses of the kind x kind matrix
 IGNORE, SENSOR, ELASTIC, BOUNCE, MERGE, DESTROY_A, DESTROY_B, DESTROY_BOTH = range(8)
+BREAK_A, BREAK_B = 8, 9          # a bounce, then the first (second) body is destroyed
 # world boundaries
 OPEN, REFLECT, PERIODIC = 0, 1, 2
 # wall rows: [type, x0, y0, z0, x1, y1, z1, restitution]; a plane through (x0, y0, z0) with
@@ -584,7 +585,7 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, se
     if resp == SENSOR:
         _record(events, count, _SENSOR, ids[i], ids[j], when, t * dt, point, n, -closing, 0.0, dist)
         return 0
-    if resp == ELASTIC or resp == BOUNCE:
+    if resp == ELASTIC or resp == BOUNCE or resp == BREAK_A or resp == BREAK_B:
         if closing >= 0.0:
             return 0
         fi, fj = _fractions(mass[i], mass[j], fixed_i, fixed_j)
@@ -616,7 +617,20 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, se
             reduced = mass[i] * fj          # m_i m_j / (m_i + m_j)
         lost = 0.5 * (1.0 - e * e) * reduced * closing * closing
         _record(events, count, _BOUNCE, ids[i], ids[j], when, t * dt, point, n, -closing, lost, dist)
-        return 1
+        if resp == ELASTIC or resp == BOUNCE:
+            return 1
+        # a break: the bounce happened (the other body keeps its rebound), then the broken
+        # one is destroyed where it stood (the seed's brick)
+        k = i if resp == BREAK_A else j
+        p = pi if k == i else pj
+        for c in range(3):
+            A[k, c] = p[c]
+            B[k, c] = 0.0
+        alive[k] = False
+        mass[k] = 0.0
+        _record(events, count, _DESTROY, ids[k], ids[j if k == i else i], when, t * dt, point,
+                n, -closing, 0.0, dist)
+        return 2
     if resp == MERGE:
         # the heavier (or the immovable) one survives, with the pair's mass and momentum
         s, o = i, j
@@ -720,7 +734,7 @@ def pair_contacts(A, B, tb, pairs, radius, L, setup):
         j = pairs[q, 1]
         resp = _allowed(setup, setup.kind, i, j)
         t = _pair_time(A, B, i, j, radius[i] + radius[j], max(tb[i], tb[j]), L,
-                       resp >= MERGE)
+                       MERGE <= resp <= DESTROY_BOTH)
         if t >= 0.0:
             ct[k] = t
             ci[k] = i
