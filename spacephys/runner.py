@@ -27,6 +27,7 @@ class RunResult:
     angular_momentum0: float
     angular_momentum: float
     events: dict             # event kind name -> how many happened
+    bodies0: int = 0         # bodies at the start
 
     @property
     def energy_error(self):
@@ -55,6 +56,7 @@ class RunResult:
             f"momentum      error {self.momentum_error:.2e} of sum |m v|",
             f"ang. momentum relative error {self.angular_momentum_error:.2e}",
             "events        " + (", ".join(f"{k} {v}" for k, v in self.events.items()) or "none"),
+            f"bodies        {self.bodies0} at the start, {w.n} alive at the end",
         ])
 
 
@@ -119,6 +121,7 @@ def _run_world(w, name, duration, timeline, ids, missiles, progress, out, text, 
         log = w.record(out, scenario=text, **(every or {}))
     # the conserved quantities: with massive passive bodies (ships) those of the pulling ones
     t0, E0, P0, L0 = w.t, w.energy(True), w.momentum(True), _norm_L(w)
+    bodies0 = w.n
     scale = float(np.sum(w.mass * w.pulls * np.linalg.norm(w.vel, axis=1))) or 1.0
 
     counts = {}
@@ -160,7 +163,7 @@ def _run_world(w, name, duration, timeline, ids, missiles, progress, out, text, 
         log.close()
     return RunResult(w, name, done, wall, compile_wall, t0, E0, w.energy(True),
                      float(np.linalg.norm(w.momentum(True) - P0)) / scale, L0, _norm_L(w),
-                     dict(sorted(counts.items())))
+                     dict(sorted(counts.items())), bodies0)
 
 
 def default_progress():
