@@ -47,6 +47,15 @@ def _plot(args):
 
 def _bench(args):
     from . import bench
+    if args.what == "tradeoff":
+        from . import tradeoff
+        results = tradeoff.study(quick=args.quick, out_dir=args.out)
+        print(tradeoff.markdown(results))
+        print(f"wrote {args.out}/tradeoff.json, tradeoff.csv and a plot per scene")
+        if args.json:
+            with open(args.json, "w") as f:
+                json.dump(results, f, indent=2)
+        return 0
     results = bench.BENCHMARKS[args.what](quick=args.quick)
     print(bench.format_table(results))
     if args.json:
@@ -95,7 +104,10 @@ def main(argv=None):
         p.set_defaults(func=_plot)
 
     bench = sub.add_parser("bench", help="benchmark side by side with REBOUND")
-    bench.add_argument("what", choices=["gravity", "integrators", "collisions", "fleet", "log"])
+    bench.add_argument("what", choices=["gravity", "integrators", "collisions", "fleet", "log",
+                                        "tradeoff"])
+    bench.add_argument("--out", default="tradeoff", metavar="DIR",
+                       help="tradeoff: where the CSV, JSON and plots go (default ./tradeoff)")
     bench.add_argument("--quick", action="store_true", help="fewer repeats, smaller cases")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.set_defaults(func=_bench)

@@ -1,0 +1,184 @@
+"""The speed/accuracy trade, measured (`spacephys bench tradeoff`): for each scene, every
+integrator that applies at a ladder of steps (tolerances for Gauss-Radau), the relative
+energy error and the final position error against a converged Gauss-Radau reference, against
+the wall time per unit of simulated time. Writes JSON, CSV and a log-log plot per scene, and
+a table of the cheapest integrator meeting each error target."""
+import csv
+import json
+import math
+import os
+import time
+
+import numpy as np
+
+from . import scenes
+from .entities import ShipSpec
+
+FIXED = ["euler", "symplectic_euler", "leapfrog", "rk4", "yoshida4", "yoshida6", "yoshida8"]
+TARGETS = (1e-3, 1e-6, 1e-9)
+
+
+def _kepler(**kw):
+    return scenes.kepler(0.9, planet_mass=1e-3, **kw)
+
+
+def _cluster(**kw):
+    # 100 equal masses in a unit sphere with a little softening, set spinning slowly so
+    # that it neither collapses at once nor flies apart
+    w = scenes.uniform_sphere(100, seed=4, softening=0.02, **kw)
+    w.set_body(0, vel=(0.0, 0.0, 0.0))
+    return w
+
+
+def _dogfight(**kw):
+    # a ship burning (its mass falling) in orbit about a planet with a moon: thrust inside
+    # every integrator. Its heading is held, so the continuous problem is well defined and
+    # every integrator converges to it (a turning ship's thrust direction is set per step)
+    w = scenes.kepler(0.1, planet_mass=1e-3, dim=2, **kw)
+    ship = w.add_ship(ShipSpec(dry_mass=1.0, fuel_mass=1.0, max_thrust=0.05,
+                               exhaust_speed=1.0), (0.0, 1.5), (-0.8, 0.0), heading=2.0)
+    w.control(ship, throttle=1.0)
+    return w
+
+
+# name -> (build(**world), duration, dts (coarse to fine), Wisdom-Holman applies)
+SCENES = {
+    "kepler_e0.9": (_kepler, 4 * 2 * math.pi, [0.02, 0.01, 0.005, 0.0025, 0.00125], True),
+    "outer_solar_system": (scenes.outer_solar_system, 1000.0, [0.5, 0.25, 0.1, 0.05, 0.02],
+                           True),
+    "cluster_100": (_cluster, 0.5, [0.01, 0.005, 0.0025, 0.00125, 0.000625], False),
+    "dogfight": (_dogfight, 8.0, [0.04, 0.02, 0.01, 0.005, 0.0025], True),
+}
+
+
+def _state(w):
+    return np.concatenate([w.pos.ravel(), w.vel.ravel()])
+
+
+def _run(build, name, dt, T, **kw):
+    """(seconds of stepping, final World, energy error) for one integrator and step: the
+    best of repeats from the same start until 0.05 s were spent (a short run's time is
+    mostly noise otherwise)."""
+    start_w = build(integrator=name, dt=dt, **kw)
+    E0 = start_w.energy(True)
+    warm = start_w.copy()
+    warm.step(1)                                   # compile or load the kernel first
+    n = max(1, round(T / dt))
+    best, spent = math.inf, 0.0
+    while spent < 0.05:
+        w = start_w.copy()
+        start = time.perf_counter()
+        w.step(n)
+        seconds = time.perf_counter() - start
+        best, spent = min(best, seconds), spent + seconds
+    E = w.energy(True)
+    return best, w, abs(E - E0) / abs(E0) if E0 else abs(E - E0)
+
+
+def study(quick=False, out_dir=None):
+    """Run the study; returns the results (and writes files into out_dir if given)."""
+    rows = []
+    for scene, (build, T, dts, wh) in SCENES.items():
+        if quick:
+            T, dts = T / 4, dts[:3]
+        # a whole number of the coarsest step (and so of every step of the ladder): every run
+        # ends at the same time as the reference
+        T = math.ceil(T / dts[0] - 1e-9) * dts[0]
+        ref_w = build(integrator="gauss_radau", dt=T, tolerance=1e-12)
+        ref_w.step(1)
+        ref = _state(ref_w)
+        scale = max(float(np.max(np.abs(ref_w.pos))), 1e-300)
+        plan = [(name, dt, {}) for name in FIXED for dt in dts]
+        if wh:
+            plan += [(name, dt, {}) for name in ("wisdom_holman", "wisdom_holman_corrected")
+                     for dt in dts]
+        tolerances = [1e-4, 1e-6, 1e-8] if quick else [1e-3, 1e-5, 1e-7, 1e-9]
+        plan += [("gauss_radau", T / 100, {"tolerance": tol}) for tol in tolerances]
+        for name, dt, kw in plan:
+            try:
+                seconds, w, energy_error = _run(build, name, dt, T, **kw)
+            except (ValueError, FloatingPointError) as e:
+                rows.append({"scene": scene, "integrator": name, "dt": dt, **kw,
+                             "failed": str(e).split("\n")[0]})
+                continue
+            err = float(np.max(np.abs(_state(w) - ref)[:w.pos.size])) / scale
+            rows.append({"scene": scene, "integrator": name, "dt": dt,
+                         "tolerance": kw.get("tolerance"), "steps": round(T / dt),
+                         "seconds": seconds, "seconds_per_time": seconds / T,
+                         "energy_error": energy_error,
+                         "position_error": err if math.isfinite(err) else math.inf})
+    results = {"benchmark": "tradeoff", "quick": quick, "rows": rows,
+               "best": _cheapest(rows)}
+    if out_dir is not None:
+        _write(results, out_dir)
+    return results
+
+
+def _cheapest(rows):
+    """scene -> target -> the cheapest run whose position error (relative to the scene's
+    size) meets the target, or None."""
+    best = {}
+    for row in rows:
+        if "failed" in row:
+            continue
+        for target in TARGETS:
+            if row["position_error"] <= target:
+                key = best.setdefault(row["scene"], {}).get(str(target))
+                if key is None or row["seconds_per_time"] < key["seconds_per_time"]:
+                    best[row["scene"]][str(target)] = row
+    return best
+
+
+def _write(results, out_dir):
+    os.makedirs(out_dir, exist_ok=True)
+    with open(os.path.join(out_dir, "tradeoff.json"), "w") as f:
+        json.dump(results, f, indent=1)
+    fields = ["scene", "integrator", "dt", "tolerance", "steps", "seconds", "seconds_per_time",
+              "energy_error", "position_error", "failed"]
+    with open(os.path.join(out_dir, "tradeoff.csv"), "w", newline="") as f:
+        out = csv.DictWriter(f, fields)
+        out.writeheader()
+        for row in results["rows"]:
+            out.writerow({k: row.get(k) for k in fields})
+    from .plot import _matplotlib
+    plt = _matplotlib()
+    for scene in SCENES:
+        rows = [r for r in results["rows"] if r["scene"] == scene and "failed" not in r]
+        if not rows:
+            continue
+        fig, axes = plt.subplots(1, 2, figsize=(12, 5))
+        for name in dict.fromkeys(r["integrator"] for r in rows):
+            mine = sorted((r for r in rows if r["integrator"] == name),
+                          key=lambda r: r["seconds_per_time"])
+            cost = [r["seconds_per_time"] for r in mine]
+            for ax, key in zip(axes, ("position_error", "energy_error")):
+                ax.loglog([max(r[key], 1e-17) for r in mine], cost, "o-", ms=3, label=name)
+        for ax, what in zip(axes, ("final position error / scene size",
+                                   "relative energy error |dE/E|")):
+            ax.set_xlabel(what)
+            ax.set_ylabel("wall seconds per unit of simulated time")
+            ax.grid(True, which="both", alpha=0.3)
+        axes[0].legend(fontsize=8)
+        fig.suptitle(f"{scene}: work against precision (down and left is better)")
+        fig.tight_layout()
+        fig.savefig(os.path.join(out_dir, f"tradeoff_{scene}.png"), dpi=100)
+        plt.close(fig)
+
+
+def markdown(results):
+    """The table of the cheapest integrator per scene and position-error target."""
+    lines = ["| scene | " + " | ".join(f"error ≤ {t:g}" for t in TARGETS) + " |",
+             "|---|" + "---|" * len(TARGETS)]
+    for scene, by in results["best"].items():
+        cells = []
+        for t in TARGETS:
+            r = by.get(str(t))
+            if r is None:
+                cells.append("none measured")
+            else:
+                step = (f"tol {r['tolerance']:g}" if r.get("tolerance") is not None
+                        else f"dt {r['dt']:g}")
+                cells.append(f"{r['integrator']} ({step}): {r['seconds_per_time'] * 1e3:.3g} "
+                             f"ms per time unit")
+        lines.append(f"| {scene} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)

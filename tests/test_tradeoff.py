@@ -1,0 +1,57 @@
+"""The work-precision study (spacephys/tradeoff.py, `spacephys bench tradeoff`)."""
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from spacephys import tradeoff
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    out = tmp_path_factory.mktemp("tradeoff")
+    return tradeoff.study(quick=True, out_dir=str(out)), out
+
+
+def test_every_scene_and_integrator_is_measured_and_written(quick):
+    results, out = quick
+    rows = results["rows"]
+    for scene, (_, _, _, wh) in tradeoff.SCENES.items():
+        names = {r["integrator"] for r in rows if r["scene"] == scene and "failed" not in r}
+        want = set(tradeoff.FIXED) | {"gauss_radau"}
+        if wh:
+            want |= {"wisdom_holman", "wisdom_holman_corrected"}
+        assert names == want, scene
+        assert (out / f"tradeoff_{scene}.png").stat().st_size > 10_000
+    with open(out / "tradeoff.csv") as f:
+        assert len(list(csv.DictReader(f))) == len(rows)
+    assert json.loads((out / "tradeoff.json").read_text())["rows"] == json.loads(
+        json.dumps(rows))
+    assert all(r["seconds_per_time"] > 0 for r in rows if "failed" not in r)
+
+
+@pytest.mark.parametrize("name, order", [("leapfrog", 2), ("rk4", 4), ("yoshida4", 4)])
+def test_errors_fall_at_the_integrators_order(quick, name, order):
+    rows = sorted((r for r in quick[0]["rows"] if r["scene"] == "cluster_100"
+                   and r["integrator"] == name), key=lambda r: -r["dt"])
+    errors = np.array([r["position_error"] for r in rows])
+    slopes = np.log2(errors[:-1] / errors[1:])            # dt halves from row to row
+    assert np.all(np.abs(slopes - order) < 0.5), slopes
+
+
+def test_wisdom_holman_is_exact_on_two_bodies_and_the_table_says_so(quick):
+    rows = [r for r in quick[0]["rows"] if r["scene"] == "kepler_e0.9"
+            and r["integrator"] == "wisdom_holman"]
+    assert max(r["position_error"] for r in rows) < 1e-8     # Kepler drifts are exact
+    best = quick[0]["best"]["kepler_e0.9"]
+    assert best["1e-09"]["position_error"] <= 1e-9
+    table = tradeoff.markdown(quick[0])
+    assert table.count("\n") == 1 + len(tradeoff.SCENES)
+    for scene, by in quick[0]["best"].items():
+        for target, row in by.items():
+            assert row["position_error"] <= float(target)
+            cheaper = [r for r in quick[0]["rows"] if r["scene"] == scene and "failed" not in r
+                       and r["position_error"] <= float(target)
+                       and r["seconds_per_time"] < row["seconds_per_time"]]
+            assert not cheaper
