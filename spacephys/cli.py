@@ -47,6 +47,12 @@ def _plot(args):
 
 def _bench(args):
     from . import bench
+    if args.what == "peers":
+        from . import tradeoff
+        results = tradeoff.peers(quick=args.quick, out_dir=args.out)
+        print(tradeoff.peers_markdown(results))
+        print(f"wrote {args.out}/peers.json")
+        return 0
     if args.what == "tradeoff":
         from . import tradeoff
         results = tradeoff.study(quick=args.quick, out_dir=args.out)
@@ -105,9 +111,9 @@ def main(argv=None):
 
     bench = sub.add_parser("bench", help="benchmark side by side with REBOUND")
     bench.add_argument("what", choices=["gravity", "integrators", "collisions", "fleet", "log",
-                                        "tradeoff"])
+                                        "tradeoff", "peers"])
     bench.add_argument("--out", default="tradeoff", metavar="DIR",
-                       help="tradeoff: where the CSV, JSON and plots go (default ./tradeoff)")
+                       help="tradeoff, peers: where the CSV, JSON and plots go (default ./tradeoff)")
     bench.add_argument("--quick", action="store_true", help="fewer repeats, smaller cases")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.set_defaults(func=_bench)

@@ -182,3 +182,104 @@ def markdown(results):
                              f"ms per time unit")
         lines.append(f"| {scene} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- peers
+
+# ours -> REBOUND's integrator of the same method
+PAIRS = {"leapfrog": "leapfrog", "wisdom_holman": "whfast", "gauss_radau": "ias15"}
+
+
+def _rebound_run(w, integrator, dt, T, epsilon=None):
+    """(best seconds, final positions (n, dim)) of REBOUND on World w's bodies."""
+    from .bench import _positions, _rebound_copy
+    best, spent = math.inf, 0.0
+    while spent < 0.05:
+        settings = {"safe_mode": 0} if integrator == "whfast" else \
+            {"epsilon": epsilon} if epsilon is not None else {}
+        sim = _rebound_copy(w, integrator, **settings)
+        sim.dt = dt
+        start = time.perf_counter()
+        if integrator == "ias15":
+            sim.integrate(T, exact_finish_time=1)
+        else:
+            sim.steps(max(1, round(T / dt)))
+            sim.synchronize()
+        seconds = time.perf_counter() - start
+        best, spent = min(best, seconds), spent + seconds
+    return best, _positions(sim)[:, :w.dim]
+
+
+def peers(quick=False, out_dir=None):
+    """The same scenes and ladders with REBOUND's leapfrog, WHFast and IAS15 beside ours;
+    the cost ratio at equal accuracy, interpolated along each method's work-precision
+    curve. Thrust has no REBOUND counterpart here: the dogfight is left out."""
+    import numba
+    from .bench import _rebound
+    rebound = _rebound()
+    rows, ratios = [], []
+    for scene, (build, T, dts, wh) in SCENES.items():
+        if scene == "dogfight":
+            continue
+        if quick:
+            T, dts = T / 4, dts[:3]
+        T = math.ceil(T / dts[0] - 1e-9) * dts[0]
+        ref_w = build(integrator="gauss_radau", dt=T, tolerance=1e-12)
+        start_w = ref_w.copy()
+        ref_w.step(1)
+        scale = max(float(np.max(np.abs(ref_w.pos))), 1e-300)
+        tolerances = [1e-4, 1e-6, 1e-8] if quick else [1e-3, 1e-5, 1e-7, 1e-9]
+        for ours, theirs in PAIRS.items():
+            if ours == "wisdom_holman" and not wh:
+                continue
+            # the adaptive ones integrate straight to T (no output intervals), as IAS15 does
+            ladder = [(dt, None) for dt in dts] if ours != "gauss_radau" else \
+                [(T, tol) for tol in tolerances]
+            curve = {"spacephys": [], "rebound": []}
+            for dt, tol in ladder:
+                kw = {"tolerance": tol} if tol is not None else {}
+                seconds, w, _ = _run(build, ours, dt, T, **kw)
+                err = float(np.max(np.abs(w.pos - ref_w.pos))) / scale
+                r_seconds, r_pos = _rebound_run(start_w, theirs, dt, T, epsilon=tol)
+                r_err = float(np.max(np.abs(r_pos - ref_w.pos))) / scale
+                for code, s, e in (("spacephys", seconds, err), ("rebound", r_seconds, r_err)):
+                    rows.append({"scene": scene, "code": code,
+                                 "integrator": ours if code == "spacephys" else theirs,
+                                 "dt": dt, "tolerance": tol, "seconds_per_time": s / T,
+                                 "position_error": e})
+                    curve[code].append((e, s / T))
+            ratios.append({"scene": scene, "spacephys": ours, "rebound": theirs,
+                           "ratio": _equal_accuracy_ratio(curve["spacephys"],
+                                                          curve["rebound"])})
+    results = {"benchmark": "peers", "quick": quick, "rows": rows, "ratios": ratios,
+               "versions": {"numba": numba.__version__, "rebound": rebound.__version__}}
+    if out_dir is not None:
+        os.makedirs(out_dir, exist_ok=True)
+        with open(os.path.join(out_dir, "peers.json"), "w") as f:
+            json.dump(results, f, indent=1)
+    return results
+
+
+def _equal_accuracy_ratio(ours, theirs):
+    """Median over our points of REBOUND's cost / ours at the same position error, REBOUND's
+    cost interpolated log-log along its curve (points outside its range are skipped; where
+    both sit at the round-off floor, the cost at the same step is compared). None if the
+    curves do not overlap."""
+    theirs = sorted(theirs)
+    errs = np.log([max(e, 1e-300) for e, _ in theirs])
+    costs = np.log([c for _, c in theirs])
+    out = []
+    for e, c in ours:
+        le = math.log(max(e, 1e-300))
+        if errs.size and errs[0] <= le <= errs[-1] and errs[-1] > errs[0]:
+            out.append(math.exp(float(np.interp(le, errs, costs))) / c)
+    return float(np.median(out)) if out else None
+
+
+def peers_markdown(results):
+    lines = ["| scene | spacephys | REBOUND | REBOUND's cost / ours at equal accuracy |",
+             "|---|---|---|---|"]
+    for r in results["ratios"]:
+        ratio = "curves do not overlap" if r["ratio"] is None else f"{r['ratio']:.2f}×"
+        lines.append(f"| {r['scene']} | {r['spacephys']} | {r['rebound']} | {ratio} |")
+    return "\n".join(lines)

@@ -55,3 +55,23 @@ def test_wisdom_holman_is_exact_on_two_bodies_and_the_table_says_so(quick):
                        and r["position_error"] <= float(target)
                        and r["seconds_per_time"] < row["seconds_per_time"]]
             assert not cheaper
+
+
+def test_peers_do_the_same_work_and_report_a_ratio_per_pair():
+    results = tradeoff.peers(quick=True)
+    rows = results["rows"]
+    assert {r["code"] for r in rows} == {"spacephys", "rebound"}
+    # the same method at the same step: the same error (leapfrog is leapfrog everywhere)
+    for scene in ("cluster_100", "outer_solar_system"):
+        ours = [r for r in rows if r["scene"] == scene and r["code"] == "spacephys"
+                and r["integrator"] == "leapfrog"]
+        theirs = [r for r in rows if r["scene"] == scene and r["code"] == "rebound"
+                  and r["integrator"] == "leapfrog"]
+        assert len(ours) == len(theirs) == 3
+        for a, b in zip(ours, theirs):
+            assert a["dt"] == b["dt"]
+            assert a["position_error"] == pytest.approx(b["position_error"], rel=1e-6)
+    pairs = {(r["scene"], r["spacephys"]) for r in results["ratios"]}
+    assert ("cluster_100", "gauss_radau") in pairs and ("cluster_100", "wisdom_holman") not in pairs
+    assert all(r["ratio"] is None or r["ratio"] > 0 for r in results["ratios"])
+    assert tradeoff.peers_markdown(results).count("\n") == 1 + len(results["ratios"])
