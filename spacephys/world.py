@@ -830,16 +830,20 @@ class World(Actors):
         b = self._b
         n = b.n
         enabled = bool(self._response.any() or len(self._walls) or self._boundary != collide.OPEN)
-        giants, cell = self._giants()
         kind = b.kind[:n].astype(np.int64)
-        # a kind needs the grid if it can meet a kind with bodies besides giants (itself: two)
-        gridded = np.ones(n, np.bool_)
-        gridded[giants] = False
-        K = len(self._kinds)
-        counts = np.bincount(kind[gridded], minlength=K)
-        meets = (self._response != collide.IGNORE) & \
-            (counts[None, :] > np.eye(K, dtype=np.int64))
-        gridded &= meets.any(axis=1)[kind]
+        if enabled:
+            giants, cell = self._giants()
+            # a kind needs the grid if it can meet a kind with bodies besides giants (itself:
+            # two)
+            gridded = np.ones(n, np.bool_)
+            gridded[giants] = False
+            K = len(self._kinds)
+            counts = np.bincount(kind[gridded], minlength=K)
+            meets = (self._response != collide.IGNORE) & \
+                (counts[None, :] > np.eye(K, dtype=np.int64))
+            gridded &= meets.any(axis=1)[kind]
+        else:                     # no collisions: no grid to plan (a cheaper step() call)
+            giants, cell, gridded = np.zeros(0, np.int64), 1.0, np.zeros(n, np.bool_)
         return collide.Setup(enabled, b.ids[:n], kind, b.radius[:n],
                              np.ones(n, dtype=np.bool_), self._event_box, self._event_count,
                              self.t, self._response, self._restitution, b.category[:n],
