@@ -560,11 +560,80 @@ def log(quick=False):
             "rebound_us_per_step": rb_base / (steps // 4) * 1e6, "rebound": rebound_rows}
 
 
+def _ring_world(n):
+    """A star and n test particles on circular orbits 1..2 from it (3D arrays, z = 0)."""
+    from .world import World
+    w = World(dim=3, dt=0.01, capacity=n + 1)
+    w.add_body(1.0, (0.0, 0.0, 0.0))
+    rng = np.random.default_rng(0)
+    r, th = rng.uniform(1.0, 2.0, n), rng.uniform(0.0, 2 * np.pi, n)
+    pos = np.c_[r * np.cos(th), r * np.sin(th), np.zeros(n)]
+    vel = np.c_[-np.sin(th), np.cos(th), np.zeros(n)] / np.sqrt(r)[:, None]
+    w.add_bodies(0.0, pos, vel)
+    return w
+
+
+def memory_used(n, steps=5):
+    """(peak bytes Python and numpy allocated, World bytes held) to build a star with n test
+    particles and take `steps` leapfrog steps; tracemalloc sees numpy's buffers."""
+    import tracemalloc
+    _ring_world(10).step(steps)            # load the kernels outside the count
+    tracemalloc.start()
+    try:
+        w = _ring_world(n)
+        w.step(steps)
+        held = tracemalloc.get_traced_memory()[0]
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    return peak, held
+
+
+def memory(quick=False):
+    """State is O(N): bytes per body (state columns, id slots, the kernels' scratch) and the
+    peak memory of a star with 10^6 test particles taking leapfrog steps."""
+    import resource
+    n = 100_000 if quick else 1_000_000
+    w = _ring_world(1000)
+    w.step(1)
+    b = w._b
+    columns = sum(getattr(b, c).itemsize * int(np.prod(getattr(b, c).shape[1:]))
+                  for c in b.columns)
+    slots = b.generation.itemsize + b.index.itemsize
+    scratch = sum(a.itemsize * int(np.prod(a.shape[1:])) for a in w._work)
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    start = time.perf_counter()
+    peak, held = memory_used(n)
+    seconds = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    import numba
+    return {"benchmark": "memory", "quick": quick, "bodies": n,
+            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
+            "numba_threads": numba.get_num_threads(),
+            "versions": {"numba": numba.__version__, "numpy": np.__version__},
+            "bytes_per_body": {"state columns": columns, "id slots": slots,
+                               "kernel scratch": scratch},
+            "held_bytes": held, "peak_bytes": peak, "maxrss_growth_bytes": after - before,
+            "seconds": seconds}
+
+
 def format_table(results):
     lines = [f"{results['benchmark']} benchmark on {results['machine']} "
              f"({results['numba_threads']} numba threads; {results['versions']})",
              f"{'case':40s} {'spacephys':>14s} {'REBOUND':>14s} {'speed-up':>9s} "
              f"{'pairs/s (ours)':>15s} {'max rel. diff':>14s}"]
+    if results["benchmark"] == "memory":
+        per = results["bytes_per_body"]
+        n = results["bodies"]
+        return "\n".join([
+            f"memory benchmark on {results['machine']} ({results['versions']})",
+            "memory: " + ", ".join(f"{k} {v} B" for k, v in per.items()) +
+            f" per body ({sum(per.values())} B)",
+            f"a star and {n:,} test particles, built and stepped: held "
+            f"{results['held_bytes'] / 1e6:.0f} MB ({results['held_bytes'] / n:.0f} B per "
+            f"body), peak {results['peak_bytes'] / 1e6:.0f} MB "
+            f"({results['peak_bytes'] / n:.0f} B per body); the process's peak resident size "
+            f"grew by {results['maxrss_growth_bytes'] / 1e6:.0f} MB"])
     if results["benchmark"] == "log":
         lines = lines[:1] + [
             f"{results['bodies']} bodies, 3D leapfrog, {results['steps']} steps in one call: "
@@ -637,4 +706,4 @@ def format_table(results):
 
 
 BENCHMARKS = {"gravity": gravity, "integrators": integrators, "collisions": collisions,
-              "fleet": fleet, "log": log}
+              "fleet": fleet, "log": log, "memory": memory}

@@ -75,3 +75,13 @@ def test_peers_do_the_same_work_and_report_a_ratio_per_pair():
     assert ("cluster_100", "gauss_radau") in pairs and ("cluster_100", "wisdom_holman") not in pairs
     assert all(r["ratio"] is None or r["ratio"] > 0 for r in results["ratios"])
     assert tradeoff.peers_markdown(results).count("\n") == 1 + len(results["ratios"])
+
+
+def test_state_is_linear_in_the_number_of_bodies():
+    from spacephys.bench import memory_used
+    small = memory_used(20_000)[0] / 20_000
+    large = memory_used(200_000)[0] / 200_000
+    # the same bytes per body at 10x the bodies (what is fixed, e.g. the event buffer, fades),
+    # and about what the columns and scratch add up to (124 + 16 + 220 B)
+    assert large == pytest.approx(small, rel=0.15)
+    assert 300 < large < 500
