@@ -344,12 +344,7 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
                 ky = 0
                 kz = 0
                 for c in range(3):
-                    # j's box shifted to its image nearest i's (periodic axes)
-                    shift = 0.0
-                    if L[c] > 0.0:
-                        ci = 0.5 * (lo[i, c] + hi[i, c])
-                        cj = 0.5 * (lo[j, c] + hi[j, c])
-                        shift = (cj - ci) - _wrap(cj - ci, L[c])
+                    shift = _image_shift(lo, hi, i, j, c, L)
                     low = max(lo[i, c], lo[j, c] - shift)
                     if low > min(hi[i, c], hi[j, c] - shift):
                         home = False                   # the boxes do not even overlap
@@ -412,15 +407,21 @@ def _in_sorted(values, x):
     return lo < values.size and values[lo] == x
 
 
+@kernel(inline=True)
+def _image_shift(lo, hi, i, j, c, L):
+    """How far j's box moves along axis c to its image nearest i's box (0 unless periodic)."""
+    if L[c] <= 0.0:
+        return 0.0
+    ci = 0.5 * (lo[i, c] + hi[i, c])
+    cj = 0.5 * (lo[j, c] + hi[j, c])
+    return (cj - ci) - _wrap(cj - ci, L[c])
+
+
 @kernel
 def _boxes_meet(lo, hi, i, j, L):
     """Whether the boxes of i and j overlap (j's nearest image when wrapping)."""
     for c in range(3):
-        shift = 0.0
-        if L[c] > 0.0:
-            ci = 0.5 * (lo[i, c] + hi[i, c])
-            cj = 0.5 * (lo[j, c] + hi[j, c])
-            shift = (cj - ci) - _wrap(cj - ci, L[c])
+        shift = _image_shift(lo, hi, i, j, c, L)
         if max(lo[i, c], lo[j, c] - shift) > min(hi[i, c], hi[j, c] - shift):
             return False
     return True

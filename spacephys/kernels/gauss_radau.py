@@ -19,7 +19,7 @@ import numpy as np
 from .._jit import kernel
 from .arrays import copy_into
 from .control import add_thrust, begin_step, finish_step, next_stop, snap_stops
-from .gravity import ALL, PASSIVE, PULLING, _pull, accelerations
+from .gravity import ALL, PASSIVE, PULLING, _pull, accelerations, gather_sources
 from .integrate import _scratch
 
 _PC_TOLERANCE = 1e-16      # corrector converged: the sweep changed b7 by < this fraction of |a|
@@ -36,16 +36,22 @@ STEPS, REJECTED, AT_MIN_STEP, NOT_CONVERGED, FAILED, RIDER_SUBSTEPS, SWEEPS = ra
 _MAX_RIDER_SUBSTEPS = 4096
 
 
+@kernel(inline=True)
+def _newton_row(b, d_bg, g, i):
+    """g_j = sum_k d_bg[k, j] b_k for body i, every component."""
+    for c in range(3):
+        for j in range(7):
+            s = 0.0
+            for k in range(j, 7):
+                s += d_bg[k, j] * b[i, k, c]
+            g[i, j, c] = s
+
+
 @kernel
 def _newton_form(b, d_bg, g):
-    """g_j = sum_k d_bg[k, j] b_k for every body and component."""
+    """_newton_row for every body."""
     for i in range(b.shape[0]):
-        for c in range(3):
-            for j in range(7):
-                s = 0.0
-                for k in range(j, 7):
-                    s += d_bg[k, j] * b[i, k, c]
-                g[i, j, c] = s
+        _newton_row(b, d_bg, g, i)
 
 
 @kernel
@@ -273,12 +279,7 @@ def _needy_riders(riders, b, a0, h, dt_scale, mask, converged):
 @kernel
 def _rider_forces(needy, control, src, mass, x, G, eps2, scratch, out):
     """The pull of the sources (at x) on the needy riders (at x): serial, they are few."""
-    for q in range(src.size):
-        k = src[q]
-        scratch[0, q] = x[k, 0]
-        scratch[1, q] = x[k, 1]
-        scratch[2, q] = x[k, 2]
-        scratch[3, q] = mass[k]
+    gather_sources(src, x, mass, scratch)
     for q in range(needy.size):
         r = needy[q]
         ax, ay, az = _pull(x[r, 0], x[r, 1], x[r, 2], scratch, eps2)
@@ -324,13 +325,7 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, src, mass, G, eps
         if burn.shape[0]:
             add_thrust(actors, burn, a0, t_off + elapsed, needy_mask, 1)
         for q in range(needy.size):
-            r = needy[q]
-            for c in range(3):
-                for j in range(7):
-                    s_ = 0.0
-                    for k in range(j, 7):
-                        s_ += d_bg[k, j] * b[r, k, c]
-                    g[r, j, c] = s_
+            _newton_row(b, d_bg, g, needy[q])
         last = np.inf
         for sweep in range(_PC_MAX_SWEEPS):
             for q in range(needy.size):

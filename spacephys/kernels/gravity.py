@@ -63,6 +63,18 @@ def _pull_all(targets, pos, s, G, eps2, out):
             out[k, 2] = G * az
 
 
+@kernel(inline=True)
+def gather_sources(src, pos, mass, scratch):
+    """The pulling bodies' x, y, z, m into scratch's rows (4, ns): separate contiguous rows,
+    so that the force loops load them unit-stride."""
+    for a in range(src.size):
+        k = src[a]
+        scratch[0, a] = pos[k, 0]
+        scratch[1, a] = pos[k, 1]
+        scratch[2, a] = pos[k, 2]
+        scratch[3, a] = mass[k]
+
+
 @kernel(parallel=True, inline=True)
 def accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, still, scratch,
                   out, which=ALL):
@@ -83,13 +95,7 @@ def accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, st
     n = pos.shape[0]
     if model == DIRECT or model == CENTRAL:
         if model == DIRECT:
-            # gathered into separate contiguous rows so the inner loop loads unit-stride
-            for a in range(src.size):
-                k = src[a]
-                scratch[0, a] = pos[k, 0]
-                scratch[1, a] = pos[k, 1]
-                scratch[2, a] = pos[k, 2]
-                scratch[3, a] = mass[k]
+            gather_sources(src, pos, mass, scratch)
         else:
             scratch[0, 0] = field[0]
             scratch[1, 0] = field[1]

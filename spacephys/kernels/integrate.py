@@ -24,6 +24,29 @@ def _scratch(model, src):
 
 
 @kernel(inline=True)
+def _step_start(pos, vel, mass, setup, ctrl, work, t0, dt, burn):
+    """Keep the state at the step's start (for the collision pass) and set the actors'
+    turns and burns over the step."""
+    if setup.enabled or ctrl.enabled:
+        copy_into(work.pos0, pos)
+        copy_into(work.vel0, vel)
+    if ctrl.enabled:
+        begin_step(ctrl, setup, pos, vel, mass, t0, dt, burn)
+
+
+@kernel(inline=True)
+def _step_end(pos, vel, mass, setup, ctrl, work, burn, t0, dt, done, frame_at, frame, fpos,
+              fvel, fmass):
+    """Collisions, fuel, fuses and lifetimes after a step, then the recording's frame if one
+    falls due: (whether bodies were removed, so the call must stop; the next frame)."""
+    # (a call passing the Setup and Control tuples costs a reference count per array:
+    # made only when there is something to do)
+    stop = (setup.enabled or ctrl.enabled) and \
+        finish_step(work.pos0, work.vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work)
+    return stop, capture(frame_at, frame, done, fpos, fvel, fmass, pos, vel, mass)
+
+
+@kernel(inline=True)
 def _drag_kick(vel, acc, h, drag, still):
     """The kick with linear drag toward the wind, dv/dt = a - k (v - w) with a held: exact,
     v <- v_t + (v - v_t) exp(-k h), v_t = w + a / k the terminal velocity. drag : (4,)
@@ -57,17 +80,13 @@ def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_m
     removed or merged bodies.
     """
     n = pos.shape[0]
-    acc, pos0, vel0 = work.acc, work.pos0, work.vel0
+    acc = work.acc
     burn = np.zeros((ctrl.actors.size, 8))
     scratch = _scratch(model, src)
     frame = 0
     for step in range(nsteps):
         t0 = setup.t0 + step * dt
-        if setup.enabled or ctrl.enabled:
-            copy_into(pos0, pos)
-            copy_into(vel0, vel)
-        if ctrl.enabled:
-            begin_step(ctrl, setup, pos, vel, mass, t0, dt, burn)
+        _step_start(pos, vel, mass, setup, ctrl, work, t0, dt, burn)
         tau = 0.0                                      # time into the step the drifts reached
         for s in range(drift.size):
             h = drift[s] * dt
@@ -90,11 +109,8 @@ def splitting_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_m
                         vel[i, 0] += h * acc[i, 0]
                         vel[i, 1] += h * acc[i, 1]
                         vel[i, 2] += h * acc[i, 2]
-        # (a call passing the Setup and Control tuples costs a reference count per array:
-        # made only when there is something to do)
-        stop = (setup.enabled or ctrl.enabled) and \
-            finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work)
-        frame = capture(frame_at, frame, step + 1, fpos, fvel, fmass, pos, vel, mass)
+        stop, frame = _step_end(pos, vel, mass, setup, ctrl, work, burn, t0, dt, step + 1,
+                                frame_at, frame, fpos, fvel, fmass)
         if stop:
             return step + 1
     return nsteps
@@ -115,18 +131,13 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, st
     kx = np.empty((S, n, 3))     # stage velocities (the derivative of position)
     kv = np.empty((S, n, 3))     # stage accelerations (the derivative of velocity)
     x = work.acc
-    pos0, vel0 = work.pos0, work.vel0
     burn = np.zeros((ctrl.actors.size, 8))
     no_mask = np.zeros(0, np.bool_)
     scratch = _scratch(model, src)
     frame = 0
     for step in range(nsteps):
         t0 = setup.t0 + step * dt
-        if setup.enabled or ctrl.enabled:
-            copy_into(pos0, pos)
-            copy_into(vel0, vel)
-        if ctrl.enabled:
-            begin_step(ctrl, setup, pos, vel, mass, t0, dt, burn)
+        _step_start(pos, vel, mass, setup, ctrl, work, t0, dt, burn)
         for s in range(S):
             for i in range(n):
                 for c in range(3):
@@ -163,9 +174,8 @@ def rk_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, st
                 vel[i, c] += dt * dv
         if burn.shape[0]:
             rk_thrust_fix(ctrl.actors, burn, vel, a, b, dt)
-        stop = (setup.enabled or ctrl.enabled) and \
-            finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work)
-        frame = capture(frame_at, frame, step + 1, fpos, fvel, fmass, pos, vel, mass)
+        stop, frame = _step_end(pos, vel, mass, setup, ctrl, work, burn, t0, dt, step + 1,
+                                frame_at, frame, fpos, fvel, fmass)
         if stop:
             return step + 1
     return nsteps
