@@ -16,6 +16,17 @@ import numpy as np
 from .scenes import uniform_sphere
 
 
+def _header(name, quick, rebound=None):
+    """What every benchmark's results start with: its name, the machine, the versions."""
+    import numba
+    versions = {"numba": numba.__version__, "numpy": np.__version__}
+    if rebound is not None:
+        versions["rebound"] = rebound.__version__
+    return {"benchmark": name, "quick": quick,
+            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
+            "numba_threads": numba.get_num_threads(), "versions": versions}
+
+
 def _rebound():
     try:
         import rebound
@@ -122,7 +133,6 @@ def _compile_times():
 
 def gravity(quick=False):
     """The gravity benchmark of the Core issue: direct summation, leapfrog, G = 1, eps = 1e-3."""
-    import numba
     rebound = _rebound()
     repeats, budget = (2, 0.1) if quick else (5, 0.3)
     sizes = (256, 1024) if quick else (1024, 4096)
@@ -139,11 +149,7 @@ def gravity(quick=False):
     w.add_bodies(0.0, p / np.linalg.norm(p, axis=1)[:, None] * rng.random((t, 1)) ** (1 / 3))
     cases.append(_case(f"{m} massive + {t} test particles", w, repeats=max(1, repeats - 2),
                        budget=budget, n_active=m, check_steps=2))
-    return {"benchmark": "gravity", "quick": quick,
-            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
-            "numba_threads": numba.get_num_threads(),
-            "versions": {"numba": numba.__version__, "numpy": np.__version__,
-                         "rebound": rebound.__version__},
+    return {**_header("gravity", quick, rebound),
             "cases": cases, "compile": _compile_times()}
 
 
@@ -226,18 +232,13 @@ def _wisdom_holman_case(corrector, steps, repeats):
 
 def integrators(quick=False):
     """The high-accuracy integrators against REBOUND's: IAS15 and WHFast, same problems."""
-    import numba
     rebound = _rebound()
     repeats = 2 if quick else 3
     cases = [_gauss_radau_case(16, 0.5 if quick else 2.0, repeats),
              _gauss_radau_case(256 if quick else 1024, 0.01 if quick else 0.05, 1)]
     for corrector in (0, 3):
         cases.append(_wisdom_holman_case(corrector, 10_000 if quick else 33_333, repeats))
-    return {"benchmark": "integrators", "quick": quick,
-            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
-            "numba_threads": numba.get_num_threads(),
-            "versions": {"numba": numba.__version__, "numpy": np.__version__,
-                         "rebound": rebound.__version__},
+    return {**_header("integrators", quick, rebound),
             "cases": cases}
 
 
@@ -333,7 +334,6 @@ def _merging_cluster(n, steps, radius, repeats, seed=4):
 def collisions(quick=False):
     """Broad + narrow phase on circle fields, brute force against the grid, and merging
     against REBOUND."""
-    import numba
     rebound = _rebound()
     sizes = (10_000, 20_000) if quick else (100_000, 200_000)
     _detection_pass(circle_field(1000))                # compile
@@ -355,11 +355,7 @@ def collisions(quick=False):
     t_grid, pairs_grid, _ = min(_detection_pass(small) for _ in range(3))
     merge = _merging_cluster(2000 if quick else 10_000, 5 if quick else 10,
                              0.01 if quick else 0.004, 1 if quick else 2)
-    return {"benchmark": "collisions", "quick": quick,
-            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
-            "numba_threads": numba.get_num_threads(),
-            "versions": {"numba": numba.__version__, "numpy": np.__version__,
-                         "rebound": rebound.__version__},
+    return {**_header("collisions", quick, rebound),
             "detection": passes, "scaling": passes[sizes[1]]["seconds"] / passes[sizes[0]]["seconds"],
             "brute_vs_grid": {"bodies": small.n, "brute_seconds": t_brute,
                               "grid_seconds": t_grid, "pairs_brute": pairs_brute,
@@ -422,7 +418,6 @@ def fleet(quick=False):
     missiles, 50 000 debris, collisions on, leapfrog at 60 Hz; milliseconds per step, split
     into gravity, guidance and collisions; and REBOUND's leapfrog on the same gravity alone
     (the 10 massive bodies as active particles, everything else as test particles)."""
-    import numba
     from .scenes import fleet_battle
     rebound = _rebound()
     scale = 4 if quick else 1
@@ -462,11 +457,7 @@ def fleet(quick=False):
     reps = 3 if quick else 5
     ours_ms = 1e3 * _per_step(plain.step, 10, reps)
     rebound_ms = 1e3 * _per_step(sim.steps, 10, reps)
-    return {"benchmark": "fleet", "quick": quick,
-            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
-            "numba_threads": numba.get_num_threads(),
-            "versions": {"numba": numba.__version__, "numpy": np.__version__,
-                         "rebound": rebound.__version__},
+    return {**_header("fleet", quick, rebound),
             "bodies_start": bodies, "bodies_end": w.n, "massive": int(massive.size),
             "steps": steps, "first_step_s": first,
             "median_ms": float(np.median(times)), "p95_ms": float(np.percentile(times, 95)),
@@ -483,7 +474,6 @@ def log(quick=False):
     repeats. REBOUND's Simulationarchive on the same run (a snapshot every step / every 10th
     step) for comparison, as time per frame."""
     import tempfile
-    import numba
     from .world import World
     rebound = _rebound()
     n, steps, reps = 1000, (500 if quick else 3000), (3 if quick else 5)
@@ -550,11 +540,7 @@ def log(quick=False):
     for name in os.listdir(folder):
         os.unlink(os.path.join(folder, name))
     os.rmdir(folder)
-    return {"benchmark": "log", "quick": quick,
-            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
-            "numba_threads": numba.get_num_threads(),
-            "versions": {"numba": numba.__version__, "numpy": np.__version__,
-                         "rebound": rebound.__version__},
+    return {**_header("log", quick, rebound),
             "bodies": n, "steps": steps, "base_seconds": base,
             "base_us_per_step": base / steps * 1e6, "cases": rows,
             "rebound_us_per_step": rb_base / (steps // 4) * 1e6, "rebound": rebound_rows}
@@ -606,11 +592,7 @@ def memory(quick=False):
     peak, held = memory_used(n)
     seconds = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-    import numba
-    return {"benchmark": "memory", "quick": quick, "bodies": n,
-            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
-            "numba_threads": numba.get_num_threads(),
-            "versions": {"numba": numba.__version__, "numpy": np.__version__},
+    return {**_header("memory", quick), "bodies": n,
             "bytes_per_body": {"state columns": columns, "id slots": slots,
                                "kernel scratch": scratch},
             "held_bytes": held, "peak_bytes": peak, "maxrss_growth_bytes": after - before,

@@ -229,8 +229,8 @@ class RunLog(_Schedule):
     the end of the call in which it fell due)."""
 
     def __init__(self, world, path, *, every=1, every_time=None, checkpoint_every=None,
-                 checkpoint_seconds=10.0, flush_seconds=1.0, compression="gzip", compress_state=False, scenario=None,
-                 _resume=None):
+                 checkpoint_seconds=10.0, flush_seconds=1.0, compression="gzip",
+                 compress_state=False, scenario=None, _resume=None):
         self.path = os.fspath(path)
         self.world = world
         self.depth = 0                   # > 0 inside a journaled call
@@ -241,28 +241,21 @@ class RunLog(_Schedule):
         self._layouts, self._layout = [], None      # buffered layouts; the latest one
         # positions and velocities (2, rows, 3), rows used; frame masses for the kernels
         self._stage, self._staged, self._mass = None, 0, None
-        if _resume is not None:          # an open file, truncated to its last checkpoint
-            self._file, state = _resume
-            self.every, self.every_time = state["every"], state["every_time"]
-            self.checkpoint_every, self.flush_seconds = state["checkpoint_every"], \
-                state["flush_seconds"]
-            self.checkpoint_seconds = state["checkpoint_seconds"]
-            self._last_checkpoint = time.monotonic()
-            self.steps, self._next_time = state["log_steps"], state["next_time"]
-            self._counts = state["counts"]
-            self._since_checkpoint = 0
-            self._checkpoint_due = False
-            return
         self.every, self.every_time = every, every_time
-        self.checkpoint_every, self.flush_seconds = checkpoint_every, flush_seconds
-        self.checkpoint_seconds = checkpoint_seconds
+        self.checkpoint_every, self.checkpoint_seconds = checkpoint_every, checkpoint_seconds
+        self.flush_seconds = flush_seconds
         self._last_checkpoint = time.monotonic()
-        self.steps = 0                   # steps since the log began
-        self._next_time = world.t            # the first frame: now
-        self._counts = {"frames": 0, "rows": 0, "layouts": 0, "layout_rows": 0, "events": 0,
-                        "inputs": 0, "checkpoints": 0}
         self._since_checkpoint = 0
         self._checkpoint_due = False
+        if _resume is not None:
+            # an open file truncated to its last checkpoint: (file, steps since the log
+            # began, the next every_time frame, the table lengths)
+            self._file, self.steps, self._next_time, self._counts = _resume
+            return
+        self.steps = 0                   # steps since the log began
+        self._next_time = world.t        # the first frame: now
+        self._counts = {"frames": 0, "rows": 0, "layouts": 0, "layout_rows": 0, "events": 0,
+                        "inputs": 0, "checkpoints": 0}
         try:
             self._file = h5py.File(self.path, "w", rdcc_nbytes=0)
         except (OSError, RuntimeError) as e:
@@ -796,14 +789,12 @@ def resume(path):
         f.close()
         raise
     meta = f.attrs
-    state = {"every": int(meta["every"]), "every_time": float(meta["every_time"]) or None,
-             "checkpoint_every": int(meta["checkpoint_every"]) or None,
-             "checkpoint_seconds": float(meta["checkpoint_seconds"]),
-             "flush_seconds": float(meta["flush_seconds"]), "log_steps": int(attrs["step"]),
-             "next_time": float(attrs["next_time"]), "counts": counts}
-    state["every"] = state["every"] or None
-    log = RunLog(world, path, _resume=(f, state))
-    world._log = log
+    world._log = RunLog(world, path, every=int(meta["every"]) or None,
+                        every_time=float(meta["every_time"]) or None,
+                        checkpoint_every=int(meta["checkpoint_every"]) or None,
+                        checkpoint_seconds=float(meta["checkpoint_seconds"]),
+                        flush_seconds=float(meta["flush_seconds"]),
+                        _resume=(f, int(attrs["step"]), float(attrs["next_time"]), counts))
     return world
 
 

@@ -89,11 +89,8 @@ def run_scenario(scenario, *, integrator=None, dt=None, duration=None, progress=
     """
     from .scenario import Scenario, load_scenario
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
-    if integrator is not None:
-        sc.data["world"]["integrator"] = integrator
-    if dt is not None:
-        sc.data["world"]["dt"] = dt
-    w, ids = sc.build()
+    w, ids = sc.build(**{k: v for k, v in (("integrator", integrator), ("dt", dt))
+                         if v is not None})
     log = sc.log or {}
     out = out if out is not None else log.get("path")
     every = {"every": log["every"]} if log.get("every") else \

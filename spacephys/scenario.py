@@ -81,9 +81,10 @@ class Scenario:
     timeline: list = field(default_factory=list)      # (t, action, table) sorted by t
     log: dict = None
 
-    def build(self):
-        """A new World at t = 0 with the scenario's bodies, ships and rules; and name -> id."""
-        return _build(self.data)
+    def build(self, **world):
+        """A new World at t = 0 with the scenario's bodies, ships and rules; and name -> id.
+        world: settings of [world] to override (integrator=, dt=), the Scenario unchanged."""
+        return _build({**self.data, "world": {**self.data["world"], **world}})
 
 
 class _Checker:
@@ -158,8 +159,9 @@ def _parse(source, text):
 def load_scenario(path_or_text):
     """Read and check a scenario (a path to a .toml file, or its text); ScenarioError lists
     every problem."""
-    if isinstance(path_or_text, (str, os.PathLike)) and not str(path_or_text).lstrip().startswith(
-            ("[", "#", "title")) and os.path.splitext(str(path_or_text))[1] == ".toml":
+    text = path_or_text
+    if isinstance(text, os.PathLike) or isinstance(text, str) and "\n" not in text \
+            and text.endswith(".toml"):
         source = os.fspath(path_or_text)
         try:
             with open(source, encoding="utf-8") as f:
