@@ -282,3 +282,12 @@ def test_bad_drag_is_refused_and_adaptive_integrators_say_they_lack_it():
     with pytest.raises(ValueError, match="no drag yet"):
         w.step(1)
     assert w.t == 0.0
+
+
+def test_bad_drag_assignments_change_nothing():
+    w = sp.World(dim=2, drag=0.5, wind=(1.0, 2.0))
+    with pytest.raises(ValueError, match="drag = -0.1"):
+        w.drag = -0.1
+    with pytest.raises(ValueError, match="wind"):
+        w.wind = (1.0, float("nan"))
+    assert w.drag == 0.5 and np.array_equal(w.wind, [1.0, 2.0])

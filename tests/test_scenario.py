@@ -300,3 +300,10 @@ def test_arena_bricks_break_and_balls_bounce():
     bricks = int(np.sum(w.kind == w.kind_code("brick")))
     assert bricks < 30 and result.events["bounce"] >= 30 - bricks
     assert result.events["destroy"] == (30 - bricks) + (2 - int(np.sum(w.kind == w.kind_code("ball"))))
+
+
+def test_overrides_leave_the_scenario_as_it_was_read():
+    sc = load_scenario(ROOT / "scenarios" / "two_body.toml")
+    result = run_scenario(sc, integrator="rk4", dt=0.002, duration=0.1)
+    assert result.world.integrator == "rk4" and result.world.dt == 0.002
+    assert sc.data["world"]["integrator"] == "leapfrog" and sc.data["world"]["dt"] == 0.001
