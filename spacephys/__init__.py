@@ -11,12 +11,13 @@ from .runner import RunResult, run_scenario
 from .scenario import Scenario, ScenarioError, load_scenario
 from .orbits import elements_to_state, kepler_state, period, solve_kepler
 from .units import UNITS, UnitSystem, get_units
-from .world import BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, RESPONSES, Body, World
+from .world import (BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, RESPONSES, Body,
+                    InstabilityError, World)
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "World", "Body", "DEFAULT_KINDS", "GRAVITY_MODELS", "RESPONSES", "BOUNDARIES",
+    "World", "Body", "InstabilityError", "DEFAULT_KINDS", "GRAVITY_MODELS", "RESPONSES", "BOUNDARIES",
     "EVENT_DTYPE", "EVENT_KINDS",
     "ShipSpec", "MissileSpec", "ExplosionSpec", "GUIDANCE",
     "INTEGRATORS", "Integrator", "get_integrator",

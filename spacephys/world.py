@@ -44,6 +44,17 @@ _MIRRORED = {collide.DESTROY_A: collide.DESTROY_B, collide.DESTROY_B: collide.DE
 PASSIVE_KINDS = ("ship", "missile", "debris")
 DEFAULT_KINDS = ("body", "star", "planet", "moon", "asteroid", "ship", "missile", "debris")
 
+class InstabilityError(FloatingPointError):
+    """The integration broke down: a body's state became NaN or infinite, or the energy
+    error passed the limit set with World.watch_energy. ids: the bodies concerned, worst
+    first; t: the World's time when it was found."""
+
+    def __init__(self, message, ids, t):
+        super().__init__(message)
+        self.ids = ids
+        self.t = t
+
+
 Body = namedtuple("Body", "id pos vel mass radius kind active pulls")
 Body.__doc__ = ("A copy of one body's state: id, pos/vel (dim,), mass, radius, kind name, "
                 "active (may pull) and pulls (active and massive).")
@@ -196,6 +207,8 @@ class World(Actors):
         self._queued_events = []
         self._work = None                  # kernels' scratch (see _workspace)
         self._log = None                   # the RunLog recording this World, if one is
+        self._origin = np.zeros(3)         # where the coordinates are measured from
+        self._watch = None                 # watch_energy's (limit, E0, body energies, ids)
 
     # ---------------------------------------------------------------- settings
     @property
@@ -1026,11 +1039,13 @@ class World(Actors):
             self._steps += done          # the state is that of the last completed interval
             self._reset_adaptive()       # the failed step's tiny proposal and wild polynomial
             b.prev[:n] = b.pos[:n]       # nothing to interpolate across a failure
-            raise FloatingPointError(
+            pair = self._closest_pair(src)
+            raise InstabilityError(
                 f"gauss_radau: the step shrank below the resolution of time or became NaN "
-                f"after t = {self.t:g} (next step {self._adaptive[3]:.3g}); bodies may have "
-                f"collided. The state is that at t = {self.t:g}. Set min_step, or soften "
-                f"gravity.")
+                f"after t = {self.t:g} (next step {self._adaptive[3]:.3g}); the closest "
+                f"pulling bodies are {self._named(pair)}, which may have met. The state is "
+                f"that at t = {self.t:g}. Set min_step, or soften gravity.",
+                b.ids[pair].copy(), self.t)
         if stats[gr.AT_MIN_STEP] > before[gr.AT_MIN_STEP]:
             # warned by _run once the time is booked (a warning turned error must find the
             # World consistent)
@@ -1039,6 +1054,17 @@ class World(Actors):
                 f"held at min_step = {self._adaptive[2]:g}; the error is no longer controlled "
                 f"there")
         return done
+
+    def _closest_pair(self, rows):
+        """The two rows of `rows` closest together (none if fewer than 2, or too many to
+        compare all pairs in a failure's message)."""
+        if not 2 <= rows.size <= 2048:
+            return rows[:0]
+        p = self._b.pos[rows]
+        d2 = ((p[:, None, :] - p[None, :, :]) ** 2).sum(axis=2)
+        d2[np.diag_indices(rows.size)] = np.inf
+        i, j = np.unravel_index(np.argmin(d2), d2.shape)
+        return rows[[i, j]]
 
     def _reset_adaptive(self):
         """Forget the adaptive integrator's carried state: step proposal, prediction, the
@@ -1053,6 +1079,7 @@ class World(Actors):
         """Advance n steps of dt, the loop inside numba; returns the new time. w.events then
         holds what happened during these steps."""
         n = check.count("n", n)
+        t0 = self.t
         self._event_count[:] = 0
         self._write_queued_events()
         if n:
@@ -1063,6 +1090,8 @@ class World(Actors):
             self._run_framed(1)
         if self._log is not None:
             self._log.record_events(self.events)
+        if n:
+            self._check_health(t0)
         return self.t
 
     def _run_framed(self, n):
@@ -1126,6 +1155,103 @@ class World(Actors):
         b = self._b
         prev = b.prev[:b.n, :self._dim]
         return prev + alpha * (b.pos[:b.n, :self._dim] - prev)
+
+    # ---------------------------------------------------------------- instability
+    def _named(self, rows, most=5):
+        """'body 3 (planet), body 7 (moon) and 12 more' for rows of live bodies."""
+        b = self._b
+        names = [f"body {int(b.ids[r])} ({self._kinds[b.kind[r]]})" for r in rows[:most]]
+        more = f" and {len(rows) - most} more" if len(rows) > most else ""
+        return ", ".join(names) + more
+
+    def _check_health(self, t0):
+        """After a step() from time t0: InstabilityError if a body's state is not finite, or
+        if the watched energy error passed its limit."""
+        b = self._b
+        n = b.n
+        # one sum finds a NaN or inf anywhere (its overflow only costs the exact look below)
+        if n and not (np.isfinite(b.pos[:n].sum()) and np.isfinite(b.vel[:n].sum())):
+            rows = np.flatnonzero(~(np.isfinite(b.pos[:n]).all(axis=1)
+                                    & np.isfinite(b.vel[:n]).all(axis=1)))
+            if rows.size:
+                raise InstabilityError(
+                    f"the state became NaN or infinite between t = {t0:g} and t = {self.t:g}: "
+                    f"{self._named(rows)}. A step too long for a close approach, bodies "
+                    f"meeting without softening, or a speed past the range of doubles; take "
+                    f"a shorter dt, soften gravity, or use gauss_radau (w.remove(ids) drops "
+                    f"them)", b.ids[rows].copy(), self.t)
+        if self._watch is None:
+            return
+        limit, E0, e0, ids0 = self._watch
+        error = abs(self.energy(True) / E0 - 1.0)
+        if error <= limit:                 # (a NaN energy is not <= limit either)
+            return
+        # the bodies whose own energy changed most, as a fraction of |E0|
+        now = self._body_energies()
+        common, then_rows, now_rows = np.intersect1d(ids0, b.ids[:n], return_indices=True)
+        change = np.abs(now[now_rows] - e0[then_rows]) / abs(E0)
+        order = np.argsort(-np.nan_to_num(change, nan=np.inf), kind="stable")
+        rows = now_rows[order]
+        shares = ", ".join(f"{change[k]:.2g}" for k in order[:5])
+        raise InstabilityError(
+            f"energy error {error:.3g} since watch_energy passed its limit {limit:g} between "
+            f"t = {t0:g} and t = {self.t:g}; the energy changed most in {self._named(rows)} "
+            f"({shares} of |E0|). Their orbits are not resolved by dt = {self._dt:g} with "
+            f"{self.integrator}: take a shorter dt or use gauss_radau",
+            b.ids[rows].copy(), self.t)
+
+    def _body_energies(self):
+        model, mass, src, passive, G, eps2, field, field_mass, still = self._gravity_args()
+        b = self._b
+        out = np.empty(b.n)
+        diagnostics.body_energies(b.pos[:b.n], b.vel[:b.n], model, self._masses(True), src, G,
+                                  eps2, field, field_mass, out)
+        return out
+
+    def watch_energy(self, limit):
+        """From now on, raise InstabilityError after any step() or advance() that leaves the
+        relative energy error of the pulling bodies (since this call) above limit, naming the
+        bodies whose own energy changed most; limit=None stops watching. For scenes that
+        conserve energy: thrust, drag, and collisions that merge or break change it. Costs
+        an energy sum, O(N_pulling^2), per call."""
+        if limit is None:
+            self._watch = None
+            return
+        limit = check.scalar("limit", limit, positive=True)
+        E0 = self.energy(True)
+        if E0 == 0.0:
+            raise ValueError("watch_energy: the pulling bodies' energy is 0, so a relative "
+                             "error has no scale (no massive bodies, or none moving)")
+        self._watch = (limit, E0, self._body_energies(), self._b.ids[:self._b.n].copy())
+
+    # ---------------------------------------------------------------- origin
+    @property
+    def origin(self):
+        """(dim,) where this World's coordinates are measured from, in the coordinates it
+        started with [length]: the absolute position of a body is origin + pos."""
+        return self._origin[:self._dim].copy()
+
+    def shift_origin(self, delta):
+        """Move the coordinate origin by delta (dim,) [length]: every position (bodies, the
+        central body, walls, the boundary box) drops by delta, velocities stay. A double
+        resolves 1e15 only to 0.125, so a scene far from the origin loses its small motions;
+        shifted to near 0 it keeps them (a floating origin: follow the player's ship). The
+        forces depend on differences only, so the motion is the same as the scene's
+        would be had it been built at the new origin."""
+        delta = np.asarray(check.floats("delta", delta, (self._dim,)), dtype=np.float64)
+        b = self._b
+        d = self._dim
+        b.pos[:b.n, :d] -= delta
+        b.prev[:b.n, :d] -= delta
+        if self._model == CENTRAL:
+            self._field[:d] -= delta
+        if len(self._walls):
+            self._walls[:, 1:1 + d] -= delta
+            segments = self._walls[:, 0] == collide.SEGMENT
+            self._walls[segments, 4:4 + d] -= delta
+        if self._boundary != collide.OPEN:
+            self._box[:, :d] -= delta
+        self._origin[:d] += delta
 
     # ---------------------------------------------------------------- diagnostics
     # Diagnostics cover every body by default. With pulling_only=True they cover the bodies that
@@ -1197,5 +1323,5 @@ class World(Actors):
 for _name in ("add_kind", "add_body", "add_bodies", "set_body", "remove", "set_collision",
               "add_plane", "add_segment", "clear_walls", "set_boundary", "step", "advance",
               "move_to_center_of_mass", "add_ship", "control", "set_heading", "set_fuel",
-              "launch", "explode"):
+              "launch", "explode", "watch_energy", "shift_origin"):
     setattr(World, _name, journaled(getattr(World, _name)))

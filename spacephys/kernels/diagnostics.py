@@ -77,3 +77,30 @@ def potential_energy(pos, model, mass, src, passive, G, eps2, field, field_mass,
             s, c = _add(s, c, -mass[i] * g_dot_x)
         return s + c
     return 0.0
+
+
+@kernel
+def body_energies(pos, vel, model, mass, src, G, eps2, field, field_mass, out):
+    """Each body's share of the energy into out (n,): 1/2 m |v|^2 plus, under DIRECT, half
+    of each pair potential among the sources src (other bodies get their kinetic energy
+    only: give them mass 0 to leave them out); under CENTRAL and UNIFORM, its potential in
+    the field. Sums to the total energy, to rounding: used to name the bodies whose energy
+    changed when the total went wrong."""
+    for i in range(mass.size):
+        v2 = vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1] + vel[i, 2] * vel[i, 2]
+        out[i] = 0.5 * mass[i] * v2
+        if model == CENTRAL:
+            out[i] += G * _pair_potential(pos[i, 0], pos[i, 1], pos[i, 2], mass[i],
+                                          field[0], field[1], field[2], field_mass, eps2)
+        elif model == UNIFORM:
+            out[i] -= mass[i] * (field[0] * pos[i, 0] + field[1] * pos[i, 1]
+                                 + field[2] * pos[i, 2])
+    if model == DIRECT:
+        for a in range(src.size):
+            i = src[a]
+            for b in range(a + 1, src.size):
+                j = src[b]
+                half = 0.5 * G * _pair_potential(pos[i, 0], pos[i, 1], pos[i, 2], mass[i],
+                                                 pos[j, 0], pos[j, 1], pos[j, 2], mass[j], eps2)
+                out[i] += half
+                out[j] += half
