@@ -310,6 +310,8 @@ class RunLog(_Schedule):
     def call(self, world, name, method, args, kwargs):
         """Run a journaled call and record it (with the exception it raised, if any)."""
         step, t = self.steps, world.t
+        # encoded before the call: an argument may be a view of the state the call changes
+        entry = {"call": name, "args": _encode(list(args)), "kwargs": _encode(kwargs)}
         self.depth += 1
         error = None
         try:
@@ -319,7 +321,6 @@ class RunLog(_Schedule):
             raise
         finally:
             self.depth -= 1
-            entry = {"call": name, "args": _encode(list(args)), "kwargs": _encode(kwargs)}
             if error:
                 entry["raised"] = error
             self._inputs.append((step, t, json.dumps(entry)))

@@ -1238,7 +1238,7 @@ class World(Actors):
         shifted to near 0 it keeps them (a floating origin: follow the player's ship). The
         forces depend on differences only, so the motion is the same as the scene's
         would be had it been built at the new origin."""
-        delta = np.asarray(check.floats("delta", delta, (self._dim,)), dtype=np.float64)
+        delta = np.array(check.floats("delta", delta, (self._dim,)))   # may be a view of pos
         b = self._b
         d = self._dim
         b.pos[:b.n, :d] -= delta
