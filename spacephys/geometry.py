@@ -1,5 +1,4 @@
 """Centres of mass of point-mass shapes (the seed's polygon with masses at its vertices)."""
-import numpy as np
 
 from . import _validate as check
 
