@@ -1169,8 +1169,7 @@ class World(Actors):
         if the watched energy error passed its limit."""
         b = self._b
         n = b.n
-        # one sum finds a NaN or inf anywhere (its overflow only costs the exact look below)
-        if n and not (np.isfinite(b.pos[:n].sum()) and np.isfinite(b.vel[:n].sum())):
+        if n and not diagnostics.finite_state(b.pos[:n], b.vel[:n]):
             rows = np.flatnonzero(~(np.isfinite(b.pos[:n]).all(axis=1)
                                     & np.isfinite(b.vel[:n]).all(axis=1)))
             if rows.size:

@@ -104,3 +104,14 @@ def body_energies(pos, vel, model, mass, src, G, eps2, field, field_mass, out):
                                                  pos[j, 0], pos[j, 1], pos[j, 2], mass[j], eps2)
                 out[i] += half
                 out[j] += half
+
+
+@kernel
+def finite_state(pos, vel):
+    """True if every entry of pos and vel (n, 3) is finite: x * 0 is 0 for a finite x and NaN
+    for NaN or inf, and a NaN anywhere makes the sum NaN (one pass, no temporaries)."""
+    s = 0.0
+    for i in range(pos.shape[0]):
+        s += (pos[i, 0] * 0.0 + pos[i, 1] * 0.0 + pos[i, 2] * 0.0
+              + vel[i, 0] * 0.0 + vel[i, 1] * 0.0 + vel[i, 2] * 0.0)
+    return s == 0.0
