@@ -8,6 +8,7 @@ from .geometry import polygon_center_of_mass
 from .integrators import INTEGRATORS, Integrator, get_integrator
 from .runlog import Run, RunLog, RunLogError, open_run, replay, resume
 from .runner import RunResult, run_scenario
+from .recommend import Recommendation, recommend
 from .scenario import Scenario, ScenarioError, load_scenario
 from .orbits import elements_to_state, kepler_state, period, solve_kepler
 from .units import UNITS, UnitSystem, get_units
@@ -25,6 +26,7 @@ __all__ = [
     "polygon_center_of_mass",
     "RunLog", "Run", "RunLogError", "open_run", "replay", "resume",
     "Scenario", "ScenarioError", "load_scenario", "run_scenario", "RunResult",
+    "recommend", "Recommendation",
     "elements_to_state", "kepler_state", "period", "solve_kepler",
     "__version__",
 ]

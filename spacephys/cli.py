@@ -16,26 +16,51 @@ def _problem_names():
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 
 
-def _run(args):
-    from .runner import default_progress, run_scenario, run_scene
-    kw = dict(integrator=args.integrator, dt=args.dt, duration=args.duration, out=args.out,
-              progress=None if args.quiet else default_progress())
-    scene = args.scene
+def _resolve(scene):
+    """("scenario", path) for a scenario file or a name in scenarios/, ("scene", name) for a
+    built-in scene; ValueError listing the known ones otherwise."""
     path = Path(scene)
     if not path.suffix and (SCENARIOS / (scene + ".toml")).exists():
         path = SCENARIOS / (scene + ".toml")          # scenarios/NAME.toml first
     if path.suffix != ".toml" and scene in SCENES:
-        result = run_scene(scene, **kw)
-    else:
-        if path.suffix != ".toml" or not path.exists():
-            known = sorted(SCENES) + sorted(p.stem for p in SCENARIOS.glob("*.toml"))
-            raise ValueError(f"{scene!r} is neither a scenario file (.toml) nor a known scene "
-                             f"or scenario: {', '.join(known)}")
-        result = run_scenario(path, **kw)
+        return "scene", scene
+    if path.suffix != ".toml" or not path.exists():
+        known = sorted(SCENES) + sorted(p.stem for p in SCENARIOS.glob("*.toml"))
+        raise ValueError(f"{scene!r} is neither a scenario file (.toml) nor a known scene "
+                         f"or scenario: {', '.join(known)}")
+    return "scenario", path
+
+
+def _run(args):
+    from .runner import default_progress, run_scenario, run_scene
+    kw = dict(integrator=args.integrator, dt=args.dt, duration=args.duration, out=args.out,
+              progress=None if args.quiet else default_progress())
+    kind, what = _resolve(args.scene)
+    result = (run_scene if kind == "scene" else run_scenario)(what, **kw)
     print(result.summary())
     if args.out:
         print(f"log           {args.out}")
     return 0
+
+
+def _recommend(args):
+    from .recommend import recommend
+    kind, what = _resolve(args.scene)
+    duration = args.duration
+    if kind == "scene":
+        build, default_duration, integrator, dt = SCENES[what]
+        what = build(integrator=integrator, dt=dt)
+        duration = default_duration if duration is None else duration
+    rec = recommend(what, args.error, budget=args.budget, duration=duration)
+    print(rec)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump({"integrator": rec.integrator, "dt": rec.dt, "tolerance": rec.tolerance,
+                       "error": rec.error, "cost": rec.cost, "met": rec.met,
+                       "reasons": rec.reasons, "scene": vars(rec.scene),
+                       "candidates": rec.candidates}, f, indent=1)
+        print(f"wrote {args.json}")
+    return 0 if rec.met else 1
 
 
 def _plot(args):
@@ -102,6 +127,18 @@ def main(argv=None):
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)
 
+    rec = sub.add_parser("recommend", help="the cheapest integrator and step meeting an "
+                                           "error target, measured on the scene")
+    rec.add_argument("scene", help="a scenario file (.toml), a scenario of scenarios/ by name, "
+                                   "or a built-in scene: " + ", ".join(SCENES))
+    rec.add_argument("--error", type=float, default=1e-6,
+                     help="the error target (relative; default 1e-6)")
+    rec.add_argument("--budget", type=float,
+                     help="the most wall seconds per unit of simulated time")
+    rec.add_argument("--duration", type=float, help="simulated time the error must hold over")
+    rec.add_argument("--json", metavar="PATH", help="also write the choice and every trial")
+    rec.set_defaults(func=_recommend)
+
     for name, what, ext in (("plot", "trajectories and energy error", "png"),
                             ("animate", "an animation of the bodies", "gif")):
         p = sub.add_parser(name, help=f"draw a run log: {what}")
@@ -111,7 +148,7 @@ def main(argv=None):
 
     bench = sub.add_parser("bench", help="benchmark side by side with REBOUND")
     bench.add_argument("what", choices=["gravity", "integrators", "collisions", "fleet", "log",
-                                        "tradeoff", "peers", "memory"])
+                                        "tradeoff", "peers", "memory", "models"])
     bench.add_argument("--out", default="tradeoff", metavar="DIR",
                        help="tradeoff, peers: where the CSV, JSON and plots go (default ./tradeoff)")
     bench.add_argument("--quick", action="store_true", help="fewer repeats, smaller cases")
