@@ -1,0 +1,66 @@
+"""`spacephys bench models`: what each gravity model costs and what it gets wrong (quick run)."""
+import json
+
+import pytest
+
+from spacephys import bench
+from spacephys.cli import main
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    path = tmp_path_factory.mktemp("models") / "models.json"
+    assert main(["bench", "models", "--quick", "--json", str(path)]) == 0
+    return json.loads(path.read_text())
+
+
+def case(results, model, n):
+    return next(c for c in results["cases"] if c["case"].endswith(f"N={n}")
+                and c["model"] == model)
+
+
+def test_the_results_name_every_model_at_both_sizes(results):
+    assert results["benchmark"] == "models" and results["quick"]
+    assert [c["model"] for c in results["cases"]] == ["direct", "test", "central", "uniform"] * 2
+    table = bench.format_table(results)
+    assert table.count("| full N-body |") == 2 and table.count("| uniform field |") == 2
+
+
+def test_the_linear_models_cost_less_per_step_than_full_n_body(results):
+    full = case(results, "direct", 4000)
+    assert full["spacephys_s_per_step"] > 0 and full["us_per_body_step"] > 0
+    for model in ("test", "central", "uniform"):
+        assert case(results, model, 4000)["spacephys_s_per_step"] < full["spacephys_s_per_step"]
+
+
+def test_rebound_did_the_same_work(results):
+    for n in (200, 4000):
+        for model in ("direct", "test"):
+            c = case(results, model, n)
+            assert c["max_relative_difference"] < 1e-12 and c["ratio"] > 0
+
+
+def test_dropping_the_bodies_pulls_costs_an_error_of_order_their_mass(results):
+    errors = {}
+    for n in (200, 4000):
+        test = case(results, "test", n)
+        e = errors[n] = test["median_position_error"]
+        assert 0 < e <= test["max_position_error"] < 1e-3
+        assert 1 < e / (n * 1e-9) < 30             # of order (sum of the bodies' masses) / M
+        # the star's reflex motion, which both simplifications also drop, is smaller still
+        assert 0 < case(results, "direct", n)["star_displacement"] < e
+        # with one star, the central field is the test-particle run without the star body
+        central = case(results, "central", n)
+        assert central["difference_from_test_particles"] < 1e-12
+        assert central["median_position_error"] == pytest.approx(e, rel=1e-9)
+    assert errors[4000] > 5 * errors[200]           # 20x the bodies, 20x the dropped mass
+
+
+def test_the_uniform_field_is_off_by_about_2h_over_r(results):
+    s = results["surface"]
+    for n in (200, 4000):
+        c = case(results, "uniform", n)
+        assert 0.9 * s["two_h_over_R"] < c["relative_force_error"] < 1.1 * s["two_h_over_R"]
+        # that force error acting for T: 0.5 g (2h/R) T^2 at the highest body
+        drift = 0.5 * s["g"] * s["two_h_over_R"] * s["time"] ** 2
+        assert c["max_position_error"] == pytest.approx(drift, rel=0.2)
