@@ -10,8 +10,8 @@ from numba.core.errors import NumbaPerformanceWarning
 # With prange-only parallelism (PRANGE_ONLY) numba's check for "a parallel transformation"
 # misses the prange loops of inlined helpers and warns on kernels that do run threaded (the
 # Gauss-Radau kernel: measured 1.5 ms per step on 2 threads, 2.4 ms on 1, N = 512)
-warnings.filterwarnings("ignore", message="The keyword argument 'parallel=True' was specified "
-                        "but no transformation", category=NumbaPerformanceWarning)
+warnings.filterwarnings("ignore", message=r"\s*The keyword argument 'parallel=True' was "
+                        "specified but no transformation", category=NumbaPerformanceWarning)
 
 # Reassociation lets LLVM vectorise the force sums (about 15x on the gravity kernel here);
 # contraction allows fused multiply-add. Both keep a build deterministic on one machine, but they

@@ -140,3 +140,21 @@ def test_bad_input_names_the_field():
         sp.recommend(w, 1e-6, duration=math.nan)
     with pytest.raises(ValueError, match="no bodies"):
         sp.recommend(sp.World(), 1e-6)
+
+
+def test_the_command_prints_the_choice_and_writes_every_trial(tmp_path, capsys):
+    """`spacephys recommend two_body --json`: exit 0, the choice and its reasons printed, the
+    JSON holds the same choice and every trial; an unknown scene is exit 2 with no
+    traceback."""
+    import json
+
+    from spacephys.cli import main
+    path = tmp_path / "rec.json"
+    assert main(["recommend", "two_body", "--error", "1e-6", "--json", str(path)]) == 0
+    out = capsys.readouterr().out
+    data = json.loads(path.read_text())
+    assert out.startswith(data["integrator"]) and "shortest dynamical time" in out
+    assert data["met"] and data["error"] <= 1e-6 and len(data["candidates"]) >= 5
+    assert data["scene"]["dominant"] == 0
+    assert main(["recommend", "no_such_scene"]) == 2
+    assert "no_such_scene" in capsys.readouterr().err
