@@ -2,6 +2,7 @@
 
 The whole public API, re-exported by name.
 """
+from ._jit import get_threads, set_threads
 from .entities import GUIDANCE, ExplosionSpec, MissileSpec, ShipSpec
 from .events import EVENT_DTYPE, EVENT_KINDS
 from .geometry import polygon_center_of_mass
@@ -28,5 +29,6 @@ __all__ = [
     "Scenario", "ScenarioError", "load_scenario", "run_scenario", "RunResult",
     "recommend", "Recommendation",
     "elements_to_state", "kepler_state", "period", "solve_kepler",
+    "set_threads", "get_threads",
     "__version__",
 ]

@@ -135,3 +135,28 @@ def test_immovable_bodies_have_no_acceleration(rng):
     assert np.all(acc[still] == 0)
     others = np.setdiff1d(np.arange(30), still)
     assert np.array_equal(acc[others], free[others])     # they still pull the others
+
+
+def test_thread_count_changes_nothing_but_time():
+    """sp.set_threads: a 300-body scene (9e4 pairs: the threaded loop) ends bit for bit the
+    same on 1 thread as on all of them; a bad count is refused, naming it."""
+    import numba
+    import spacephys as sp
+    from spacephys import scenes
+    results = []
+    previous = sp.get_threads()
+    try:
+        for n in (1, numba.config.NUMBA_NUM_THREADS):
+            assert sp.set_threads(n) >= 1 and sp.get_threads() == n
+            w = scenes.uniform_sphere(300, seed=2, softening=0.01, integrator="leapfrog",
+                                      dt=1e-3)
+            w.step(20)
+            results.append(w.pos.copy())
+    finally:
+        sp.set_threads(previous)
+    assert np.array_equal(results[0], results[1])
+    with pytest.raises(ValueError, match="n = 0"):
+        sp.set_threads(0)
+    with pytest.raises(ValueError, match="at most"):
+        sp.set_threads(numba.config.NUMBA_NUM_THREADS + 1)
+    assert sp.get_threads() == previous
