@@ -26,6 +26,7 @@ import time
 import numpy as np
 
 from .integrators import INTEGRATORS
+from .world import InstabilityError
 
 # fixed-step candidates in the order they are tried (cheapest per step first); Euler and
 # symplectic Euler are left out: first order, never the cheapest in docs/tradeoff.md
@@ -66,6 +67,7 @@ class Recommendation:
     integrator: str
     dt: float
     tolerance: float | None
+    max_step: float | None        # Gauss-Radau's longest substep, where collisions need one
     error: float
     cost: float
     met: bool
@@ -74,11 +76,13 @@ class Recommendation:
     candidates: list              # every trial: dicts of integrator, dt, tolerance, error, cost
 
     def apply(self, world):
-        """Set world's integrator, dt (and tolerance for Gauss-Radau)."""
+        """Set world's integrator, dt (and tolerance, max_step for Gauss-Radau)."""
         world.integrator = self.integrator
         world.dt = self.dt
         if self.tolerance is not None:
             world.tolerance = self.tolerance
+        if self.max_step is not None:
+            world.max_step = self.max_step
 
     def __str__(self):
         setting = (f"tolerance {self.tolerance:g}, dt {self.dt:g}" if self.tolerance
@@ -113,6 +117,9 @@ def recommend(scene, error=1e-6, *, budget=None, duration=None):
         budget = check.scalar("budget", budget, positive=True)
     if duration is not None:
         duration = check.scalar("duration", duration, positive=True)
+    if not hasattr(scene, "step") or not hasattr(scene, "copy"):
+        raise ValueError(f"scene = {scene!r}: expected a World, a Scenario or a scenario "
+                         f"file")
     if scene.n == 0:
         raise ValueError("recommend: the World has no bodies")
     trials = _Trials(scene, error, budget, duration)
@@ -140,7 +147,8 @@ def _orbits(w):
         others = np.arange(n) != dominant
     else:
         return None, nan, nan, nan, nan, nan
-    mu = w.G * (M + np.where(pulls, mass, 0.0))
+    # about a fixed field the orbit's mu is G M; about a body, G (M + m) for a pulling m
+    mu = w.G * (M + (0.0 if dominant is None else np.where(pulls, mass, 0.0)))
     r = pos - centre
     v = vel - cvel
     rn = np.linalg.norm(r, axis=1)
@@ -195,6 +203,8 @@ def _scene(w, error, duration):
     horizon = float(min(bound.max(), 1000 * tau)) if bound.size else 10 * tau
     if duration is not None:                # the whole run, unless it is very long
         horizon = min(duration, max(horizon, 1000 * tau))
+    if horizon >= SAMPLES * w.dt:           # whole output intervals (see output_interval)
+        horizon = math.ceil(horizon / w.dt - 1e-9) * w.dt
     advice = _advice(w, error, dominant, mass_ratio)
     return Scene(n=w.n, pulling=int(w.pulls.sum()), dominant=None if dominant is None else
                  int(w.ids[dominant]), mass_ratio=mass_ratio,
@@ -249,6 +259,17 @@ def _state(w):
 
 class _Trials:
     def __init__(self, world, error, budget, duration):
+        # the trials run on copies: unwatched (the user's energy limit is not the target),
+        # and with the origin at the bodies' mean position, since far from the origin
+        # precision is lost (docs/extremes.md) and position errors are differences anyway
+        world = world.copy()
+        world._watch = None
+        b = world._b
+        self.steering = "actor" in b.columns and bool(b.actor[:b.n].any())
+        # with collisions Gauss-Radau's substeps must not step over a contact
+        self.collisions = bool(world._response.any() or len(world._walls)
+                               or world._boundary != 0)
+        world.shift_origin(world.pos.mean(axis=0))
         self.w = world
         self.target = error
         self.budget = budget
@@ -260,9 +281,14 @@ class _Trials:
         self.position_target = error        # relaxed when the scene is chaotic
         # each body's length scale: its distance to the nearest pulling body (else the
         # scene's size), for the relative position error
-        pulls = np.flatnonzero(world.pulls)[:2000]
-        size = float(np.abs(world.pos).max()) or 1.0
-        if pulls.size:
+        pulls = np.flatnonzero(world.pulls)[:2000] if world.gravity == "direct" else \
+            np.zeros(0, np.int64)
+        size = float(np.linalg.norm(world.pos - world.pos.mean(axis=0), axis=1).max()) or 1.0
+        self.size = size
+        if world.gravity == "central":
+            scale = np.linalg.norm(world.pos - world._field[:world.dim], axis=1)
+            scale[scale == 0] = size
+        elif pulls.size:
             d = np.linalg.norm(world.pos[:, None, :] - world.pos[None, pulls, :], axis=2)
             d[d == 0] = np.inf
             scale = np.where(np.isfinite(d.min(axis=1)), d.min(axis=1), size)
@@ -271,19 +297,35 @@ class _Trials:
         self.scale = dict(zip(world.ids.tolist(), np.maximum(scale, max(world.softening,
                                                                         1e-300))))
 
+    def output_interval(self):
+        """(dt, step counts of the 20 samples) for Gauss-Radau: the World's own dt, which
+        apply() keeps and at whose multiples Gauss-Radau lands (the horizon is a whole
+        number of them), or horizon/20 if dt is longer."""
+        H = self.scene.horizon
+        n = round(H / self.w.dt)
+        if n < SAMPLES:
+            return H / SAMPLES, [1] * SAMPLES
+        return self.w.dt, [n // SAMPLES + (k < n % SAMPLES) for k in range(SAMPLES)]
+
     def run(self, integrator, dt=None, tolerance=None):
         """Run a copy over the horizon: (energies at the samples, final positions by id,
         wall seconds, steps, dt) or (None, (refused | failed, why))."""
         if integrator not in self.warm:          # compile or load the kernel: not timed
             self.warm.add(integrator)
-            self.run(integrator, dt=self.scene.horizon / SAMPLES, tolerance=tolerance)
+            warm = self.w.copy()
+            warm.integrator, warm.dt = integrator, self.scene.timescale / 100
+            try:
+                warm.step(1)
+            except (ValueError, FloatingPointError):
+                pass
         w = self.w.copy()
         H = self.scene.horizon
         w.integrator = integrator
         if tolerance is not None:
             w.tolerance = tolerance
-            w.dt = H / SAMPLES
-            chunks = [1] * SAMPLES
+            w.dt, chunks = self.output_interval()
+            if self.collisions:
+                w.max_step = min(w.max_step or math.inf, self.scene.timescale / 20)
         else:
             n = max(SAMPLES, SAMPLES * math.ceil(H / dt / SAMPLES))
             w.dt = H / n
@@ -320,7 +362,7 @@ class _Trials:
             position_error = math.inf             # a different set of bodies survived
         else:
             position_error = max(float(np.linalg.norm(final[i] - self.ref_final[i]))
-                                 / self.scale[i] for i in final)
+                                 / self.scale.get(i, self.size) for i in final)
         # the best of repeats (a busy machine stalls single runs), at least 0.05 s of them
         cost = min(seconds, self._retime(integrator, dt, tolerance, steps, seconds)) \
             / self.scene.horizon
@@ -348,11 +390,11 @@ class _Trials:
         best, runs = math.inf, 1
         while spent < 0.05 or runs < 3 and spent < 0.5:
             w = self.w.copy()
-            w.integrator, w.dt = integrator, dt if tolerance is None else self.scene.horizon
+            w.integrator, w.dt = integrator, dt
             if tolerance is not None:
                 w.tolerance = tolerance
             start = time.perf_counter()
-            w.step(steps if tolerance is None else 1)
+            w.step(steps)
             took = time.perf_counter() - start
             best, spent, runs = min(best, took), spent + took, runs + 1
             if spent > 1.0:
@@ -364,22 +406,46 @@ class _Trials:
                                                  or row["cost"] <= self.budget)
 
     def reference(self):
+        """The converged run the trials are judged against: Gauss-Radau at 1e-12 landing on
+        the same output intervals, its substeps at most tau/20 so that no collision is
+        stepped over; a Yoshida 8 at tau/50 instead where Gauss-Radau has no drag, or where
+        ships steer (their controls act per step of a fixed-step method)."""
         w = self.w
         s = self.scene
-        drag = w.drag > 0
         ref = w.copy()
-        if drag:                        # Gauss-Radau has no drag: a fine Yoshida-8 instead
+        self.fine = w.drag > 0 or self.steering
+        if self.fine:
             ref.integrator = "yoshida8"
             ref.dt = s.horizon / (SAMPLES * math.ceil(s.horizon / (s.timescale / 50) / SAMPLES))
-            steps = round(s.horizon / ref.dt)
+            chunks = [round(s.horizon / ref.dt)]
+            self.reasons.append("reference: Yoshida 8 at tau/50 ("
+                                + ("drag" if w.drag > 0 else "steering ships") + ")")
         else:
-            ref.integrator, ref.tolerance, ref.dt = "gauss_radau", 1e-12, s.horizon
-            steps = 1
+            ref.integrator, ref.tolerance = "gauss_radau", 1e-12
+            ref.max_step = min(ref.max_step or math.inf, s.timescale / 20)
+            ref.dt, chunks = self.output_interval()
         E0 = ref.energy(True)
-        ref.step(steps)
+        try:
+            for k in chunks:
+                ref.step(k)
+        except FloatingPointError as e:
+            message = (f"recommend: the reference run ({ref.integrator}) failed, so nothing "
+                       f"can be judged: {e}")
+            if isinstance(e, InstabilityError):
+                raise InstabilityError(message, e.ids, e.t) from e
+            raise FloatingPointError(message) from e
         self.ref_final = _state(ref)
-        s.conserves_energy = bool(E0 == 0 or abs(ref.energy(True) / E0 - 1) < 1e-9)
-        if not s.conserves_energy:
+        if self.ref_final.keys() != set(w.ids.tolist()):
+            self.reasons.append(
+                "bodies were destroyed, merged or created during the horizon: a contact is "
+                "found at the end of the step it happens in, so what follows it shifts with "
+                "the step and errors there fall only about linearly with dt")
+        s.conserves_energy = bool(w.gravity != "uniform" and
+                                  (E0 == 0 or abs(ref.energy(True) / E0 - 1) < 1e-9))
+        if w.gravity == "uniform":
+            self.reasons.append("a uniform field's energy has no natural zero: judged by "
+                                "position error only")
+        elif not s.conserves_energy:
             self.reasons.append("the scene does not conserve energy (thrust, drag or merging "
                                 "bodies): judged by position error only")
 
@@ -399,7 +465,8 @@ class _Trials:
             for tol in TOLERANCES[::-1]:             # 1e-9 first: it shows chaos
                 row = self.measure("gauss_radau", tolerance=tol)
                 floor = row["position_error"]
-                if tol == TOLERANCES[-1] and self.target < 10 * floor < math.inf:
+                if tol == TOLERANCES[-1] and not self.fine and \
+                        self.target < 10 * floor < math.inf:
                     # two converged runs already differ: the scene amplifies differences
                     s.chaotic = True
                     self.position_target = 10 * floor
@@ -423,6 +490,8 @@ class _Trials:
         why = None
         if w.gravity != "direct":
             why = f"it needs gravity='direct' (this scene: {w.gravity!r})"
+        elif w.n < 2:
+            why = "one body: nothing orbits"
         elif s.dominant is None:
             why = "there is no dominant pulling body"
         elif s.mass_ratio > 0.01:
@@ -450,7 +519,7 @@ class _Trials:
             if s.horizon / dt > MAX_STEPS:
                 break
             if row is not None and best is not None and dt < row["dt"] and \
-                    row["cost"] * row["dt"] / dt > best["cost"]:
+                    "failed" not in row and row["cost"] * row["dt"] / dt > best["cost"]:
                 break                            # shorter steps cost more than the best
             row = self.measure(name, dt)
             if "refused" in row:
@@ -481,6 +550,10 @@ class _Trials:
         budget, or the most accurate of all."""
         rows = [r for r in self.rows if math.isfinite(r["error"])]
         fits = [r for r in rows if self.budget is None or r["cost"] <= self.budget]
+        if not rows:
+            self.reasons.append("no trial ended with the reference's bodies (collisions, "
+                                "merges or explosions went differently) or finished at all")
+            rows = [r for r in self.rows if "steps" in r] or self.rows
         pick = min(fits or rows, key=lambda r: r["error"])
         self.reasons.append(
             f"no trial met error {self.target:g}"
@@ -492,15 +565,16 @@ class _Trials:
         s, w = self.scene, self.w
         name = row["integrator"]
         spec = INTEGRATORS[name]
-        dt = w.dt if row["tolerance"] is not None else row["dt"]
+        dt = row["dt"]
+        reference = "Yoshida 8 at tau/50" if self.fine else "Gauss-Radau at 1e-12"
         reasons = [f"shortest dynamical time {s.timescale:.3g} ({s.timescale_source}); "
-                   f"trials over {s.horizon:.4g} time units against Gauss-Radau at 1e-12"]
+                   f"trials over {s.horizon:.4g} time units against {reference}"]
         if s.dominant is not None:
             reasons.append(f"dominant body {s.dominant}, the other pulling bodies hold "
                            f"{s.mass_ratio:.2g} of its mass; eccentricities up to "
                            f"{s.max_eccentricity:.4g}, closest approach to it "
                            f"{s.min_pericentre:.3g}")
-        if self.duration and self.duration > s.horizon:
+        if self.duration and self.duration > s.horizon * (1 + 1e-9):
             reasons.append(f"errors extrapolated from {s.horizon:.4g} to the duration "
                            f"{self.duration:g}: linearly for positions"
                            + ("" if spec.symplectic else " and energy"))
@@ -511,7 +585,13 @@ class _Trials:
             reasons.append(f"cheaper but not good enough: {r['integrator']} "
                            f"({_setting(r)}): {why}")
         reasons += self.reasons
+        max_step = None
+        if row["tolerance"] is not None and self.collisions:
+            max_step = min(w.max_step or math.inf, s.timescale / 20)
+            reasons.append(f"max_step {max_step:.3g} (tau/20): substeps short enough not to "
+                           f"step over a collision")
         return Recommendation(integrator=name, dt=dt, tolerance=row["tolerance"],
+                              max_step=max_step,
                               error=row["error"], cost=row["cost"], met=met, scene=s,
                               reasons=reasons, candidates=self.rows)
 

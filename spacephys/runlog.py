@@ -97,6 +97,11 @@ def _decode(value):
     return value
 
 
+def _same(a, b):
+    """Bit-for-bit equal arrays; NaN equals NaN (a replayed breakdown is still the same)."""
+    return np.array_equal(a, b, equal_nan=a.dtype.kind == "f")
+
+
 def journaled(method):
     """Wrap a public World method that changes the World: a run log attached to the World
     records the call (the outermost one only: advance() calling step() is one input)."""
@@ -831,7 +836,7 @@ class _Replayer(_Schedule):
         mine = (ids, pos, vel, mass, radius, kind)
         theirs = (fr.ids, fr.pos, fr.vel, fr.mass, fr.radius, fr.kind)
         same = fr.step == step and fr.t == t and all(
-            a.shape == r.shape and np.array_equal(a, r) for a, r in zip(mine, theirs))
+            a.shape == r.shape and _same(a, r) for a, r in zip(mine, theirs))
         if not same:
             diff = np.inf
             if pos.shape == fr.pos.shape and np.array_equal(ids, fr.ids):
@@ -885,8 +890,7 @@ def replay(path):
             final = run.world(-1)
             n = final._b.n
             for name in ("ids", "pos", "vel", "mass", "radius", "kind"):
-                if not np.array_equal(getattr(final._b, name)[:n],
-                                      getattr(world._b, name)[:world._b.n]) \
+                if not _same(getattr(final._b, name)[:n], getattr(world._b, name)[:world._b.n]) \
                         or final.t != world.t:
                     return ReplayResult(False, frames, None, None, world,
                                         f"the final state differs in {name}")

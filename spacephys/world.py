@@ -586,6 +586,8 @@ class World(Actors):
                 getattr(b, name)[i] = 0.0
         if "mass" in new or "active" in new or "fixed" in new:
             self._invalidate()
+        else:
+            self._rewatch()
 
     def remove(self, ids):
         """Remove one id or an array of ids (all must be live; duplicates count once)."""
@@ -869,6 +871,13 @@ class World(Actors):
         """The set of bodies, a mass or an active flag changed: derived lists are stale."""
         self._sources = None
         self._jacobi = None
+        self._rewatch()
+
+    def _rewatch(self):
+        """The World was changed between steps (bodies added, removed or set, the origin
+        moved): the watched energy starts again from here."""
+        if self.__dict__.get("_watch") is not None:
+            self._watch = (self._watch[0],) + self._energy_reference()
 
     def _source_lists(self):
         """(src, passive, still): the bodies that pull, the others, the immovable ones."""
@@ -1040,11 +1049,13 @@ class World(Actors):
             self._reset_adaptive()       # the failed step's tiny proposal and wild polynomial
             b.prev[:n] = b.pos[:n]       # nothing to interpolate across a failure
             pair = self._closest_pair(src)
+            met = (f"; the closest pulling bodies are {self._named(pair)}, which may have "
+                   f"met (or the coordinates are too far from the origin to resolve the "
+                   f"step: see shift_origin)" if pair.size else "")
             raise InstabilityError(
                 f"gauss_radau: the step shrank below the resolution of time or became NaN "
-                f"after t = {self.t:g} (next step {self._adaptive[3]:.3g}); the closest "
-                f"pulling bodies are {self._named(pair)}, which may have met. The state is "
-                f"that at t = {self.t:g}. Set min_step, or soften gravity.",
+                f"after t = {self.t:g} (next step {self._adaptive[3]:.3g}){met}. The state "
+                f"is that at t = {self.t:g}. Set min_step, or soften gravity.",
                 b.ids[pair].copy(), self.t)
         if stats[gr.AT_MIN_STEP] > before[gr.AT_MIN_STEP]:
             # warned by _run once the time is booked (a warning turned error must find the
@@ -1142,7 +1153,14 @@ class World(Actors):
         else:
             n = int(whole)
             left, dropped = max(acc - n * self._dt, 0.0), 0.0
-        self.step(n)                     # the only part that can fail: nothing changed before
+        steps = self._steps
+        try:
+            self.step(n)                 # the only part that can fail: nothing changed before
+        except InstabilityError:
+            if self._steps - steps == n:     # the steps were taken; the check found them bad
+                self._accumulator = left
+                self.dropped_time += dropped
+            raise
         self._accumulator = left
         self.dropped_time += dropped
         return min(left / self._dt, np.nextafter(1.0, 0.0))
@@ -1182,6 +1200,8 @@ class World(Actors):
         if self._watch is None:
             return
         limit, E0, e0, ids0 = self._watch
+        if E0 == 0.0:                      # bodies removed since: no scale left to judge by
+            return
         error = abs(self.energy(True) / E0 - 1.0)
         if error <= limit:                 # (a NaN energy is not <= limit either)
             return
@@ -1221,7 +1241,11 @@ class World(Actors):
         if E0 == 0.0:
             raise ValueError("watch_energy: the pulling bodies' energy is 0, so a relative "
                              "error has no scale (no massive bodies, or none moving)")
-        self._watch = (limit, E0, self._body_energies(), self._b.ids[:self._b.n].copy())
+        self._watch = (limit,) + self._energy_reference()
+
+    def _energy_reference(self):
+        """(E0, body energies, ids): what watch_energy measures against."""
+        return (self.energy(True), self._body_energies(), self._b.ids[:self._b.n].copy())
 
     # ---------------------------------------------------------------- origin
     @property
@@ -1251,6 +1275,7 @@ class World(Actors):
         if self._boundary != collide.OPEN:
             self._box[:, :d] -= delta
         self._origin[:d] += delta
+        self._rewatch()              # a uniform field's potential has no natural zero
 
     # ---------------------------------------------------------------- diagnostics
     # Diagnostics cover every body by default. With pulling_only=True they cover the bodies that
@@ -1312,6 +1337,7 @@ class World(Actors):
         b.pos[:b.n, :self._dim] -= r
         b.prev[:b.n, :self._dim] -= r
         b.vel[:b.n, :self._dim] -= v
+        self._rewatch()
 
     def __repr__(self):
         return (f"World(dim={self._dim}, n={self.n}, gravity={self._gravity!r}, "

@@ -347,3 +347,39 @@ def test_a_floating_origin_is_recorded_and_replays(tmp_path):
     assert np.array_equal(result.world.origin, w.origin)
     loaded = sp.World.load(tmp_path / "far_state.h5")
     assert np.array_equal(loaded.origin, w.origin) and np.array_equal(loaded.pos, w.pos)
+
+
+def test_watch_energy_starts_again_after_changes_between_steps():
+    """Adding, removing or moving bodies, shifting the origin under a uniform field and moving
+    to the centre of mass change the energy on purpose: the watch starts again from the new
+    value instead of raising. A real breakdown after such a change is still caught."""
+    w = scenes.kepler(0.5, planet_mass=1e-3, integrator="leapfrog", dt=1e-3)
+    w.watch_energy(1e-6)
+    extra = w.add_body(1e-3, (3.0, 0.0), (0.0, 0.58), kind="planet")
+    w.step(10)
+    w.set_body(extra, pos=(2.5, 0.0))
+    w.step(10)
+    w.remove(extra)
+    w.step(10)
+    w.move_to_center_of_mass()
+    w.step(10)
+    w.dt = 1.3 * P                                  # then an unresolved step: caught
+    with pytest.raises(sp.InstabilityError, match="energy error"):
+        w.step(5)
+    fall = sp.World(dim=2, gravity="uniform", g=(0.0, -9.81), integrator="leapfrog", dt=0.01)
+    fall.add_body(1.0, (0.0, 10.0), (1.0, 0.0))
+    fall.watch_energy(1e-9)
+    fall.shift_origin((0.0, 100.0))
+    fall.step(100)                                   # leapfrog is exact in a uniform field
+    assert fall.pos[0, 1] == pytest.approx(10.0 - 100.0 - 0.5 * 9.81 * 1.0, abs=1e-9)
+
+
+def test_advance_books_the_frame_when_its_steps_went_bad():
+    """advance() whose steps were all taken but ended non-finite raises, with the frame time
+    booked (the accumulator is not left holding time already stepped)."""
+    w = sp.World(dim=2, integrator="leapfrog", dt=1e10)
+    w.add_body(1.0, (0, 0), kind="star")
+    w.add_body(0.0, (1, 0), (1e300, 0), kind="asteroid")
+    with pytest.raises(sp.InstabilityError):
+        w.advance(3e10)
+    assert w.t == 3e10 and w._accumulator < w.dt

@@ -158,3 +158,48 @@ def test_the_command_prints_the_choice_and_writes_every_trial(tmp_path, capsys):
     assert data["scene"]["dominant"] == 0
     assert main(["recommend", "no_such_scene"]) == 2
     assert "no_such_scene" in capsys.readouterr().err
+
+
+def test_the_returned_step_is_the_one_timed():
+    """Every setting returned is a trial's: its dt (for Gauss-Radau the World's own output
+    interval, at whose multiples it must land) and its measured cost and error."""
+    for w in (_kepler(), scenes.pythagorean(dt=0.05)):
+        rec = sp.recommend(w, 1e-6)
+        row = [r for r in rec.candidates if r["integrator"] == rec.integrator
+               and r["dt"] == rec.dt and r["tolerance"] == rec.tolerance]
+        assert row and row[0]["cost"] == rec.cost and row[0]["error"] == rec.error
+        gr = [r for r in rec.candidates if r["integrator"] == "gauss_radau"]
+        assert all(r["dt"] == w.dt for r in gr)
+
+
+def test_collisions_and_explosions_are_judged_not_crashed():
+    """A ship falling onto a planet that destroys it (at t = 2.89) and throws debris: the
+    trials are judged against the reference's bodies, debris included (before, a KeyError),
+    and the reasons say that outcomes after a contact shift with the step. Here no trial
+    reaches 1e-6 (the floor is about 1e-4), so the most accurate is returned, met False."""
+    w = sp.World(dim=2, dt=0.01)
+    w.add_body(1000.0, (0, 0), radius=19.0, kind="planet")
+    w.add_ship(sp.ShipSpec(dry_mass=1.0, radius=0.5,
+                           explosion=sp.ExplosionSpec(count=6, speed=2.0, lifetime=5.0)),
+               (25.0, 0.0), (0.0, 3.0))
+    w.set_collision("ship", "planet", "destroy_a")
+    rec = sp.recommend(w, 1e-6, duration=4.0)
+    judged = [r for r in rec.candidates if math.isfinite(r["error"])]
+    assert len(judged) > 5 and math.isfinite(rec.error)
+    assert rec.error == min(r["error"] for r in judged)
+    assert any("a contact is found at the end of the step" in r for r in rec.reasons)
+    assert not rec.met and any("no trial met error 1e-06" in r for r in rec.reasons)
+
+
+def test_a_central_field_far_from_the_origin_is_judged_on_the_orbit():
+    """A unit orbit in a central field at (1000, 0): positions are judged against the orbit
+    (distance to the field's centre), not the distance to the origin, and the far coordinates
+    do not break the reference: the claimed error holds against the closed form."""
+    w = sp.World(dim=2, gravity="central", central_mass=1.0, central_pos=(1000.0, 0.0),
+                 dt=0.01)
+    w.add_body(0.0, (1001.0, 0.0), (0.0, 1.0))
+    rec = sp.recommend(w, 1e-6)
+    rec.apply(w)
+    w.step(round(rec.scene.horizon / w.dt))
+    p, _ = sp.kepler_state(1.0, 1.0, 0.0, w.t)
+    assert np.abs(w.pos[0] - (1000.0, 0.0) - p[:2]).max() < 1e-6 + 2e-13 * 1000
