@@ -1256,7 +1256,8 @@ class World(Actors):
 
     def shift_origin(self, delta):
         """Move the coordinate origin by delta (dim,) [length]: every position (bodies, the
-        central body, walls, the boundary box) drops by delta, velocities stay. A double
+        central body, walls, the boundary box, launches not yet reported) drops by delta,
+        velocities stay. A double
         resolves 1e15 only to 0.125, so a scene far from the origin loses its small motions;
         shifted to near 0 it keeps them (a floating origin: follow the player's ship). The
         forces depend on differences only, so the motion is the same as the scene's
@@ -1274,6 +1275,9 @@ class World(Actors):
             self._walls[segments, 4:4 + d] -= delta
         if self._boundary != collide.OPEN:
             self._box[:, :d] -= delta
+        for ev in self._queued_events:      # launches waiting for the next step's events
+            for c, name in enumerate("xyz"[:d]):
+                ev[name] -= delta[c]
         self._origin[:d] += delta
         self._rewatch()              # a uniform field's potential has no natural zero
 

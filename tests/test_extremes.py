@@ -383,3 +383,18 @@ def test_advance_books_the_frame_when_its_steps_went_bad():
     with pytest.raises(sp.InstabilityError):
         w.advance(3e10)
     assert w.t == 3e10 and w._accumulator < w.dt
+
+
+def test_a_launch_before_a_shift_is_reported_where_the_missile_is():
+    """A missile launched, then the origin shifted before the next step: the launch event
+    gives the missile's position in the new coordinates."""
+    w = sp.World(dim=2, dt=0.01)
+    ship = w.add_ship(sp.ShipSpec(dry_mass=10.0), (1000.0, 0.0), (0.0, 0.0))
+    missile = w.launch(ship, sp.MissileSpec(mass=1.0, launch_speed=1.0))
+    launched_at = w.get(missile).pos.copy()
+    w.shift_origin((1000.0, 0.0))
+    w.step(1)
+    launch = [k for k, name in sp.EVENT_KINDS.items() if name == "launch"][0]
+    ev = w.events[w.events["kind"] == launch][0]
+    assert ev["a"] == missile
+    assert (ev["x"], ev["y"]) == (launched_at[0] - 1000.0, launched_at[1])
