@@ -85,7 +85,8 @@ def set_threads(n):
     busy threads share the cores, as a game's render and audio threads do: each threaded loop
     then waits for a descheduled thread (measured 0.2 ms per step on 1 thread, 0.3 to 12 ms
     on 2, for a 2 007-body scene beside two busy processes). A game should call
-    set_threads(1) unless it leaves cores free."""
+    set_threads(1) unless it leaves cores free. The count is per Python thread (numba's):
+    call it in the thread that steps the World."""
     from . import _validate as check
     limit = numba.config.NUMBA_NUM_THREADS
     n = check.count("n", n, minimum=1)
