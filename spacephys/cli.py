@@ -1,5 +1,6 @@
 """The `spacephys` command: run a scene, benchmark and validate against REBOUND."""
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -55,10 +56,7 @@ def _recommend(args):
     print(rec)
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"integrator": rec.integrator, "dt": rec.dt, "tolerance": rec.tolerance,
-                       "error": rec.error, "cost": rec.cost, "met": rec.met,
-                       "reasons": rec.reasons, "scene": vars(rec.scene),
-                       "candidates": rec.candidates}, f, indent=1)
+            json.dump(dataclasses.asdict(rec), f, indent=1)
         print(f"wrote {args.json}")
     return 0 if rec.met else 1
 

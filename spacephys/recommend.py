@@ -267,8 +267,7 @@ class _Trials:
         b = world._b
         self.steering = "actor" in b.columns and bool(b.actor[:b.n].any())
         # with collisions Gauss-Radau's substeps must not step over a contact
-        self.collisions = bool(world._response.any() or len(world._walls)
-                               or world._boundary != 0)
+        self.collisions = world._collisions_enabled()
         world.shift_origin(world.pos.mean(axis=0))
         self.w = world
         self.target = error
@@ -279,6 +278,10 @@ class _Trials:
         self.reasons = []
         self.warm = set()
         self.position_target = error        # relaxed when the scene is chaotic
+        # Gauss-Radau's substeps at most tau/20: the reference's always, the trials' (and the
+        # returned setting's) where a collision could otherwise be stepped over
+        self.short_step = min(world.max_step or math.inf, self.scene.timescale / 20)
+        self.max_step = self.short_step if self.collisions else None
         # each body's length scale: its distance to the nearest pulling body (else the
         # scene's size), for the relative position error
         pulls = np.flatnonzero(world.pulls)[:2000] if world.gravity == "direct" else \
@@ -307,29 +310,33 @@ class _Trials:
             return H / SAMPLES, [1] * SAMPLES
         return self.w.dt, [n // SAMPLES + (k < n % SAMPLES) for k in range(SAMPLES)]
 
+    def trial_world(self, integrator, dt, tolerance):
+        """A copy of the scene set up for one trial (Gauss-Radau: with tolerance, and with
+        the returned max_step where there are collisions)."""
+        w = self.w.copy()
+        w.integrator, w.dt = integrator, dt
+        if tolerance is not None:
+            w.tolerance = tolerance
+            if self.max_step is not None:
+                w.max_step = self.max_step
+        return w
+
     def run(self, integrator, dt=None, tolerance=None):
         """Run a copy over the horizon: (energies at the samples, final positions by id,
         wall seconds, steps, dt) or (None, (refused | failed, why))."""
         if integrator not in self.warm:          # compile or load the kernel: not timed
             self.warm.add(integrator)
-            warm = self.w.copy()
-            warm.integrator, warm.dt = integrator, self.scene.timescale / 100
             try:
-                warm.step(1)
+                self.trial_world(integrator, self.scene.timescale / 100, tolerance).step(1)
             except (ValueError, FloatingPointError):
                 pass
-        w = self.w.copy()
         H = self.scene.horizon
-        w.integrator = integrator
         if tolerance is not None:
-            w.tolerance = tolerance
-            w.dt, chunks = self.output_interval()
-            if self.collisions:
-                w.max_step = min(w.max_step or math.inf, self.scene.timescale / 20)
+            dt, chunks = self.output_interval()
         else:
             n = max(SAMPLES, SAMPLES * math.ceil(H / dt / SAMPLES))
-            w.dt = H / n
-            chunks = [n // SAMPLES] * SAMPLES
+            dt, chunks = H / n, [n // SAMPLES] * SAMPLES
+        w = self.trial_world(integrator, dt, tolerance)
         energies, seconds = [w.energy(True)], 0.0
         try:
             for k in chunks:
@@ -389,10 +396,7 @@ class _Trials:
         least 0.05 s of them, and 3 runs while they take under 0.5 s in all."""
         best, runs = math.inf, 1
         while spent < 0.05 or runs < 3 and spent < 0.5:
-            w = self.w.copy()
-            w.integrator, w.dt = integrator, dt
-            if tolerance is not None:
-                w.tolerance = tolerance
+            w = self.trial_world(integrator, dt, tolerance)
             start = time.perf_counter()
             w.step(steps)
             took = time.perf_counter() - start
@@ -424,7 +428,7 @@ class _Trials:
             # ends matters, and its substeps are kept short enough for every contact
             self.ref_name = "Gauss-Radau at 1e-12"
             ref.integrator, ref.tolerance = "gauss_radau", 1e-12
-            ref.max_step = min(ref.max_step or math.inf, s.timescale / 20)
+            ref.max_step = self.short_step
             ref.dt, chunks = s.horizon / SAMPLES, [1] * SAMPLES
         E0 = ref.energy(True)
         try:
@@ -564,7 +568,7 @@ class _Trials:
         return self._result(pick, met=False)
 
     def _result(self, row, met=True):
-        s, w = self.scene, self.w
+        s = self.scene
         name = row["integrator"]
         spec = INTEGRATORS[name]
         dt = row["dt"]
@@ -586,9 +590,8 @@ class _Trials:
             reasons.append(f"cheaper but not good enough: {r['integrator']} "
                            f"({_setting(r)}): {why}")
         reasons += self.reasons
-        max_step = None
-        if row["tolerance"] is not None and self.collisions:
-            max_step = min(w.max_step or math.inf, s.timescale / 20)
+        max_step = self.max_step if row["tolerance"] is not None else None
+        if max_step is not None:
             reasons.append(f"max_step {max_step:.3g} (tau/20): substeps short enough not to "
                            f"step over a collision")
         return Recommendation(integrator=name, dt=dt, tolerance=row["tolerance"],

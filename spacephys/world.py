@@ -44,6 +44,7 @@ _MIRRORED = {collide.DESTROY_A: collide.DESTROY_B, collide.DESTROY_B: collide.DE
 PASSIVE_KINDS = ("ship", "missile", "debris")
 DEFAULT_KINDS = ("body", "star", "planet", "moon", "asteroid", "ship", "missile", "debris")
 
+
 class InstabilityError(FloatingPointError):
     """The integration broke down: a body's state became NaN or infinite, or the energy
     error passed the limit set with World.watch_energy. ids: the bodies concerned, worst
@@ -841,10 +842,14 @@ class World(Actors):
         biggest = ordered[giants] if giants < ordered.size else 0.0
         return np.sort(rows[:giants]).astype(np.int64), 2.0 * biggest if biggest > 0 else 1.0
 
+    def _collisions_enabled(self):
+        """Whether anything can collide: a response set, a wall, or a boundary."""
+        return bool(self._response.any() or len(self._walls) or self._boundary != collide.OPEN)
+
     def _collision_setup(self):
         b = self._b
         n = b.n
-        enabled = bool(self._response.any() or len(self._walls) or self._boundary != collide.OPEN)
+        enabled = self._collisions_enabled()
         kind = b.kind[:n].astype(np.int64)
         if enabled:
             giants, cell = self._giants()
@@ -1207,7 +1212,7 @@ class World(Actors):
             return
         # the bodies whose own energy changed most, as a fraction of |E0|
         now = self._body_energies()
-        common, then_rows, now_rows = np.intersect1d(ids0, b.ids[:n], return_indices=True)
+        _, then_rows, now_rows = np.intersect1d(ids0, b.ids[:n], return_indices=True)
         change = np.abs(now[now_rows] - e0[then_rows]) / abs(E0)
         order = np.argsort(-np.nan_to_num(change, nan=np.inf), kind="stable")
         rows = now_rows[order]
@@ -1237,11 +1242,11 @@ class World(Actors):
             self._watch = None
             return
         limit = check.scalar("limit", limit, positive=True)
-        E0 = self.energy(True)
-        if E0 == 0.0:
+        reference = self._energy_reference()
+        if reference[0] == 0.0:
             raise ValueError("watch_energy: the pulling bodies' energy is 0, so a relative "
                              "error has no scale (no massive bodies, or none moving)")
-        self._watch = (limit,) + self._energy_reference()
+        self._watch = (limit,) + reference
 
     def _energy_reference(self):
         """(E0, body energies, ids): what watch_energy measures against."""
@@ -1257,11 +1262,10 @@ class World(Actors):
     def shift_origin(self, delta):
         """Move the coordinate origin by delta (dim,) [length]: every position (bodies, the
         central body, walls, the boundary box, launches not yet reported) drops by delta,
-        velocities stay. A double
-        resolves 1e15 only to 0.125, so a scene far from the origin loses its small motions;
-        shifted to near 0 it keeps them (a floating origin: follow the player's ship). The
-        forces depend on differences only, so the motion is the same as the scene's
-        would be had it been built at the new origin."""
+        velocities stay. A double resolves 1e15 only to 0.125, so a scene far from the origin
+        loses its small motions; shifted to near 0 it keeps them (a floating origin: follow
+        the player's ship). The forces depend on differences only, so the motion is the one
+        the scene would have had if built at the new origin."""
         delta = np.array(check.floats("delta", delta, (self._dim,)))   # may be a view of pos
         b = self._b
         d = self._dim
