@@ -37,17 +37,8 @@ def _rebound():
 
 def _rebound_sim(w, *, n_active=None):
     """A REBOUND leapfrog simulation with w's bodies, G, softening and dt (gravity "basic")."""
-    rebound = _rebound()
-    sim = rebound.Simulation()
-    sim.G = w.G
-    sim.softening = w.softening
-    sim.integrator = "leapfrog"
+    sim = _rebound_copy(w, "leapfrog")
     sim.gravity = "basic"
-    sim.dt = w.dt
-    pos, vel = np.zeros((w.n, 3)), np.zeros((w.n, 3))
-    pos[:, :w.dim], vel[:, :w.dim] = w.pos, w.vel              # 2D: z = 0
-    for m, p, v in zip(w.mass, pos, vel):
-        sim.add(m=float(m), x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
     if n_active is not None:
         sim.N_active = n_active
         sim.testparticle_type = 0          # test particles feel, do not pull: as spacephys

@@ -40,11 +40,10 @@ def _energy(run, fr):
     return kinetic          # other models: their fields are not in the log's attributes
 
 
-def _tracks(run, frames):
-    """id -> (times, positions) over the sampled frames for up to _TRACKED bodies (those
+def _tracks(data):
+    """id -> (times, positions) over the frames `data` for up to _TRACKED bodies (those
     that move before those that do not, then the heaviest, then the longest-lived: ships
     and missiles before debris), and the last frame."""
-    data = [run.frame(int(f)) for f in frames]
     heaviest, seen, start, moved = {}, {}, {}, set()
     for fr in data:
         for i, m, p in zip(fr.ids.tolist(), fr.mass.tolist(), fr.pos):
@@ -86,9 +85,10 @@ def plot_run(path, out, *, most_frames=1500):
     with Run(path) as run:
         dim = int(run.meta["dim"])
         frames = _sample(run, most_frames)
-        tracks, last = _tracks(run, frames)
+        data = [run.frame(int(f)) for f in frames]        # read once, used twice
+        tracks, last = _tracks(data)
         times = run.times[frames]
-        energies = np.array([_energy(run, run.frame(int(f))) for f in frames])
+        energies = np.array([_energy(run, fr) for fr in data])
         views = [(0, 1)] if dim == 2 else [(0, 1), (0, 2)]
         fig, axes = plt.subplots(1, len(views) + 1, figsize=(6 * (len(views) + 1), 5.5))
         names = "xyz"
