@@ -1,0 +1,210 @@
+"""Golden determinism: a SHA-256 of the final state of every integrator on four scenes,
+stored in tests/golden.json and checked here, on one and on every thread.
+
+The digests hold for one build on one kind of CPU: the force sums are compiled with
+reassociation and fused multiply-add for the host (see _jit.FAST), so a CPU with other vector
+widths or without FMA rounds differently. golden.json keys them by that fingerprint. On a
+machine whose fingerprint is not recorded the stored digests cannot be compared; the test then
+still checks that the digests do not depend on the thread count or on the run, and says so.
+Record (after a rounding change the commit explains): SPACEPHYS_GOLDEN=record pytest
+tests/test_golden.py
+"""
+import hashlib
+import json
+import math
+import os
+from pathlib import Path
+
+import llvmlite.binding as llvm
+import numba
+import numpy as np
+import pytest
+
+import spacephys as sp
+
+GOLDEN = Path(__file__).with_name("golden.json")
+RECORD = os.environ.get("SPACEPHYS_GOLDEN") == "record"
+INTEGRATORS = list(sp.INTEGRATORS)
+
+
+def fingerprint():
+    """What decides the rounding of the compiled kernels: CPU, its vector features, numba."""
+    features = llvm.get_host_cpu_features()
+    wanted = ("sse4.2", "avx", "avx2", "fma", "avx512f", "neon", "sve")
+    have = "+".join(f for f in wanted if features.get(f))
+    return f"{llvm.get_host_cpu_name()}|{have}|numba {numba.__version__}"
+
+
+# ----------------------------------------------------------------------------- scenes
+# Each builds a World, runs it and returns it with every event it saw. Small enough to run
+# for all integrators in a few seconds, rich enough that each scene exercises its part of the
+# step: the gravity scene crosses _jit.PARALLEL_MIN_PAIRS (its test particles are summed on
+# threads), the collision scene merges and bounces, the actor scene launches, detonates,
+# explodes and expires.
+
+def _ring(rng, n, r0, r1, dim):
+    r = rng.uniform(r0, r1, n)
+    th = rng.uniform(0.0, 2 * np.pi, n)
+    pos = np.zeros((n, dim))
+    vel = np.zeros((n, dim))
+    pos[:, 0], pos[:, 1] = r * np.cos(th), r * np.sin(th)
+    vel[:, 0], vel[:, 1] = -np.sin(th) / np.sqrt(r), np.cos(th) / np.sqrt(r)
+    return pos, vel
+
+
+def gravity_scene(integrator):
+    """A star, four inclined planets and 600 test particles, 3D, 60 steps."""
+    rng = np.random.default_rng(11)
+    w = sp.World(dim=3, integrator=integrator, dt=0.02)
+    w.add_body(1.0, (0.0, 0.0, 0.0), kind="star")
+    pos, vel = _ring(rng, 4, 0.8, 2.0, 3)
+    vel[:, 2] = rng.normal(scale=0.05, size=4)
+    w.add_bodies(rng.uniform(1e-5, 1e-3, 4), pos, vel * rng.uniform(0.9, 1.1, (4, 1)),
+                 kind="planet")
+    pos, vel = _ring(rng, 600, 1.0, 3.0, 3)
+    pos[:, 2] = rng.normal(scale=0.05, size=600)
+    w.add_bodies(0.0, pos, vel * rng.uniform(0.8, 1.2, (600, 1)), kind="asteroid")
+    w.move_to_center_of_mass()
+    return w, [w.step(60)]
+
+
+def collision_scene(integrator):
+    """A star and 80 small bodies crowding one ring, 2D: rocks merge, balls bounce off rocks
+    and each other; 150 steps."""
+    rng = np.random.default_rng(12)
+    w = sp.World(dim=2, integrator=integrator, dt=0.01)
+    w.add_kind("rock")
+    w.add_kind("ball")
+    w.set_collision("rock", "rock", "merge")
+    w.set_collision("ball", "rock", "bounce", restitution=0.8)
+    w.set_collision("ball", "ball", "elastic")
+    w.add_body(1.0, (0.0, 0.0), radius=0.05, kind="star")
+    for kind, k, radius in (("rock", 50, 0.02), ("ball", 30, 0.025)):
+        pos, vel = _ring(rng, k, 0.9, 1.1, 2)
+        vel *= rng.uniform(0.8, 1.2, (k, 1))
+        w.add_bodies(rng.uniform(1e-7, 1e-6, k), pos, vel, radius=radius, kind=kind)
+    return w, [w.step(150)]
+
+
+def actor_scene(integrator):
+    """A planet, two ships with held controls in orbit about it, guided missiles from each
+    at the other with proximity fuses and explosions; debris hits the planet and expires;
+    200 steps."""
+    w = sp.World(dim=2, integrator=integrator, dt=0.01, seed=5)
+    w.add_body(1.0, (0.0, 0.0), radius=0.25, kind="planet")
+    hull = sp.ShipSpec(dry_mass=1e-6, fuel_mass=1e-6, max_thrust=2e-7, exhaust_speed=1.0,
+                       turn_rate=2.0, radius=0.02)
+    a = w.add_ship(hull, (1.0, 0.0), (0.0, 1.0), heading=math.pi / 2)
+    b = w.add_ship(hull, (0.95, 0.35), (-0.3, 0.95), heading=-math.pi / 2)
+    w.control(a, throttle=0.5, turn=0.3)
+    w.control(b, throttle=1.0, turn=-0.2)
+    w.set_collision("debris", "planet", "destroy_a")
+    w.set_collision("missile", "ship", "destroy_both")
+    boom = sp.ExplosionSpec(count=60, speed=4.0, lifetime=0.8, lifetime_spread=0.5,
+                            radius=0.005)
+    events = []
+    for guidance, (src, dst) in (("pn", (a, b)), ("pursuit", (b, a))):
+        spec = sp.MissileSpec(mass=1e-8, fuel_mass=1e-8, thrust=4e-8, exhaust_speed=10.0,
+                              guidance=guidance, turn_rate=6.0, fuse_radius=0.05,
+                              launch_speed=0.2, radius=0.005, explosion=boom, lifetime=3.0)
+        w.launch(src, spec, target=dst)
+    for _ in range(4):
+        w.step(50)
+        events.append(w.events)
+    return w, events
+
+
+def drag_scene(integrator):
+    """Projectiles in a uniform field with drag toward a wind, 2D, 240 steps."""
+    rng = np.random.default_rng(13)
+    w = sp.World(dim=2, integrator=integrator, dt=1 / 120, gravity="uniform", g=(0.0, -9.8),
+                 drag=0.3, wind=(2.0, 0.5))
+    w.add_bodies(rng.uniform(0.5, 2.0, 40), rng.uniform(-5, 5, (40, 2)),
+                 rng.uniform(-10, 10, (40, 2)))
+    return w, [w.step(240)]
+
+
+SCENES = {"gravity": gravity_scene, "collisions": collision_scene, "actors": actor_scene,
+          "drag": drag_scene}
+
+
+# what the integrators refuse, with a reason in their error (tested in their own files)
+REFUSED = {("drag", "gauss_radau"), ("drag", "wisdom_holman"),
+           ("drag", "wisdom_holman_corrected")}
+
+
+def _collect(world, results):
+    """The events a scene saw: step() returns the time, so keep only arrays."""
+    return [r for r in results if isinstance(r, np.ndarray)] or [world.events]
+
+
+def digest(scene, integrator):
+    """sha256 of the final time, ids, pos, vel, mass, radius, kind and every event; or
+    "refused: <error type>" when the integrator refuses the scene."""
+    try:
+        w, results = SCENES[scene](integrator)
+    except ValueError as e:
+        # only the refusals the integrators document; anything else is a broken scene
+        assert (scene, integrator) in REFUSED, f"{scene}/{integrator}: {e}"
+        return f"refused: {type(e).__name__}", None
+    events = np.concatenate(_collect(w, results))
+    h = hashlib.sha256()
+    h.update(np.float64(w.t).tobytes())
+    for arr in (w.ids, w.pos, w.vel, w.mass, w.radius, w.kind, events):
+        h.update(np.ascontiguousarray(arr).tobytes())
+    return h.hexdigest(), events
+
+
+def _load():
+    return json.loads(GOLDEN.read_text()) if GOLDEN.exists() else {}
+
+
+CASES = [(s, i) for s in SCENES for i in INTEGRATORS]
+
+
+@pytest.mark.parametrize("scene,integrator", CASES)
+def test_golden_digest(scene, integrator):
+    """The digest equals the recorded one on this machine's fingerprint, on one thread and
+    on every thread; the scene did what it is there for."""
+    previous = sp.get_threads()
+    try:
+        sp.set_threads(1)
+        one, events = digest(scene, integrator)
+        sp.set_threads(numba.config.NUMBA_NUM_THREADS)
+        many, _ = digest(scene, integrator)
+    finally:
+        sp.set_threads(previous)
+    assert one == many, f"{scene}/{integrator}: the result depends on the thread count"
+    if events is not None:
+        kinds = set(events["kind"].tolist())
+        need = {"collisions": {sp.events.MERGE, sp.events.BOUNCE},
+                "actors": {sp.events.LAUNCH, sp.events.DETONATION, sp.events.EXPIRY,
+                           sp.events.DESTROY}}.get(scene, set())
+        assert need <= kinds, f"{scene}/{integrator}: events {kinds} lack {need - kinds}"
+    key = f"{scene}/{integrator}"
+    if RECORD:
+        data = _load()
+        data.setdefault(fingerprint(), {})[key] = one
+        GOLDEN.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+        return
+    recorded = _load().get(fingerprint())
+    if recorded is None:
+        # another CPU or numba: the stored digests are not this build's (see the module)
+        print(f"golden digests: none recorded for {fingerprint()}; checked thread "
+              f"independence only")
+        return
+    assert key in recorded, f"no digest recorded for {key}: record it (see the module)"
+    assert one == recorded[key], f"{key}: the final state changed bit for bit"
+
+
+def test_the_golden_file_covers_every_case():
+    """Every fingerprint in the file has a digest for every scene x integrator, and the
+    digests tell the cases apart (a scene that did nothing would repeat another's)."""
+    if RECORD:
+        return
+    data = _load()
+    assert data, "tests/golden.json holds no digests"
+    for fp, recorded in data.items():
+        assert set(recorded) == {f"{s}/{i}" for s, i in CASES}, fp
+        hashes = [v for v in recorded.values() if not v.startswith("refused")]
+        assert len(set(hashes)) == len(hashes), fp
