@@ -7,12 +7,14 @@ from .entities import GUIDANCE, ExplosionSpec, MissileSpec, ShipSpec
 from .events import EVENT_DTYPE, EVENT_KINDS
 from .geometry import polygon_center_of_mass
 from .integrators import INTEGRATORS, Integrator, get_integrator
-from .runlog import Run, RunLog, RunLogError, open_run, replay, resume
+from .runlog import RunLog, RunLogError
+from .runs import Run, open_run, replay, resume
 from .runner import RunResult, run_scenario
-from .recommend import Recommendation, recommend
+from .study.recommend import Recommendation, recommend
 from .scenario import Scenario, ScenarioError, load_scenario
 from .orbits import elements_to_state, kepler_state, period, solve_kepler
 from .units import UNITS, UnitSystem, get_units
+from .steppers import STEPPERS, Capabilities, capabilities
 from .world import (BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, RESPONSES, Body,
                     InstabilityError, World)
 
@@ -22,7 +24,7 @@ __all__ = [
     "World", "Body", "InstabilityError", "DEFAULT_KINDS", "GRAVITY_MODELS", "RESPONSES", "BOUNDARIES",
     "EVENT_DTYPE", "EVENT_KINDS",
     "ShipSpec", "MissileSpec", "ExplosionSpec", "GUIDANCE",
-    "INTEGRATORS", "Integrator", "get_integrator",
+    "INTEGRATORS", "Integrator", "get_integrator", "STEPPERS", "Capabilities", "capabilities",
     "UNITS", "UnitSystem", "get_units",
     "polygon_center_of_mass",
     "RunLog", "Run", "RunLogError", "open_run", "replay", "resume",

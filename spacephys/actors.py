@@ -1,18 +1,23 @@
-"""Ships, missiles, explosions and lifetimes: the World methods that make a space game.
+"""Ships, missiles, explosions and lifetimes, one component of World: what makes a space game.
 
-Mixed into World (world.py). An actor is a body with an engine: a ship (add_ship) or a missile
-(launch). Its engine, controls and orientation live in extra per-body columns, created with the
-first actor, so scenes without actors carry none of them. The kernels (kernels/control.py)
-turn, thrust, burn fuel, guide and fuse every actor inside the step loop.
+An actor is a body with an engine: a ship (World.add_ship) or a missile (World.launch). Its
+engine, controls and orientation live in extra per-body columns, created with the first actor,
+so scenes without actors carry none of them. The kernels (kernels/control.py) turn, thrust,
+burn fuel, guide and fuse every actor inside the step loop; this component validates, keeps
+the specs, thrust curves and launch events waiting for the next step, and builds the kernels'
+table (kernels/control.Actors). World's methods of the same names delegate here. Adding an
+entity kind with behaviour of its own touches this file, kernels/control.py and entities.py.
 """
 import math
 
 import numpy as np
 
 from . import _validate as check
-from .entities import G0_SI, GUIDANCE, ExplosionSpec, MissileSpec, ShipSpec
-from .events import DESTROY, DETONATION, EVENT_DTYPE, LAUNCH, MERGE
+from .entities import G0_SI, ExplosionSpec, MissileSpec, ShipSpec
+from .kernels.codes import GUIDANCE
+from .events import EVENT_DTYPE
 from .kernels import control
+from .kernels.codes import EV_DESTROY, EV_DETONATION, EV_LAUNCH, EV_MERGE
 
 # per-body actor columns: name -> (shape, dtype, default)
 ACTOR_COLUMNS = {
@@ -84,47 +89,62 @@ def _rotate(q, v):
 
 
 class Actors:
-    """World methods for ships, missiles, explosions and lifetimes (see World)."""
+    """Ships, missiles, explosions and lifetimes of one World (see the module).
+
+    world : the World (for its bodies, kinds, time and units); seed : seeds the explosions.
+    """
+
+    def __init__(self, world, seed):
+        self.w = world
+        self.seed = seed
+        self.specs = []                       # ExplosionSpecs, indexed by the explosion column
+        self.curves = np.zeros((0, 2))        # thrust curve rows (speed, factor)
+        self.queued = []                      # launch events waiting for the next step
+
+    @property
+    def b(self):
+        return self.w._b
 
     # ------------------------------------------------------------ columns
     def _actor_columns(self):
         for name, (shape, dtype, default) in ACTOR_COLUMNS.items():
-            self._b.ensure_column(name, shape, dtype, default)
+            self.b.ensure_column(name, shape, dtype, default)
 
     def _lifetime_columns(self):
         for name, (shape, dtype, default) in LIFETIME_COLUMNS.items():
-            self._b.ensure_column(name, shape, dtype, default)
+            self.b.ensure_column(name, shape, dtype, default)
 
     def _actor_row(self, body, field="id"):
-        i = self.index_of(body, field)
-        if "actor" not in self._b.columns or not self._b.actor[i]:
-            raise ValueError(f"{field} = {body}: body is a {self._kinds[self._b.kind[i]]!r}, "
+        i = self.w.index_of(body, field)
+        b = self.b
+        if "actor" not in b.columns or not b.actor[i]:
+            raise ValueError(f"{field} = {body}: body is a {self.w.kinds[self.b.kind[i]]!r}, "
                              f"not a ship or missile")
         return i
 
     def _exhaust_speed(self, spec):
         if spec.exhaust_speed is not None:
             return spec.exhaust_speed
-        if self.units.name != "si":
+        if self.w.units.name != "si":
             raise ValueError(f"isp = {spec.isp} needs units='si' (standard gravity is "
-                             f"{G0_SI} m/s^2); in units={self.units.name!r} give exhaust_speed")
+                             f"{G0_SI} m/s^2); in units={self.w.units.name!r} give exhaust_speed")
         return spec.isp * G0_SI
 
     def _curve_rows(self, table):
         if table is None:
             return (0, 0)
-        first = len(self._curves)
-        self._curves = np.vstack([self._curves, table])
+        first = len(self.curves)
+        self.curves = np.vstack([self.curves, table])
         return (first, len(table))
 
     def _explosion_index(self, spec):
         if spec is None:
             return -1
-        for k, known in enumerate(self._explosion_specs):
+        for k, known in enumerate(self.specs):
             if known == spec:
                 return k
-        self._explosion_specs.append(spec)
-        return len(self._explosion_specs) - 1
+        self.specs.append(spec)
+        return len(self.specs) - 1
 
     # ------------------------------------------------------------ ships
     def add_ship(self, spec, pos, vel=None, heading=None):
@@ -135,9 +155,9 @@ class Actors:
         0 and no turning."""
         if not isinstance(spec, ShipSpec):
             raise ValueError(f"spec = {spec!r}: must be a ShipSpec")
-        _, q = _heading(self._dim, heading)
+        _, q = _heading(self.w.dim, heading)
         ve = self._exhaust_speed(spec)
-        self.add_kind(spec.kind)
+        self.w.add_kind(spec.kind)
         physical = spec.moment_of_inertia is not None
         return self._add_actor(spec, pos, vel, q, {
             "dry": spec.dry_mass, "fuel": spec.fuel_mass, "thrust": spec.max_thrust,
@@ -148,17 +168,17 @@ class Actors:
 
     def _add_actor(self, spec, pos, vel, q, values, active, lifetime=None):
         """Validate pos/vel, then add the body and set its actor columns (all or nothing)."""
-        pos = check.floats("pos", pos, (self._dim,))
-        vel = np.zeros(self._dim) if vel is None else check.floats("vel", vel, (self._dim,))
+        pos = check.floats("pos", pos, (self.w.dim,))
+        vel = np.zeros(self.w.dim) if vel is None else check.floats("vel", vel, (self.w.dim,))
         curve = self._curve_rows(spec.thrust_curve)       # only grows a table: harmless
         explosion = self._explosion_index(spec.explosion)
         self._actor_columns()
         if lifetime is not None:
             self._lifetime_columns()
-        body = self.add_body(spec.dry_mass + spec.fuel_mass, pos, vel, radius=spec.radius,
+        body = self.w.add_body(spec.dry_mass + spec.fuel_mass, pos, vel, radius=spec.radius,
                              kind=spec.kind, active=active)
-        b = self._b
-        i = self.index_of(body)
+        b = self.b
+        i = self.w.index_of(body)
         b.actor[i] = True
         b.quat[i] = q
         b.curve[i] = curve
@@ -166,11 +186,11 @@ class Actors:
         for name, value in values.items():
             getattr(b, name)[i] = value
         if lifetime is not None:
-            b.born[i] = self.t
-            b.expires[i] = self.t + lifetime
+            b.born[i] = self.w.t
+            b.expires[i] = self.w.t + lifetime
         return body
 
-    def control(self, body, *, throttle=None, turn=None, strafe=None):
+    def control(self, body, throttle=None, turn=None, strafe=None):
         """Set a ship's (or missile's) controls, held until changed.
 
         throttle in [0, 1] of max_thrust; turn in [-1, 1]: 2D a number (+ counter-clockwise),
@@ -179,74 +199,89 @@ class Actors:
         (+ to the left of the heading), 3D (left, up), fractions of side_thrust. Guided
         missiles steer themselves and ignore turn."""
         i = self._actor_row(body, "body")
-        new = {}
+        # checked first, written after: all or nothing. Plain floats in range (a game's
+        # every-frame call) skip numpy
+        if throttle is not None and not (type(throttle) is float and 0.0 <= throttle <= 1.0):
+            throttle = check.scalar("throttle", throttle, minimum=0.0)
+            if throttle > 1.0:
+                raise ValueError(f"throttle = {throttle}: must be in [0, 1]")
+        turn = None if turn is None else self._command("turn", turn, (0, 1, 2))
+        strafe = None if strafe is None else self._command("strafe", strafe, (1, 2))
+        b = self.b
         if throttle is not None:
-            t = check.scalar("throttle", throttle, minimum=0.0)
-            if t > 1.0:
-                raise ValueError(f"throttle = {t}: must be in [0, 1]")
-            new["throttle"] = t
-        for name, value, axes in (("turn", turn, (0, 1, 2)), ("strafe", strafe, (1, 2))):
-            if value is None:
-                continue
-            if self._dim == 2:
-                v = check.scalar(name, value)
-                arr = np.zeros(3)
-                arr[2 if name == "turn" else 1] = v
+            b.throttle[i] = throttle
+        if turn is not None:
+            if self.w.dim == 2:
+                b.turn[i, 2] = turn                  # 2D turns about z only
             else:
-                v = check.floats(name, value, (len(axes),))
-                arr = np.zeros(3)
-                arr[list(axes)] = v
-            bad = np.flatnonzero(np.abs(arr) > 1.0)
-            if bad.size:
-                raise ValueError(f"{name} = {value!r}: every component must be in [-1, 1]")
-            new[name] = arr
-        for name, value in new.items():
-            getattr(self._b, name)[i] = value
+                b.turn[i] = turn
+        if strafe is not None:
+            if self.w.dim == 2:
+                b.strafe[i, 1] = strafe              # 2D strafes along y only
+            else:
+                b.strafe[i] = strafe
+
+    def _command(self, name, value, axes):
+        """A turn or strafe command in [-1, 1]: in 2D the number, in 3D the body-frame (3,)
+        row of its len(axes) numbers."""
+        if self.w.dim == 2:
+            if not (type(value) is float and -1.0 <= value <= 1.0):
+                value = check.scalar(name, value)
+                if abs(value) > 1.0:
+                    raise ValueError(f"{name} = {value!r}: must be in [-1, 1]")
+            return value
+        row = [0.0, 0.0, 0.0]
+        v = check.floats(name, value, (len(axes),))
+        if np.any(np.abs(v) > 1.0):
+            raise ValueError(f"{name} = {value!r}: every component must be in [-1, 1]")
+        for k, axis in enumerate(axes):
+            row[axis] = float(v[k])
+        return row
 
     def heading(self, body):
         """Where the main engine points: an angle [rad] in (-pi, pi] in 2D, a unit (3,)
         vector in 3D."""
-        q = self._b.quat[self._actor_row(body, "body")]
+        q = self.b.quat[self._actor_row(body, "body")]
         h = _rotate(q, np.array([1.0, 0.0, 0.0]))
-        return float(math.atan2(h[1], h[0])) if self._dim == 2 else h
+        return float(math.atan2(h[1], h[0])) if self.w.dim == 2 else h
 
     def orientation(self, body):
         """The unit quaternion (w, x, y, z) turning body axes (x forward, y left, z up) into
         world axes."""
-        return self._b.quat[self._actor_row(body, "body")].copy()
+        return self.b.quat[self._actor_row(body, "body")].copy()
 
     def set_heading(self, body, heading):
         """Point an actor: an angle [rad] (2D) or a vector; stops physical rotation."""
         i = self._actor_row(body, "body")
-        _, q = _heading(self._dim, heading)
-        self._b.quat[i] = q
-        self._b.omega[i] = 0.0
+        _, q = _heading(self.w.dim, heading)
+        self.b.quat[i] = q
+        self.b.omega[i] = 0.0
 
     def angular_velocity(self, body):
         """Body-frame angular velocity [rad/time]: the z rate in 2D, (3,) in 3D (physical
         rotation; arcade turning has none between steps)."""
-        w = self._b.omega[self._actor_row(body, "body")]
-        return float(w[2]) if self._dim == 2 else w.copy()
+        w = self.b.omega[self._actor_row(body, "body")]
+        return float(w[2]) if self.w.dim == 2 else w.copy()
 
     def fuel(self, body):
         """Fuel left [mass]."""
-        return float(self._b.fuel[self._actor_row(body, "body")])
+        return float(self.b.fuel[self._actor_row(body, "body")])
 
     def set_fuel(self, body, fuel):
         """Refuel (or drain) an actor; its mass becomes dry + fuel."""
         i = self._actor_row(body, "body")
         fuel = check.scalar("fuel", fuel, minimum=0.0)
-        b = self._b
+        b = self.b
         b.fuel[i] = fuel
         b.mass[i] = b.dry[i] + fuel
         b.flags[i] &= ~1
-        self._invalidate()
+        self.w._invalidate()
 
     def delta_v(self, body):
         """Speed change the fuel left can still give, ve ln((dry + fuel) / dry)
         (Tsiolkovsky) [length/time]."""
         i = self._actor_row(body, "body")
-        b = self._b
+        b = self.b
         return float(b.exhaust[i] * math.log1p(b.fuel[i] / b.dry[i]))
 
     # ------------------------------------------------------------ missiles
@@ -260,10 +295,10 @@ class Actors:
         fuse against. A launch event is reported with the next step's events."""
         if not isinstance(spec, MissileSpec):
             raise ValueError(f"spec = {spec!r}: must be a MissileSpec")
-        p = self.index_of(parent, "parent")
-        b = self._b
+        p = self.w.index_of(parent, "parent")
+        b = self.b
         if target is not None:
-            self.index_of(target, "target")
+            self.w.index_of(target, "target")
         if spec.guidance != "none" and target is None:
             raise ValueError(f"guidance={spec.guidance!r} needs a target")
         if heading is None:
@@ -272,8 +307,8 @@ class Actors:
             q = b.quat[p].copy()
             h = _rotate(q, np.array([1.0, 0.0, 0.0]))
         else:
-            h, q = _heading(self._dim, heading)
-        h = h[:self._dim]
+            h, q = _heading(self.w.dim, heading)
+        h = h[:self.w.dim]
         ve = self._exhaust_speed(spec)
         m = spec.dry_mass + spec.fuel_mass
         is_ship = "actor" in b.columns and b.actor[p]
@@ -285,11 +320,11 @@ class Actors:
                                  f"than the missile ({m})")
             if b.fixed[p]:
                 raise ValueError(f"recoil: the parent {parent} is fixed and cannot recoil")
-        self.add_kind(spec.kind)
-        v_parent = b.vel[p, :self._dim].copy()
-        pos = b.pos[p, :self._dim] + h * (b.radius[p] + spec.radius)
+        self.w.add_kind(spec.kind)
+        v_parent = b.vel[p, :self.w.dim].copy()
+        pos = b.pos[p, :self.w.dim] + h * (b.radius[p] + spec.radius)
         vel = v_parent + spec.launch_speed * h
-        t = self.t
+        t = self.w.t
         lifetime = spec.lifetime if math.isfinite(spec.lifetime) else None
         body = self._add_actor(spec, pos, vel, q, {
             "dry": spec.dry_mass, "fuel": spec.fuel_mass, "thrust": spec.max_thrust,
@@ -302,69 +337,68 @@ class Actors:
             "fuse": spec.fuse_radius, "kill": spec.kill_target}, active=False,
             lifetime=lifetime)
         if spec.recoil:
-            p = self.index_of(parent)
+            p = self.w.index_of(parent)
             M = b.mass[p] - m
-            b.vel[p, :self._dim] = v_parent - (m / M) * spec.launch_speed * h
+            b.vel[p, :self.w.dim] = v_parent - (m / M) * spec.launch_speed * h
             if is_ship:
                 b.dry[p] -= m
             b.mass[p] = M
-            self._invalidate()
+            self.w._invalidate()
         ev = np.zeros(1, EVENT_DTYPE)[0]
-        ev["kind"], ev["a"], ev["b"], ev["time"] = LAUNCH, body, parent, t
+        ev["kind"], ev["a"], ev["b"], ev["time"] = EV_LAUNCH, body, parent, t
         ev["x"], ev["y"] = pos[0], pos[1]
-        if self._dim == 3:
+        if self.w.dim == 3:
             ev["z"] = pos[2]
         ev["speed"] = spec.launch_speed
-        self._queued_events.append(ev)
+        self.queued.append(ev)
         return body
 
     # ------------------------------------------------------------ lifetimes, explosions
-    def _set_lifetimes(self, ids, lifetime):
+    def set_lifetimes(self, ids, lifetime):
         if lifetime is None:
             return
         self._lifetime_columns()
-        rows = self.index_of(ids)
-        self._b.born[rows] = self.t
-        self._b.expires[rows] = self.t + lifetime
+        rows = self.w.index_of(ids)
+        self.b.born[rows] = self.w.t
+        self.b.expires[rows] = self.w.t + lifetime
 
-    @property
     def intensity(self):
         """(n,) float in [0, 1] for renderers: (1 - age/lifetime)^fade for bodies with a
         lifetime (debris fade out), 1 for the others."""
-        b = self._b
+        b = self.b
         if "expires" not in b.columns:
             return np.ones(b.n)
         born, expires = b.born[:b.n], b.expires[:b.n]
         with np.errstate(invalid="ignore", divide="ignore"):
-            left = np.where(np.isinf(expires), 1.0, (expires - self.t) / (expires - born))
+            left = np.where(np.isinf(expires), 1.0, (expires - self.w.t) / (expires - born))
         return np.clip(left, 0.0, 1.0) ** b.fade[:b.n]
 
     def explode(self, body, spec=None):
         """Remove a body and throw out its debris: spec, or the ExplosionSpec it was made
         with. Returns the (count,) ids of the debris."""
-        i = self.index_of(body, "body")
+        i = self.w.index_of(body, "body")
         if spec is None:
-            k = self._b.explosion[i] if "explosion" in self._b.columns else -1
+            k = self.b.explosion[i] if "explosion" in self.b.columns else -1
             if k < 0:
                 raise ValueError(f"body = {body} has no explosion: give an ExplosionSpec")
-            spec = self._explosion_specs[k]
+            spec = self.specs[k]
         elif not isinstance(spec, ExplosionSpec):
             raise ValueError(f"spec = {spec!r}: must be an ExplosionSpec")
-        b = self._b
+        b = self.b
         blast = (spec, int(b.ids[i]), b.pos[i].copy(), b.vel[i].copy(), float(b.radius[i]))
-        self.add_kind(spec.kind)
-        self.remove(body)
-        return self._spawn_debris([blast])[0]
+        self.w.add_kind(spec.kind)
+        self.w.remove(body)
+        return self.spawn_debris([blast])[0]
 
-    def _spawn_debris(self, blasts):
+    def spawn_debris(self, blasts):
         """Throw out the debris of every blast (spec, body id, pos (3,), vel (3,), radius) in
         one addition; each blast draws from an RNG seeded by the World's seed and the body's
         id, so an explosion is the same every run. Returns the debris ids, blast by blast."""
         parts = []
-        d = self._dim
+        d = self.w.dim
         for spec, body_id, pos, vel, radius in blasts:
             k = spec.count
-            rng = np.random.default_rng([self._seed, body_id & 0xFFFFFFFF, body_id >> 32])
+            rng = np.random.default_rng([self.seed, body_id & 0xFFFFFFFF, body_id >> 32])
             direction = rng.normal(size=(k, d))
             norm = np.linalg.norm(direction, axis=1)
             norm[norm == 0] = 1.0
@@ -378,83 +412,104 @@ class Actors:
             v3[:, :d] += speed[:, None] * direction
             per = np.ones(k)
             parts.append((p3, v3, spec.mass * per, spec.radius * per,
-                          np.full(k, self.add_kind(spec.kind), np.int16), life, spec.fade * per))
+                          np.full(k, self.w.add_kind(spec.kind), np.int16), life, spec.fade * per))
         if not parts:
             return []
         self._lifetime_columns()
         p3, v3, mass, radius, kind, life, fade = (np.concatenate(x) for x in zip(*parts))
-        ids = self._b.add({"pos": p3, "vel": v3, "mass": mass, "radius": radius, "kind": kind,
+        ids = self.b.add({"pos": p3, "vel": v3, "mass": mass, "radius": radius, "kind": kind,
                            "active": False, "fixed": False, "category": 1, "mask": -1,
-                           "born": self.t, "expires": self.t + life, "fade": fade})
-        self._invalidate()
+                           "born": self.w.t, "expires": self.w.t + life, "fade": fade})
+        self.w._invalidate()
         return np.split(ids, np.cumsum([len(x[0]) for x in parts])[:-1])
 
-    def _explode_dead(self, setup, first_event):
-        """After a kernel call: the bodies destroyed (by a collision or a detonation) that
-        carry an ExplosionSpec, as (spec, id, pos, vel, radius) rows, read before removal."""
-        b = self._b
+    def explode_dead(self, dead, events):
+        """After a kernel call: the bodies destroyed (by a collision or a detonation) at rows
+        `dead` that carry an ExplosionSpec, as (spec, id, pos, vel, radius) blasts, read
+        before removal; events : that call's events."""
+        b = self.b
         if "explosion" not in b.columns:
             return []
-        events = self._event_box[0][first_event:self._event_count[0]]
-        died = set(events["a"][(events["kind"] == DESTROY) |
-                               (events["kind"] == DETONATION)].tolist())
-        killed = events["b"][events["kind"] == DETONATION]
-        died.update(killed.tolist())
+        died = set(events["a"][(events["kind"] == EV_DESTROY) |
+                               (events["kind"] == EV_DETONATION)].tolist())
+        died.update(events["b"][events["kind"] == EV_DETONATION].tolist())
         blasts = []
-        dead = np.flatnonzero(~setup.alive)
         for i in dead:
             if b.explosion[i] >= 0 and int(b.ids[i]) in died:
-                blasts.append((self._explosion_specs[b.explosion[i]], int(b.ids[i]),
-                               b.pos[i].copy(), b.vel[i].copy(), float(b.radius[i])))
+                blasts.append((self.specs[b.explosion[i]], int(b.ids[i]), b.pos[i].copy(),
+                               b.vel[i].copy(), float(b.radius[i])))
         return blasts
 
-    def _merged_actors(self, first_event):
+    def merged(self, events):
         """A ship or missile that survived a merge carries the other body's mass as dry mass
         (the kernels keep its mass at dry + fuel)."""
-        b = self._b
+        b = self.b
         if "actor" not in b.columns:
             return
-        events = self._event_box[0][first_event:self._event_count[0]]
-        survivors = self._b.lookup(events["a"][events["kind"] == MERGE])
+        survivors = b.lookup(events["a"][events["kind"] == EV_MERGE])
         for i in survivors[survivors >= 0]:
             if b.actor[i]:
                 b.dry[i] = b.mass[i] - b.fuel[i]
 
-    def _control_setup(self, setup):
-        """The kernels' control.Control for the bodies now alive; sets setup.owner."""
-        b = self._b
+    def owners(self):
+        """(n,) int64: the launcher's row of each missile not yet armed (it ignores its
+        launcher in collisions until then), -1 elsewhere."""
+        b = self.b
+        n = b.n
+        owner = np.full(n, -1, np.int64)
+        if "actor" in b.columns:
+            actors = np.flatnonzero(b.actor[:n])
+            unarmed = actors[(b.launcher[actors] >= 0) & (b.armed_at[actors] > self.w.t)]
+            owner[unarmed] = b.lookup(b.launcher[unarmed])
+        return owner
+
+    def table(self):
+        """The kernels' Actors table for the bodies now alive (columns shared), or None when
+        there are no actors and no lifetimes."""
+        b = self.b
         n = b.n
         has_actors = "actor" in b.columns
         has_life = "expires" in b.columns
         if not (has_actors or has_life):
-            return self._no_control()
-        actors = np.flatnonzero(b.actor[:n]).astype(np.int64) if has_actors \
-            else np.zeros(0, np.int64)
+            return None
         if has_actors:
+            actors = np.flatnonzero(b.actor[:n]).astype(np.int64)
             target = np.full(n, -1, np.int64)
-            target[actors] = self._b.lookup(b.target[actors])
-            # a missile not yet armed ignores its launcher in collisions
-            unarmed = actors[(b.launcher[actors] >= 0) & (b.armed_at[actors] > self.t)]
-            setup.owner[unarmed] = self._b.lookup(b.launcher[unarmed])
+            target[actors] = b.lookup(b.target[actors])
             cols = {name: getattr(b, name)[:n] for name in ACTOR_COLUMNS}
         else:
-            target = np.zeros(0, np.int64)
-            cols = {name: _EMPTY[name] for name in ACTOR_COLUMNS}
+            actors, target = np.zeros(0, np.int64), np.zeros(0, np.int64)
+            cols = _EMPTY
         expires = b.expires[:n] if has_life else _EMPTY["expires"]
-        return control.Control(
-            actors.size > 0 or has_life, actors, cols["quat"], cols["omega"],
-            cols["throttle"], cols["turn"], cols["strafe"], cols["dry"], cols["fuel"],
-            cols["thrust"], cols["side"], cols["exhaust"], cols["turn_rate"], cols["inertia"],
-            cols["torque"], cols["curve"], self._curves, cols["guidance"], cols["nav"], target,
-            cols["burn_end"], cols["armed_at"], cols["fuse"], cols["kill"], cols["flags"],
-            expires, self._dim)
+        return control.make(cols, actors, target, self.curves, expires, self.w.dim)
 
-    def _no_control(self):
-        e = _EMPTY
-        return control.Control(False, np.zeros(0, np.int64), e["quat"], e["omega"],
-                               e["throttle"], e["turn"], e["strafe"], e["dry"], e["fuel"],
-                               e["thrust"], e["side"], e["exhaust"], e["turn_rate"],
-                               e["inertia"], e["torque"], e["curve"], self._curves,
-                               e["guidance"], e["nav"], np.zeros(0, np.int64), e["burn_end"],
-                               e["armed_at"], e["fuse"], e["kill"], e["flags"], e["expires"],
-                               self._dim)
+    def write_queued(self, events, count):
+        """Launches made since the last step open this step's events: written into events
+        (E,) from row 0, count set; returns False when they do not fit (the caller grows
+        the buffer and calls again)."""
+        queued = self.queued
+        if len(queued) > len(events):
+            return False
+        self.queued = []
+        if queued:
+            events[:len(queued)] = queued
+        count[0] = len(queued)
+        return True
+
+    def shift(self, delta):
+        """The origin moved by delta (dim,): launches not yet reported move with it."""
+        for ev in self.queued:
+            for c, name in enumerate("xyz"[:len(delta)]):
+                ev[name] -= delta[c]
+
+    # ------------------------------------------------------------ state
+    def state(self):
+        return {"seed": self.seed, "explosions": list(self.specs),
+                "curves": self.curves.copy(),
+                "queued": np.array(self.queued, EVENT_DTYPE).reshape(-1)}
+
+    def load(self, s):
+        self.seed = int(s["seed"])
+        self.specs = list(s["explosions"])
+        self.curves = np.array(s["curves"], np.float64).reshape(-1, 2)
+        self.queued = list(np.array(s["queued"], EVENT_DTYPE).reshape(-1))

@@ -10,7 +10,7 @@ from .scenes import SCENES
 
 
 def _problem_names():
-    from .validate import PROBLEMS
+    from .study.validate import PROBLEMS
     return list(PROBLEMS)
 
 
@@ -45,7 +45,7 @@ def _run(args):
 
 
 def _recommend(args):
-    from .recommend import recommend
+    from .study.recommend import recommend
     kind, what = _resolve(args.scene)
     duration = args.duration
     if kind == "scene":
@@ -69,15 +69,15 @@ def _plot(args):
 
 
 def _bench(args):
-    from . import bench
+    from .study import bench
     if args.what == "peers":
-        from . import tradeoff
+        from .study import tradeoff
         results = tradeoff.peers(quick=args.quick, out_dir=args.out)
         print(tradeoff.peers_markdown(results))
         print(f"wrote {args.out}/peers.json")
         return 0
     if args.what == "tradeoff":
-        from . import tradeoff
+        from .study import tradeoff
         results = tradeoff.study(quick=args.quick, out_dir=args.out)
         print(tradeoff.markdown(results))
         print(f"wrote {args.out}/tradeoff.json, tradeoff.csv and a plot per scene")
@@ -95,7 +95,7 @@ def _bench(args):
 
 
 def _validate(args):
-    from . import validate
+    from .study import validate
     results = validate.validate(args.problems, args.integrator)
     table = validate.format_markdown(results)
     print(table)

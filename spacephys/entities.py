@@ -6,9 +6,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _validate as check
+from .kernels.codes import GUIDANCE
 
 G0_SI = 9.80665           # standard gravity [m/s^2]: exhaust speed = isp * G0 (SI units only)
-GUIDANCE = {"none": 0, "pursuit": 1, "pn": 2}
 
 
 def _positive(name, value):

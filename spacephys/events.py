@@ -1,12 +1,15 @@
-"""What happened during a step: the event dtype and the names of its kinds."""
+"""What happened during a step: the event dtype and the names of its kinds (the codes are
+defined once, in kernels/codes.py)."""
 import numpy as np
 
-# event kinds (the `kind` field)
-BOUNCE, MERGE, DESTROY, SENSOR, WALL = 1, 2, 3, 4, 5                 # collisions
-LAUNCH, BURNOUT, FUEL_EMPTY, DETONATION, EXPIRY = 6, 7, 8, 9, 10     # ships, missiles, lifetimes
-EVENT_KINDS = {BOUNCE: "bounce", MERGE: "merge", DESTROY: "destroy", SENSOR: "sensor",
-               WALL: "wall", LAUNCH: "launch", BURNOUT: "burnout", FUEL_EMPTY: "fuel_empty",
-               DETONATION: "detonation", EXPIRY: "expiry"}
+from .kernels.codes import EVENT_KINDS
+from .kernels.codes import EV_BOUNCE as BOUNCE, EV_MERGE as MERGE, EV_DESTROY as DESTROY
+from .kernels.codes import EV_SENSOR as SENSOR, EV_WALL as WALL, EV_LAUNCH as LAUNCH
+from .kernels.codes import EV_BURNOUT as BURNOUT, EV_FUEL_EMPTY as FUEL_EMPTY
+from .kernels.codes import EV_DETONATION as DETONATION, EV_EXPIRY as EXPIRY
+
+__all__ = ["EVENT_DTYPE", "EVENT_KINDS", "BOUNCE", "MERGE", "DESTROY", "SENSOR", "WALL",
+           "LAUNCH", "BURNOUT", "FUEL_EMPTY", "DETONATION", "EXPIRY", "kind_name"]
 
 EVENT_DTYPE = np.dtype([
     ("kind", np.int16),          # one of EVENT_KINDS

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from .runlog import Run
+from .runs import Run
 
 _TRACKED = 60            # bodies drawn as trajectories; the rest appear as dots
 

@@ -1,7 +1,6 @@
-"""HDF5 run logs: frames, events, inputs (every call that changed the World) and
-checkpoints; the writer (World.record), the reader (open_run), resume and replay.
+"""HDF5 run logs: the writer (World.record), the file format, and World state files.
 
-Layout (format version 1; docs/runlog.md has every dataset and attribute):
+Layout (format version 2; docs/runlog.md has every dataset and attribute):
 
     /                      attrs: format = "spacephys-run", format_version, versions, settings
     /frames/step, t        (F,) int64 / float64: when each frame was taken
@@ -13,47 +12,34 @@ Layout (format version 1; docs/runlog.md has every dataset and attribute):
                            change (bodies added, removed, or a mass or radius changed)
     /events                (E,) compound: "step" and the fields of spacephys.EVENT_DTYPE
     /inputs/step, t, call  (I,): the calls that changed the World, as JSON, in order
-    /checkpoints/NNNNNN    the whole World (snapshot.py) and the lengths of the tables then
+    /checkpoints/NNNNNN    the World's state (World.state(), statefile.py) and the lengths of
+                           the tables then
 
 Writes are buffered in memory and go to the file at each flush (every `flush_seconds` of wall
 time, at checkpoints and at close), followed by an HDF5 flush; between flushes the file is not
 touched, so a process killed outside a flush leaves a file holding everything flushed.
+Reading, resume and replay are in runs.py; this module knows nothing of World but its public
+surface (the recorder's side of World.record).
 """
-import dataclasses
-import functools
 import json
 import math
 import os
 import resource
 import time
-from collections import namedtuple
 
 import h5py
 import numpy as np
 
-from . import snapshot
-from .entities import ExplosionSpec, MissileSpec, ShipSpec
+from . import statefile
 from .events import EVENT_DTYPE, EVENT_KINDS
+from .journal import encode
 
 FORMAT = "spacephys-run"
 WORLD_FORMAT = "spacephys-world"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 LOG_EVENT_DTYPE = np.dtype([("step", np.int64)] + EVENT_DTYPE.descr)
-_SPECS = {"ShipSpec": ShipSpec, "MissileSpec": MissileSpec, "ExplosionSpec": ExplosionSpec}
-_ROWS = ("ids", "pos", "vel", "mass", "radius", "kind")
-_LAYOUT = ("ids", "mass", "radius", "kind")
+LAYOUT = ("ids", "mass", "radius", "kind")
 _CHUNK_ROWS = 8192
-
-Frame = namedtuple("Frame", "index step t ids pos vel mass radius kind")
-Frame.__doc__ = ("One frame: its index, step and time, and (k,) ids, (k, dim) pos and vel, "
-                 "(k,) mass, radius and kind codes of the bodies alive then.")
-Trajectory = namedtuple("Trajectory", "t pos vel alive")
-Trajectory.__doc__ = ("One body through the frames: (F,) times, (F, dim) pos and vel (NaN "
-                      "where it was not alive), (F,) alive.")
-ReplayResult = namedtuple("ReplayResult", "ok frames diverged_at max_difference world message")
-ReplayResult.__doc__ = ("ok: every frame and the final state equal, bit for bit; frames: "
-                        "frames compared; diverged_at: the first frame that differs (None); "
-                        "max_difference: its largest |difference|; world: the replayed World.")
 
 
 def _next_multiple(t, every_time, dt):
@@ -63,55 +49,6 @@ def _next_multiple(t, every_time, dt):
 
 class RunLogError(ValueError):
     """A run log that cannot be written or read; the message names the file and why."""
-
-
-# ----------------------------------------------------------------------------- journal
-
-def _encode(value):
-    """A call argument as JSON-able data (floats exact: json writes them with repr)."""
-    if isinstance(value, np.ndarray):
-        return {"__array__": value.tolist(), "dtype": value.dtype.str}
-    if isinstance(value, np.generic):
-        return value.item()
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {"__spec__": type(value).__name__,
-                "fields": {f.name: _encode(getattr(value, f.name))
-                           for f in dataclasses.fields(value)}}
-    if isinstance(value, (list, tuple)):
-        return [_encode(v) for v in value]
-    if isinstance(value, dict):
-        return {str(k): _encode(v) for k, v in value.items()}
-    return value
-
-
-def _decode(value):
-    if isinstance(value, list):
-        return [_decode(v) for v in value]
-    if isinstance(value, dict):
-        if "__array__" in value:
-            return np.array(value["__array__"], dtype=np.dtype(value["dtype"]))
-        if "__spec__" in value:
-            return _SPECS[value["__spec__"]](**{k: _decode(v)
-                                               for k, v in value["fields"].items()})
-        return {k: _decode(v) for k, v in value.items()}
-    return value
-
-
-def _same(a, b):
-    """Bit-for-bit equal arrays; NaN equals NaN (a replayed breakdown is still the same)."""
-    return np.array_equal(a, b, equal_nan=a.dtype.kind == "f")
-
-
-def journaled(method):
-    """Wrap a public World method that changes the World: a run log attached to the World
-    records the call (the outermost one only: advance() calling step() is one input)."""
-    @functools.wraps(method)
-    def wrapper(self, *args, **kwargs):
-        log = self.__dict__.get("_log")
-        if log is None or log.depth:
-            return method(self, *args, **kwargs)
-        return log.call(self, method.__name__, method, args, kwargs)
-    return wrapper
 
 
 # ----------------------------------------------------------------------------- writing
@@ -127,7 +64,7 @@ def _metadata(world, every, every_time, checkpoint_every, checkpoint_seconds, fl
             "dt": world.dt, "tolerance": world.tolerance,
             "max_step": world.max_step if world.max_step is not None else math.inf,
             "min_step": world.min_step, "step_control": world.step_control,
-            "softening": world.softening, "seed": world._seed,
+            "softening": world.softening, "seed": world.seed,
             "every": every or 0, "every_time": every_time or 0.0,
             "checkpoint_every": checkpoint_every or 0, "checkpoint_seconds": checkpoint_seconds,
             "flush_seconds": flush_seconds,
@@ -151,9 +88,9 @@ class _Schedule:
     def _steps_to(world, when, least):
         """The fewest steps d >= least after which the World's time reaches `when` (with a
         hair of dt of slack), computed as World.t computes the time."""
-        base, steps, dt = world._t_base, world._steps, world._dt
-        reached = lambda d: base + (steps + d) * dt >= when - 1e-9 * dt
-        d = max(least, math.ceil((when - base) / dt - steps - 1e-9))
+        dt = world.dt
+        reached = lambda d: world.time_after(d) >= when - 1e-9 * dt
+        d = max(least, math.ceil((when - world.t) / dt - 1e-9))
         while not reached(d):
             d += 1
         while d > least and reached(d - 1):
@@ -172,8 +109,8 @@ class _Schedule:
             if d > n:
                 break
             out.append(d)
-            t = world._t_base + (world._steps + d) * world._dt
-            when = _next_multiple(t, self.every_time, world._dt)
+            t = world.time_after(d)
+            when = _next_multiple(t, self.every_time, world.dt)
             d += 1
         return np.array(out, dtype=np.int64)
 
@@ -190,8 +127,8 @@ class _Schedule:
         """A kernel took `done` steps and the frames at the step counts `at` inside it: those
         before the last step are taken here (World has not yet booked the steps or removed
         anyone); the one at the last step, if due, by captured_last once World has."""
-        b, dim = world._b, world.dim
-        n = b.n
+        ids, radius, kind = world.ids, world.radius, world.kind
+        dim = world.dim
         k = int(np.searchsorted(at, done))              # the frames before the last step
         # rows do not change within a kernel call: who they are is compared once, and the
         # masses (ships burn fuel) frame to frame in one go; the state is where
@@ -200,10 +137,9 @@ class _Schedule:
         if k > 1:
             same[1:] = (fmass[1:k] == fmass[:k - 1]).all(axis=1)
         for j in range(k):
-            t = world._t_base + (world._steps + int(at[j])) * world._dt
-            self._add_frame(self.steps + int(at[j]), t, b.ids[:n], fpos[j, :n, :dim],
-                            fvel[j, :n, :dim], fmass[j, :n], b.radius[:n], b.kind[:n],
-                            known=j > 0 and same[j], staged=True)
+            t = world.time_after(int(at[j]))
+            self._add_frame(self.steps + int(at[j]), t, ids, fpos[j, :, :dim], fvel[j, :, :dim],
+                            fmass[j], radius, kind, known=j > 0 and same[j], staged=True)
             if self.every_time:
                 self._next_time = _next_multiple(t, self.every_time, world.dt)
         self.steps += done
@@ -215,10 +151,8 @@ class _Schedule:
         self._after_steps()
 
     def _world_frame(self, world):
-        b, dim = world._b, world.dim
-        n = b.n
-        self._add_frame(self.steps, world.t, b.ids[:n], b.pos[:n, :dim], b.vel[:n, :dim],
-                        b.mass[:n], b.radius[:n], b.kind[:n])
+        self._add_frame(self.steps, world.t, world.ids, world.pos, world.vel, world.mass,
+                        world.radius, world.kind)
         if self.every_time:
             self._next_time = _next_multiple(world.t, self.every_time, world.dt)
 
@@ -316,7 +250,7 @@ class RunLog(_Schedule):
         """Run a journaled call and record it (with the exception it raised, if any)."""
         step, t = self.steps, world.t
         # encoded before the call: an argument may be a view of the state the call changes
-        entry = {"call": name, "args": _encode(list(args)), "kwargs": _encode(kwargs)}
+        entry = {"call": name, "args": encode(list(args)), "kwargs": encode(kwargs)}
         self.depth += 1
         error = None
         try:
@@ -402,15 +336,15 @@ class RunLog(_Schedule):
 
     def _write_checkpoint(self, world, extra_frame):
         c = self._counts
-        b = world._b
-        self._room(sum(getattr(b, name).nbytes for name in b.columns))
+        state = world.state()
+        self._room(_state_bytes(state))
         group = self._file["checkpoints"].create_group(f"{c['checkpoints']:06d}")
         group.attrs.update({"step": self.steps, "t": world.t, "frames": c["frames"],
                             "rows": c["rows"], "layouts": c["layouts"],
                             "layout_rows": c["layout_rows"], "events": c["events"],
                             "inputs": c["inputs"], "next_time": self._next_time,
                             "extra_frame": extra_frame})
-        snapshot.save_world(group.create_group("world"), world)
+        statefile.write(group.create_group("world"), state)
         c["checkpoints"] += 1
         self._file.flush()
 
@@ -480,7 +414,7 @@ class RunLog(_Schedule):
             counts = np.array([lay[0].size for lay in self._layouts], np.int64)
             self._append(f["layouts/first"], first + np.cumsum(counts) - counts)
             self._append(f["layouts/count"], counts)
-            for k, name in enumerate(_LAYOUT):
+            for k, name in enumerate(LAYOUT):
                 self._append(f["layouts/" + name], np.concatenate([lay[k]
                                                                     for lay in self._layouts]))
             c["layout_rows"] += int(counts.sum())
@@ -524,8 +458,8 @@ class RunLog(_Schedule):
         world = self.world
         if self._file is None and not self._broken:
             return
-        if world.__dict__.get("_log") is self:
-            world._log = None
+        if world.recording is self:
+            world.recording = None
         if self._file is None:                     # abandoned after a failed write
             return
         try:
@@ -547,9 +481,21 @@ class RunLog(_Schedule):
         return int(self._file["frames/step"][-1]) if self._counts["frames"] else -1
 
 
-# ----------------------------------------------------------------------------- reading
+def _state_bytes(state):
+    """About how many bytes a state takes (its arrays)."""
+    if isinstance(state, dict):
+        return sum(_state_bytes(v) for v in state.values())
+    if isinstance(state, (list, tuple)):
+        return sum(_state_bytes(v) for v in state)
+    return state.nbytes if isinstance(state, np.ndarray) else 64
 
-def _open(path, mode="r"):
+
+# ----------------------------------------------------------------------------- files
+
+def open_file(path, mode="r"):
+    """An h5py File of a spacephys log or world file, its format checked; RunLogError naming
+    the file and the problem otherwise. Version-1 files open (their frames, events and
+    inputs read as before); their checkpoints are refused by checkpoint_state."""
     path = os.fspath(path)
     if not os.path.exists(path):
         raise RunLogError(f"{path!r}: no such file")
@@ -584,7 +530,23 @@ def _open(path, mode="r"):
     return f
 
 
-def _checkpoint_world(f, path, index=-1):
+def _state(group, path, what):
+    """The state in `group` (a checkpoint's or a world file's "world")."""
+    version = int(group.file.attrs.get("format_version", -1))
+    if version < 2:
+        raise RunLogError(
+            f"{path!r}: format version {version}: its {what} holds a World in the layout of "
+            f"spacephys 0.1 (private attributes), which this spacephys (format "
+            f"{FORMAT_VERSION}) does not read; its frames, events and inputs still do "
+            f"(sp.open_run). Re-run the scenario to get a version-{FORMAT_VERSION} file.")
+    try:
+        return statefile.read(group)
+    except (KeyError, OSError, ValueError, TypeError) as e:
+        raise RunLogError(f"{path!r}: {what} is corrupt ({e})") from None
+
+
+def checkpoint_state(f, path, index=-1):
+    """(state, attributes) of checkpoint `index` of an open log."""
     names = sorted(f["checkpoints"].keys())
     if not names:
         raise RunLogError(f"{path!r}: the log holds no checkpoint")
@@ -594,305 +556,31 @@ def _checkpoint_world(f, path, index=-1):
         raise RunLogError(f"checkpoint {index}: the log {path!r} holds {len(names)}") from None
     group = f["checkpoints"][name]
     try:
-        return snapshot.load_world(group["world"]), dict(group.attrs)
-    except (KeyError, OSError, ValueError, TypeError) as e:
-        raise RunLogError(f"{path!r}: checkpoint {name} is corrupt ({e})") from None
+        world = group["world"]
+    except KeyError:
+        raise RunLogError(f"{path!r}: checkpoint {name} is corrupt (no world)") from None
+    return _state(world, path, f"checkpoint {name}"), dict(group.attrs)
 
 
-class Run:
-    """A run log opened for reading (sp.open_run): lazy, nothing is loaded until asked for.
-
-    meta: the root attributes; times, steps: (F,) of the frames; frame(i), frame_at(t),
-    trajectory(id), events(kind=, id=), inputs(), checkpoints, world(k)."""
-
-    def __init__(self, path):
-        self.path = os.fspath(path)
-        self._f = _open(self.path)
-        self.meta = {k: (v.item() if isinstance(v, np.generic) else v)
-                     for k, v in self._f.attrs.items()}
-        self.kinds = tuple(json.loads(self._f["frames"].attrs["kinds"]))
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-
-    def close(self):
-        self._f.close()
-
-    def __len__(self):
-        return self._f["frames/step"].shape[0]
-
-    @property
-    def times(self):
-        return self._f["frames/t"][:]
-
-    @property
-    def steps(self):
-        return self._f["frames/step"][:]
-
-    def frame(self, index):
-        n = len(self)
-        if not -n <= index < n:
-            raise IndexError(f"frame {index}: the log holds {n} frames")
-        index %= n
-        fr, lay = self._f["frames"], self._f["layouts"]
-        first, count = int(fr["first"][index]), int(fr["count"][index])
-        k = int(fr["layout"][index])
-        lf = int(lay["first"][k])
-        who = [lay[name][lf:lf + count] for name in _LAYOUT]
-        return Frame(index, int(fr["step"][index]), float(fr["t"][index]), who[0],
-                     fr["pos"][first:first + count], fr["vel"][first:first + count], *who[1:])
-
-    def frame_at(self, t):
-        """The last frame taken at or before time t."""
-        times = self.times
-        k = int(np.searchsorted(times, t + 1e-12 * max(abs(t), 1.0), side="right")) - 1
-        if k < 0:
-            raise IndexError(f"t = {t}: before the first frame (t = {times[0]})")
-        return self.frame(k)
-
-    def trajectory(self, body_id):
-        """Trajectory of one id through every frame (read in blocks: O(rows) time, O(block)
-        memory)."""
-        fr, lay = self._f["frames"], self._f["layouts"]
-        block = 1 << 20
-        # where the id sits in each layout (-1: absent)
-        lfirst = lay["first"][:]
-        where = np.full(lfirst.size, -1, np.int64)
-        ids = lay["ids"]
-        for start in range(0, ids.shape[0], block):
-            rows = start + np.flatnonzero(ids[start:start + block] == body_id)
-            layout = np.searchsorted(lfirst, rows, side="right") - 1
-            where[layout] = rows - lfirst[layout]
-        local = where[fr["layout"][:]]
-        alive = local >= 0
-        F, dim = alive.size, int(self.meta["dim"])
-        pos, vel = np.full((F, dim), np.nan), np.full((F, dim), np.nan)
-        rows = fr["first"][:] + local
-        # read the state in blocks of whole rows and pick the id's row in each frame
-        frames = np.flatnonzero(alive)
-        k = 0
-        while k < frames.size:
-            lo = rows[frames[k]]
-            end = int(np.searchsorted(rows[frames], lo + block, side="left"))
-            end = max(end, k + 1)
-            hi = rows[frames[end - 1]] + 1
-            pick = rows[frames[k:end]] - lo
-            pos[frames[k:end]] = fr["pos"][lo:hi][pick]
-            vel[frames[k:end]] = fr["vel"][lo:hi][pick]
-            k = end
-        return Trajectory(self.times, pos, vel, alive)
-
-    def events(self, kind=None, id=None):
-        """Events (LOG_EVENT_DTYPE: the step and EVENT_DTYPE's fields), optionally those of
-        one kind (name or code) or involving one id (as a or b)."""
-        ev = self._f["events"][:]
-        if kind is not None:
-            names = {v: k for k, v in EVENT_KINDS.items()}
-            code = names.get(kind, kind)
-            if code not in EVENT_KINDS:
-                raise ValueError(f"kind = {kind!r}: not an event kind; valid: "
-                                 f"{', '.join(EVENT_KINDS.values())}")
-            ev = ev[ev["kind"] == code]
-        if id is not None:
-            ev = ev[(ev["a"] == id) | (ev["b"] == id)]
-        return ev
-
-    def inputs(self):
-        """The recorded calls, in order: dicts with step, t, call, args, kwargs (and raised,
-        the exception it raised, if it did)."""
-        g = self._f["inputs"]
-        steps, times = g["step"][:], g["t"][:]
-        out = []
-        for s, t, text in zip(steps, times, g["call"].asstr()[:]):
-            entry = json.loads(text)
-            entry.update(step=int(s), t=float(t))
-            out.append(entry)
-        return out
-
-    @property
-    def checkpoints(self):
-        """(step, t) of each checkpoint."""
-        return [(int(g.attrs["step"]), float(g.attrs["t"]))
-                for _, g in sorted(self._f["checkpoints"].items())]
-
-    def world(self, checkpoint=-1):
-        """The World saved at a checkpoint (default: the last)."""
-        return _checkpoint_world(self._f, self.path, checkpoint)[0]
-
-
-def open_run(path):
-    """Open a run log for reading (see Run)."""
-    return Run(path)
-
-
-# ----------------------------------------------------------------------------- world files
-
-def save_world(world, path):
-    """Write the World's whole state to an HDF5 file (World.save)."""
+def save_state(state, path):
+    """Write a World's state (World.save) to an HDF5 world file."""
     path = os.fspath(path)
     try:
         with h5py.File(path, "w") as f:
             f.attrs.update({"format": WORLD_FORMAT, "format_version": FORMAT_VERSION})
-            snapshot.save_world(f.create_group("world"), world)
+            statefile.write(f.create_group("world"), state)
     except OSError as e:
         raise RunLogError(f"cannot write {path!r}: {e}") from None
 
 
-def load_world(path, checkpoint=-1):
-    """A World from World.save's file, or from a run log's checkpoint (default: the last)."""
+def load_state(path, checkpoint=-1):
+    """(state, checkpoint attributes or {}) from a world file, or from a run log's
+    checkpoint (default: the last)."""
     path = os.fspath(path)
-    f = _open(path)
+    f = open_file(path)
     try:
         if f.attrs["format"] == WORLD_FORMAT:
-            try:
-                return snapshot.load_world(f["world"])
-            except (KeyError, OSError, ValueError, TypeError) as e:
-                raise RunLogError(f"{path!r}: corrupt world file ({e})") from None
-        return _checkpoint_world(f, path, checkpoint)[0]
+            return _state(f["world"], path, "world file"), {}
+        return checkpoint_state(f, path, checkpoint)
     finally:
         f.close()
-
-
-# ----------------------------------------------------------------------------- resume, replay
-
-def resume(path):
-    """Reopen a run log (closed, or left by a killed process) at its last checkpoint: the
-    World as it was then, recording again into the same file. Frames, events and inputs after
-    that checkpoint are dropped (the calls that made them are not known to this process).
-    Returns the World (its log: world.recording)."""
-    path = os.fspath(path)
-    f = _open(path, "r+")
-    try:
-        if f.attrs["format"] != FORMAT:
-            raise RunLogError(f"{path!r}: a world file, not a run log: nothing to resume")
-        world, attrs = _checkpoint_world(f, path)
-        names = sorted(f["checkpoints"].keys())
-        counts = {"frames": int(attrs["frames"]), "rows": int(attrs["rows"]),
-                  "events": int(attrs["events"]), "inputs": int(attrs["inputs"]),
-                  "checkpoints": len(names)}
-        counts.update(layouts=int(attrs["layouts"]), layout_rows=int(attrs["layout_rows"]))
-        if attrs.get("extra_frame"):
-            # close()'s frame of the end state, off the schedule: the run goes on from here
-            counts["frames"] -= 1
-            counts["rows"] = int(f["frames/first"][counts["frames"]])
-        for name in ("step", "t", "first", "count", "layout"):
-            f["frames/" + name].resize(counts["frames"], axis=0)
-        for name in ("pos", "vel"):
-            f["frames/" + name].resize(counts["rows"], axis=0)
-        for name in ("first", "count"):
-            f["layouts/" + name].resize(counts["layouts"], axis=0)
-        for name in _LAYOUT:
-            f["layouts/" + name].resize(counts["layout_rows"], axis=0)
-        f["events"].resize(counts["events"], axis=0)
-        for name in ("step", "t", "call"):
-            f["inputs/" + name].resize(counts["inputs"], axis=0)
-        f.attrs["closed"] = False
-        f.flush()
-    except Exception:
-        f.close()
-        raise
-    meta = f.attrs
-    world._log = RunLog(world, path, every=int(meta["every"]) or None,
-                        every_time=float(meta["every_time"]) or None,
-                        checkpoint_every=int(meta["checkpoint_every"]) or None,
-                        checkpoint_seconds=float(meta["checkpoint_seconds"]),
-                        flush_seconds=float(meta["flush_seconds"]),
-                        _resume=(f, int(attrs["step"]), float(attrs["next_time"]), counts))
-    return world
-
-
-class _Replayer(_Schedule):
-    """Stands in for a RunLog while a log is replayed: the same frame schedule, but each
-    frame is compared with the recorded one instead of written."""
-
-    def __init__(self, run, start_steps, next_time):
-        meta = run.meta
-        self.run = run
-        self.every = int(meta["every"]) or None
-        self.every_time = float(meta["every_time"]) or None
-        self.steps = start_steps
-        self._next_time = next_time
-        self.frame_index = 0
-        self.depth = 0
-        self.diverged = None            # (frame, max difference)
-
-    def call(self, world, name, method, args, kwargs):
-        self.depth += 1
-        try:
-            return method(world, *args, **kwargs)
-        finally:
-            self.depth -= 1
-
-    def _add_frame(self, step, t, ids, pos, vel, mass, radius, kind, known=False,
-                   staged=False):
-        k = self.frame_index
-        self.frame_index += 1
-        if self.diverged is not None or k >= len(self.run):
-            return
-        fr = self.run.frame(k)
-        mine = (ids, pos, vel, mass, radius, kind)
-        theirs = (fr.ids, fr.pos, fr.vel, fr.mass, fr.radius, fr.kind)
-        same = fr.step == step and fr.t == t and all(
-            a.shape == r.shape and _same(a, r) for a, r in zip(mine, theirs))
-        if not same:
-            diff = np.inf
-            if pos.shape == fr.pos.shape and np.array_equal(ids, fr.ids):
-                diff = float(max(np.max(np.abs(pos - fr.pos), initial=0.0),
-                                 np.max(np.abs(vel - fr.vel), initial=0.0)))
-            self.diverged = (k, diff)
-
-    def record_events(self, events):
-        pass
-
-    @staticmethod
-    def frame_buffers(F, n):
-        return np.empty((F, n, 3)), np.empty((F, n, 3)), np.empty((F, n))
-
-
-def replay(path):
-    """Re-run a log from its first checkpoint and its recorded calls; compare every frame
-    and the final state (the last checkpoint of a closed log) bit for bit. Returns a
-    ReplayResult naming the first frame that differs, if one does."""
-    with Run(path) as run:
-        world, attrs = _checkpoint_world(run._f, run.path, 0)
-        # checkpoint 0 is taken just after frame 0, at the same step
-        rep = _Replayer(run, int(attrs["step"]), world.t)
-        rep._world_frame(world)
-        world._log = rep
-        for entry in run.inputs():
-            method = getattr(type(world), entry["call"]) if entry["call"] != "setattr" else None
-            args, kwargs = _decode(entry["args"]), _decode(entry["kwargs"])
-            try:
-                if method is None:
-                    object.__setattr__(world, *args)
-                else:
-                    method(world, *args, **kwargs)
-            except Exception as e:
-                if type(e).__name__ != entry.get("raised"):
-                    raise
-        closed = bool(run.meta.get("closed"))
-        if closed and len(run) > rep.frame_index:
-            rep._world_frame(world)                          # close()'s last frame
-        frames = rep.frame_index
-        world._log = None
-        if rep.diverged is not None:
-            k, diff = rep.diverged
-            return ReplayResult(False, frames, k, diff, world,
-                                f"frame {k} (t = {run.times[k]:g}) differs: largest "
-                                f"difference {diff:.3g}")
-        if frames != len(run):
-            return ReplayResult(False, frames, None, None, world,
-                                f"the replay made {frames} frames, the log holds {len(run)}")
-        if closed:
-            final = run.world(-1)
-            n = final._b.n
-            for name in ("ids", "pos", "vel", "mass", "radius", "kind"):
-                if not _same(getattr(final._b, name)[:n], getattr(world._b, name)[:world._b.n]) \
-                        or final.t != world.t:
-                    return ReplayResult(False, frames, None, None, world,
-                                        f"the final state differs in {name}")
-        return ReplayResult(True, frames, None, None, world,
-                            f"{frames} frames and the final state equal, bit for bit")

@@ -14,6 +14,7 @@ import numpy as np
 
 from .entities import ExplosionSpec, MissileSpec, ShipSpec
 from .integrators import INTEGRATORS
+from .steppers import capabilities
 from .orbits import elements_to_state
 from .units import UNITS
 from .world import BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, PASSIVE_KINDS, RESPONSES, World
@@ -289,10 +290,11 @@ def _check_world(chk, w):
     chk.minimum("world.G", w["G"], 0.0)
     chk.minimum("world.softening", w["softening"], 0.0)
     chk.minimum("world.drag", w["drag"], 0.0)
-    if w["drag"] and w["integrator"] in INTEGRATORS and \
-            INTEGRATORS[w["integrator"]].family not in ("splitting", "rk"):
-        chk.bad("world.drag", f"integrator {w['integrator']!r} has no drag yet; use a "
-                              f"fixed-step one (leapfrog, yoshida4..8, rk4)")
+    if w["integrator"] in INTEGRATORS and w["gravity"] in GRAVITY_MODELS and \
+            w["gravity"] not in capabilities(w["integrator"]).models:
+        chk.bad("world.integrator", f"{w['integrator']!r} needs gravity in "
+                                    f"{capabilities(w['integrator']).models} (gravity = "
+                                    f"{w['gravity']!r})")
     chk.minimum("world.seed", w["seed"], 0)
     if w["gravity"] == "uniform" and w["g"] is None:
         chk.bad("world.g", "missing: gravity = 'uniform' needs the field vector g")

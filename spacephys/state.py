@@ -118,6 +118,15 @@ class Bodies:
         rows[ok] = self.index[slots[ok]]
         return rows
 
+    def row(self, body_id):
+        """The row of one id (a Python int), -1 if it names no live body: lookup without
+        numpy, for the per-call paths (control, get)."""
+        slot = body_id & _SLOT_MASK
+        if body_id < 0 or slot >= self.slots_used or \
+                int(self.generation[slot]) != body_id >> _SLOT_BITS:
+            return -1
+        return int(self.index[slot])
+
     def remove(self, rows):
         """Delete the bodies at the given (validated, distinct) rows: the last live rows move
         into the holes, so the cost is O(removed) whatever the number of bodies."""
@@ -138,3 +147,37 @@ class Bodies:
             col[holes] = col[movers]
         self.n = m
         self.index[self.ids[holes] & _SLOT_MASK] = holes
+
+    # ------------------------------------------------------------ state
+    def state(self):
+        """The named fields a checkpoint keeps (docs/runlog.md): every column's live rows,
+        the columns' dtypes, shapes and defaults, the id slots and counters."""
+        n = self.n
+        columns = {name: getattr(self, name)[:n].copy() for name in self.columns}
+        return {"n": n, "capacity": self.capacity, "columns": columns,
+                "defaults": {name: float(v) if not isinstance(v, (bool, np.bool_)) else bool(v)
+                             for name, v in self.defaults.items()},
+                "generation": self.generation[:self.slots_used].copy(),
+                "index": self.index[:self.slots_used].copy(),
+                "slots_used": self.slots_used, "added": self.added, "free": self.free.copy()}
+
+    @classmethod
+    def from_state(cls, s):
+        """Bodies as state() saw them."""
+        b = cls(max(int(s["capacity"]), 1))
+        n = int(s["n"])
+        for name, values in s["columns"].items():
+            values = np.asarray(values)
+            if name not in b.columns:
+                default = s["defaults"].get(name, 0)
+                b.ensure_column(name, values.shape[1:], values.dtype, default)
+            getattr(b, name)[:n] = values
+        b.n = n
+        used = int(s["slots_used"])
+        b._grow_slots(used)
+        b.generation[:used] = s["generation"]
+        b.index[:used] = s["index"]
+        b.slots_used = used
+        b.added = int(s["added"])
+        b.free = np.array(s["free"], np.int64)
+        return b

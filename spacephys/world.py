@@ -1,48 +1,44 @@
-"""World: the game-facing object holding bodies, the gravity model and the integrator."""
+"""World: the game-facing facade over the bodies and the World's parts.
+
+A World holds the bodies (state.Bodies) and four parts, each in a file of its own: the forces
+(forces.ForceField), the collision rules (collisions.CollisionRules), the ships, missiles and
+lifetimes (actors.Actors) and the integrator's stepper (steppers.py). It validates what it is
+told, keeps time, and on each step hands the kernels the tables its parts build (a
+steppers.Plan, rebuilt only when the set of bodies or a setting changes). The parts are the
+World's own; nothing else reads its private attributes (docs/architecture.md).
+"""
 import copy
+import math
 import warnings
 from collections import namedtuple
 
 import numpy as np
-from numba import typed
 
 from . import _validate as check
 from .actors import Actors
-from .integrators import get_integrator
-from .kernels import diagnostics
+from .collisions import CollisionRules
 from .events import EVENT_DTYPE
-from .kernels import collide
-from .kernels.arrays import Work
-from .kernels import gauss_radau as gr
-from .kernels.gravity import CENTRAL, DIRECT, NONE, UNIFORM
-from ._dispatch import fast_call
-from .kernels import integrate
-from .kernels.wisdom_holman import wisdom_holman_steps as _wisdom_holman_steps
-from .runlog import journaled
+from .forces import HELD, ForceField
+from .integrators import get_integrator
+from .journal import journaled, journaled_setter
+from .kernels import diagnostics
+from .kernels import state as kstate
+from .kernels.codes import (BOUNDARIES, DIRECT, FAILED, GRAVITY_MODELS, NONFINITE, REMOVED,
+                            RESPONSES)
+from .kernels.collide import SCRATCH
 from .state import Bodies
+from .steppers import Plan, stepper_for
 from .units import get_units
 
-# the step kernels, called past numba's per-call typing (see _dispatch.py)
-splitting_steps = fast_call(integrate.splitting_steps)
-rk_steps = fast_call(integrate.rk_steps)
-gauss_radau_steps = fast_call(gr.gauss_radau_steps)
-wisdom_holman_steps = fast_call(_wisdom_holman_steps)
-# no frames to capture (the step kernels' last four arguments, see integrate.splitting_steps)
-_NO_FRAMES = (np.zeros(0, np.int64), np.zeros((0, 0, 3)), np.zeros((0, 0, 3)), np.zeros((0, 0)))
-
-GRAVITY_MODELS = {"none": NONE, "direct": DIRECT, "uniform": UNIFORM, "central": CENTRAL}
 STEP_CONTROLS = ("auto", "pulling", "all")
-RESPONSES = {"ignore": collide.IGNORE, "sensor": collide.SENSOR, "elastic": collide.ELASTIC,
-             "bounce": collide.BOUNCE, "merge": collide.MERGE, "destroy_a": collide.DESTROY_A,
-             "destroy_b": collide.DESTROY_B, "destroy_both": collide.DESTROY_BOTH,
-             "break_a": collide.BREAK_A, "break_b": collide.BREAK_B}
-BOUNDARIES = {"open": collide.OPEN, "reflect": collide.REFLECT, "periodic": collide.PERIODIC}
-_MIRRORED = {collide.DESTROY_A: collide.DESTROY_B, collide.DESTROY_B: collide.DESTROY_A,
-             collide.BREAK_A: collide.BREAK_B, collide.BREAK_B: collide.BREAK_A}
 # kinds whose bodies feel gravity but do not pull unless told to (active=True): their mass is
 # for thrust and collisions, and their pull on planets would only cost time
 PASSIVE_KINDS = ("ship", "missile", "debris")
 DEFAULT_KINDS = ("body", "star", "planet", "moon", "asteroid", "ship", "missile", "debris")
+STATE_VERSION = 2          # the version of World.state(), and of the files that hold it
+
+__all__ = ["World", "Body", "InstabilityError", "GRAVITY_MODELS", "RESPONSES", "BOUNDARIES",
+           "DEFAULT_KINDS"]
 
 
 class InstabilityError(FloatingPointError):
@@ -85,8 +81,8 @@ def _readonly(arr):
     return view
 
 
-class World(Actors):
-    """Bodies under gravity, advanced by a fixed-step integrator whose loop runs in numba.
+class World:
+    """Bodies under gravity, advanced by an integrator whose loop runs in numba.
 
     Parameters
     ----------
@@ -118,7 +114,7 @@ class World(Actors):
     capacity : int, initial room for bodies (grows by doubling)
     seed : int >= 0, seeds every random choice (explosions): same seed, same run
     drag : float >= 0, linear drag rate k [1/time]: every body also accelerates by
-           -k (v - wind) (an atmosphere, the seed's wind resistance); fixed-step integrators
+           -k (v - wind) (an atmosphere, the seed's wind resistance)
     wind : (dim,) the air's velocity [length/time] (default 0)
     """
 
@@ -128,88 +124,44 @@ class World(Actors):
                  max_substeps=16, capacity=64, seed=0, drag=0.0, wind=None):
         if isinstance(dim, bool) or not isinstance(dim, (int, np.integer)) or dim not in (2, 3):
             raise ValueError(f"dim = {dim!r}: must be the integer 2 or 3")
+        dim = int(dim)
         unit_system = get_units(units)
         G = unit_system.G if G is None else check.scalar("G", G, minimum=0.0)
         spec = get_integrator(integrator)
         dt = check.scalar("dt", dt, positive=True)
-        softening = check.scalar("softening", softening, minimum=0.0)
-        if not isinstance(gravity, str) or gravity not in GRAVITY_MODELS:
-            raise ValueError(f"gravity={gravity!r} is not known; valid: {', '.join(GRAVITY_MODELS)}")
-        field = np.zeros(3)
-        field_mass = 0.0
-        if gravity == "uniform":
-            if g is None:
-                raise ValueError("gravity='uniform' needs g, the field vector, e.g. g=(0, -9.81)")
-            field[:dim] = check.floats("g", g, (dim,))
-        elif g is not None:
-            raise ValueError(f"g = {g!r} is only used with gravity='uniform' (gravity={gravity!r})")
-        if gravity == "central":
-            if central_mass is None:
-                raise ValueError("gravity='central' needs central_mass, the fixed body's mass")
-            field_mass = check.scalar("central_mass", central_mass, minimum=0.0)
-            if central_pos is not None:
-                field[:dim] = check.floats("central_pos", central_pos, (dim,))
-        elif central_mass is not None or central_pos is not None:
-            raise ValueError(f"central_mass/central_pos are only used with gravity='central' "
-                             f"(gravity={gravity!r})")
+        forces = ForceField(dim, G=G, gravity=gravity, g=g, central_mass=central_mass,
+                            central_pos=central_pos, softening=softening, drag=drag, wind=wind)
         max_substeps = check.count("max_substeps", max_substeps, minimum=1)
         capacity = check.count("capacity", capacity, minimum=1)
         seed = check.count("seed", seed)
-        drag_table = np.zeros(4)
-        drag_table[0] = check.scalar("drag", drag, minimum=0.0)
-        if wind is not None:
-            drag_table[1:1 + dim] = check.floats("wind", wind, (dim,))
-        tolerance, max_step, min_step = self._adaptive_settings(tolerance, max_step, min_step)
+        adaptive = self._adaptive_settings(tolerance, max_step, min_step)
         step_control = self._checked_step_control(step_control)
 
-        self._dim = int(dim)
-        self._drag = drag_table           # [k, wind (3,)]: the step kernels' drag argument
-        self._max_substeps = max_substeps
-        self._step_control = step_control
+        self._log = None                   # the RunLog recording this World, if one is
+        self._dim = dim
         self._units = unit_system
-        self._G = G
-        self._spec = spec
-        self._softening = softening
-        self._gravity = gravity
-        self._model = GRAVITY_MODELS[gravity]
-        self._field = field
-        self._field_mass = field_mass
+        self._forces = forces
         self._b = Bodies(capacity)
         self._kinds = list(DEFAULT_KINDS)
-        # collisions: the kind x kind matrix (all ignore until set), walls, the boundary
-        self._response = np.zeros((len(DEFAULT_KINDS),) * 2, dtype=np.int64)
-        self._restitution = np.ones((len(DEFAULT_KINDS),) * 2)
-        self._walls = np.zeros((0, 8))
-        self._boundary = collide.OPEN
-        self._box = np.zeros((2, 3))
-        self._box_restitution = 1.0
-        self._cell = None
-        # the event buffer, in a typed list so that the kernels can grow it mid-step
-        self._event_box = typed.List([np.zeros(256, dtype=EVENT_DTYPE)])
-        self._event_count = np.zeros(1, dtype=np.int64)
-        self._sources = None            # (src, passive, still) index arrays, rebuilt when stale
-        self._jacobi = None             # Wisdom-Holman's order and masses, with its key
+        self._collisions = CollisionRules(len(DEFAULT_KINDS))
+        self._actors = Actors(self, seed)
+        self._spec = spec
+        self._stepper = stepper_for(spec)
+        self._adaptive = np.array(adaptive)          # [tolerance, max_step, min_step]
+        self._step_control = step_control
+        self._max_substeps = max_substeps
         self._dt = dt
         self._t_base = 0.0              # t = t_base + steps * dt: no rounding build-up in t
         self._steps = 0
         self._accumulator = 0.0
-        self.dropped_time = 0.0         # frame time advance() dropped to stay real-time
-        # adaptive integrators: [tolerance, max_step, min_step, next step, step the per-body
-        # polynomials are scaled to, have a prediction] and counters (see kernels/gauss_radau.py)
-        self._adaptive = np.array([tolerance, max_step, min_step, min(dt, max_step),
-                                   min(dt, max_step), 0.0])
-        self._adaptive_stats = np.zeros(7, dtype=np.int64)
-        self._pending_warning = None
-        # ships and missiles (actors.py): explosion specs by index, thrust curve rows, launch
-        # events waiting for the next step's events
-        self._seed = seed
-        self._explosion_specs = []
-        self._curves = np.zeros((0, 2))
-        self._queued_events = []
-        self._work = None                  # kernels' scratch (see _workspace)
-        self._log = None                   # the RunLog recording this World, if one is
-        self._origin = np.zeros(3)         # where the coordinates are measured from
-        self._watch = None                 # watch_energy's (limit, E0, body energies, ids)
+        self._dropped = 0.0             # frame time advance() dropped to stay real-time
+        self._events = np.zeros(256, dtype=EVENT_DTYPE)
+        self._event_count = np.zeros(1, dtype=np.int64)
+        self._origin = np.zeros(3)      # where the coordinates are measured from
+        self._watch = None              # watch_energy's (limit, E0, body energies, ids)
+        self._plan = None               # the kernels' tables for the bodies now (Plan)
+        self._scratch = None            # per-body scratch kept at the capacity
+        self._warning = None            # a warning to give once a call is booked
 
     # ---------------------------------------------------------------- settings
     @property
@@ -223,26 +175,61 @@ class World(Actors):
 
     @property
     def G(self):
-        return self._G
+        return self._forces.G
 
     @property
     def gravity(self):
-        return self._gravity
+        return self._forces.gravity
+
+    @property
+    def central_mass(self):
+        """The fixed body's mass with gravity="central", else None."""
+        return self._forces.field_mass if self.gravity == "central" else None
+
+    @property
+    def central_pos(self):
+        """(dim,) the fixed body's position with gravity="central", else None."""
+        return self._forces.field[:self._dim].copy() if self.gravity == "central" else None
+
+    @property
+    def g(self):
+        """(dim,) the uniform field with gravity="uniform", else None."""
+        return self._forces.field[:self._dim].copy() if self.gravity == "uniform" else None
+
+    @property
+    def seed(self):
+        """The seed of every random choice (explosions)."""
+        return self._actors.seed
 
     @property
     def t(self):
         """Simulation time [time]."""
         return self._t_base + self._steps * self._dt
 
+    def time_after(self, steps):
+        """The time after that many more steps of dt, computed as t is (for schedules)."""
+        return self._t_base + (self._steps + steps) * self._dt
+
     @property
     def dt(self):
         return self._dt
 
     @dt.setter
+    @journaled_setter("dt")
     def dt(self, value):
         value = check.scalar("dt", value, positive=True)
         self._t_base, self._steps = self.t, 0
         self._dt = value
+
+    @property
+    def dropped_time(self):
+        """Frame time advance() dropped to stay real-time [time]."""
+        return self._dropped
+
+    @dropped_time.setter
+    @journaled_setter("dropped_time")
+    def dropped_time(self, value):
+        self._dropped = check.scalar("dropped_time", value, minimum=0.0)
 
     @property
     def integrator(self):
@@ -250,13 +237,22 @@ class World(Actors):
         return self._spec.name
 
     @integrator.setter
+    @journaled_setter("integrator")
     def integrator(self, name):
-        self._spec = get_integrator(name)
-        self._reset_adaptive()           # switching voids the old method's carried state
+        spec = get_integrator(name)
+        self._spec = spec
+        self._stepper = stepper_for(spec)
+        self._stepper.reset(self)            # switching voids the old method's carried state
+        self._plan = None
 
     @property
     def integrator_spec(self):
         return self._spec
+
+    @property
+    def stepper(self):
+        """The integrator family's stepper (steppers.py): its capabilities, its counters."""
+        return self._stepper
 
     @property
     def max_substeps(self):
@@ -264,6 +260,7 @@ class World(Actors):
         return self._max_substeps
 
     @max_substeps.setter
+    @journaled_setter("max_substeps")
     def max_substeps(self, value):
         self._max_substeps = check.count("max_substeps", value, minimum=1)
 
@@ -280,8 +277,16 @@ class World(Actors):
         return self._step_control
 
     @step_control.setter
+    @journaled_setter("step_control")
     def step_control(self, value):
         self._step_control = self._checked_step_control(value)
+        self._plan = None
+
+    def step_control_rows(self, src):
+        """Whether only the pulling bodies (src rows) set an adaptive step."""
+        return self._forces.model == DIRECT and (
+            self._step_control == "pulling" and src.size > 0
+            or self._step_control == "auto" and src.size >= 2)
 
     @staticmethod
     def _adaptive_settings(tolerance, max_step, min_step):
@@ -297,6 +302,7 @@ class World(Actors):
         return float(self._adaptive[0])
 
     @tolerance.setter
+    @journaled_setter("tolerance")
     def tolerance(self, value):
         self._adaptive[0] = self._adaptive_settings(value, None, 0.0)[0]
 
@@ -305,6 +311,7 @@ class World(Actors):
         return None if np.isinf(self._adaptive[1]) else float(self._adaptive[1])
 
     @max_step.setter
+    @journaled_setter("max_step")
     def max_step(self, value):
         _, self._adaptive[1], _ = self._adaptive_settings(0.0, value, self._adaptive[2])
 
@@ -313,6 +320,7 @@ class World(Actors):
         return float(self._adaptive[2])
 
     @min_step.setter
+    @journaled_setter("min_step")
     def min_step(self, value):
         max_step = None if np.isinf(self._adaptive[1]) else self._adaptive[1]
         _, _, self._adaptive[2] = self._adaptive_settings(0.0, max_step, value)
@@ -322,37 +330,105 @@ class World(Actors):
         """Counters of the adaptive integrator: steps taken, steps redone, steps held at
         min_step, steps whose corrector did not converge, corrector sweeps (each 7 force
         evaluations), and substeps of test particles that needed shorter steps than the
-        bodies setting the step."""
-        s = self._adaptive_stats
-        return {"steps": int(s[gr.STEPS]), "rejected": int(s[gr.REJECTED]),
-                "at_min_step": int(s[gr.AT_MIN_STEP]), "not_converged": int(s[gr.NOT_CONVERGED]),
-                "sweeps": int(s[gr.SWEEPS]), "rider_substeps": int(s[gr.RIDER_SUBSTEPS])}
+        bodies setting the step (zeros for the other integrators)."""
+        counters = getattr(self._stepper, "counters", None)
+        if counters is None:
+            return {"steps": 0, "rejected": 0, "at_min_step": 0, "not_converged": 0,
+                    "sweeps": 0, "rider_substeps": 0}
+        return counters
 
     @property
     def drag(self):
         """Linear drag rate k [1/time]: each body accelerates by -k (v - wind)."""
-        return float(self._drag[0])
+        return float(self._forces.drag[0])
 
     @drag.setter
+    @journaled_setter("drag")
     def drag(self, value):
-        self._drag[0] = check.scalar("drag", value, minimum=0.0)
+        self._forces.drag[0] = check.scalar("drag", value, minimum=0.0)
 
     @property
     def wind(self):
         """(dim,) the velocity drag pulls bodies toward [length/time]."""
-        return self._drag[1:1 + self._dim].copy()
+        return self._forces.drag[1:1 + self._dim].copy()
 
     @wind.setter
+    @journaled_setter("wind")
     def wind(self, value):
-        self._drag[1:1 + self._dim] = check.floats("wind", value, (self._dim,))
+        self._forces.drag[1:1 + self._dim] = check.floats("wind", value, (self._dim,))
 
     @property
     def softening(self):
-        return self._softening
+        return self._forces.softening
 
     @softening.setter
+    @journaled_setter("softening")
     def softening(self, value):
-        self._softening = check.scalar("softening", value, minimum=0.0)
+        self._forces.softening = check.scalar("softening", value, minimum=0.0)
+        self._plan = None
+
+    # ---------------------------------------------------------------- forces
+    def apply_force(self, body, force):
+        """Hold a force [mass length/time^2] on a body, (dim,), until changed (zeros: none):
+        Box2D's ApplyForce, held across steps. Its acceleration is force / mass at every
+        stage, so it follows a ship's mass as fuel burns. A body of mass 0 or a fixed body
+        is refused."""
+        self._hold(body, "force", force, 0)
+
+    def apply_acceleration(self, body, acceleration):
+        """Hold an acceleration [length/time^2] on a body, (dim,), until changed (zeros:
+        none), whatever its mass. A fixed body is refused."""
+        self._hold(body, "acceleration", acceleration, 3)
+
+    def _hold(self, body, field, value, offset):
+        i = self.index_of(body, "body")
+        value = check.floats(field, value, (self._dim,))
+        b = self._b
+        if b.fixed[i] and np.any(value):
+            raise ValueError(f"body = {body}: fixed (immovable); it takes no {field}")
+        if offset == 0 and b.mass[i] == 0.0 and np.any(value):
+            raise ValueError(f"body = {body}: mass 0 (a test particle): a force gives it no "
+                             f"defined acceleration; use apply_acceleration")
+        if HELD not in b.columns:
+            b.ensure_column(HELD, (6,))
+            self._plan = None
+        b.held[i, offset:offset + self._dim] = value
+
+    def applied(self, body):
+        """(force (dim,), acceleration (dim,)) held on a body."""
+        i = self.index_of(body, "body")
+        if HELD not in self._b.columns:
+            return np.zeros(self._dim), np.zeros(self._dim)
+        row = self._b.held[i]
+        return row[:self._dim].copy(), row[3:3 + self._dim].copy()
+
+    def add_force(self, fn, params=()):
+        """Add a user force: fn(t, pos, vel, mass, ids, params, out), a numba function
+        (@numba.njit) that adds every body's acceleration [length/time^2] into out (n, 3);
+        t [time], pos, vel (n, 3), mass (n,), ids (n,) int64, params (p,) float64 (given
+        here). It is called inside the step kernels at every force evaluation, with no
+        Python per step. A passive body's acceleration may depend on the pulling bodies and
+        on itself only (passive bodies act on nothing). Returns the force's index (for
+        set_force_params, remove_force). Save, load and replay find fn by its module and
+        name: define it at the top level of an importable module."""
+        k = self._forces.add(fn, params)
+        self._plan = None
+        return k
+
+    def set_force_params(self, k, params):
+        """Replace user force k's params (p,) float64."""
+        self._forces.set_params(k, params)
+        self._plan = None
+
+    def remove_force(self, k):
+        """Remove user force k (the later ones move down by one)."""
+        self._forces.remove(k)
+        self._plan = None
+
+    @property
+    def forces(self):
+        """The user forces: a list of (fn, params copy)."""
+        return [(fn, p.copy()) for fn, p in self._forces.user]
 
     # ---------------------------------------------------------------- kinds
     @property
@@ -370,11 +446,8 @@ class World(Actors):
             if len(self._kinds) >= np.iinfo(np.int16).max:
                 raise ValueError(f"kind {name!r}: too many kinds ({len(self._kinds)})")
             self._kinds.append(name)
-            k = len(self._kinds)
-            response, restitution = np.zeros((k, k), np.int64), np.ones((k, k))
-            response[:-1, :-1] = self._response
-            restitution[:-1, :-1] = self._restitution
-            self._response, self._restitution = response, restitution
+            self._collisions.add_kind()
+            self._plan = None
         return self._kinds.index(name)
 
     def kind_code(self, name):
@@ -509,12 +582,18 @@ class World(Actors):
         ids = self._b.add({"pos": p3, "vel": v3, "mass": mass, "radius": radius,
                            "kind": codes, "active": act, "fixed": still, "category": category,
                            "mask": mask})
-        self._set_lifetimes(ids, lifetime)
+        self._actors.set_lifetimes(ids, lifetime)
         self._invalidate()
         return ids
 
     def index_of(self, ids, field="id"):
         """Rows of live bodies in the views: int for an id, (k,) int64 for an array of ids."""
+        if type(ids) is int:                          # the common case, without numpy
+            row = self._b.row(ids)
+            if row < 0:
+                raise ValueError(f"{field} = {ids} names no live body (removed, or never "
+                                 f"created)")
+            return row
         scalar = np.ndim(ids) == 0
         arr = np.atleast_1d(np.asarray(ids))
         if arr.size and arr.dtype.kind not in "iu":
@@ -585,8 +664,8 @@ class World(Actors):
         for name, key in (("csx", "pos"), ("csv", "vel")):
             if key in new and name in b.columns:
                 getattr(b, name)[i] = 0.0
-        if "mass" in new or "active" in new or "fixed" in new:
-            self._invalidate()
+        if new.keys() - {"pos", "vel", "category", "mask"}:
+            self._invalidate()          # the tables hold copies derived from these
         else:
             self._rewatch()
 
@@ -596,25 +675,27 @@ class World(Actors):
         self._b.remove(rows)
         self._invalidate()
 
-    # copies and pickles carry the event buffer as a plain array (typed lists do not copy)
+    # ---------------------------------------------------------------- copies
     def __getstate__(self):
         state = self.__dict__.copy()
-        state["_event_box"] = self._event_box[0]
-        state["_work"] = None                          # scratch: not part of the state
+        state["_plan"] = None                          # kernel tables: rebuilt on demand
+        state["_scratch"] = None
         state["_log"] = None                           # a copy is not recorded
         return state
 
-    def __setattr__(self, name, value):
-        # a recording journals settings changed by assignment (w.dt = ..., w.integrator = ...)
-        log = self.__dict__.get("_log")
-        if log is None or name.startswith("_") or log.depth:
-            object.__setattr__(self, name, value)
-        else:
-            log.call(self, "setattr", object.__setattr__, (name, value), {})
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+
+    def copy(self):
+        """An independent deep copy (same ids, state, time and settings)."""
+        # the integrator spec is immutable and shared: a copied (writeable) table would make
+        # numba compile the kernels a second time for a different array type
+        return copy.deepcopy(self, memo={id(self._spec): self._spec})
 
     # ---------------------------------------------------------------- run logs and files
     def record(self, path, *, every=1, every_time=None, checkpoint_every=None,
-               checkpoint_seconds=10.0, flush_seconds=1.0, compression="gzip", compress_state=False, scenario=None):
+               checkpoint_seconds=10.0, flush_seconds=1.0, compression="gzip",
+               compress_state=False, scenario=None):
         """Record this World into an HDF5 run log (see spacephys/runlog.py, docs/runlog.md);
         returns the RunLog (close it, or use it in a with-block).
 
@@ -651,41 +732,99 @@ class World(Actors):
             raise ValueError(f"compress_state = {compress_state!r}: must be True or False")
         if scenario is not None and not isinstance(scenario, str):
             raise ValueError(f"scenario = {scenario!r}: must be text")
-        log = RunLog(self, path, every=every, every_time=every_time,
-                     checkpoint_every=checkpoint_every,
-                     checkpoint_seconds=checkpoint_seconds, flush_seconds=flush_seconds,
-                     compression=compression, compress_state=bool(compress_state),
-                     scenario=scenario)
-        self._log = log
-        return log
+        self._log = RunLog(self, path, every=every, every_time=every_time,
+                           checkpoint_every=checkpoint_every,
+                           checkpoint_seconds=checkpoint_seconds, flush_seconds=flush_seconds,
+                           compression=compression, compress_state=bool(compress_state),
+                           scenario=scenario)
+        return self._log
 
     @property
     def recording(self):
-        """The RunLog recording this World, or None."""
+        """The RunLog recording this World, or None (run logs attach and detach theirs)."""
         return self._log
+
+    @recording.setter
+    def recording(self, log):
+        self._log = log
 
     def save(self, path):
         """Write the whole state to an HDF5 file; World.load(path) continues it bit for
         bit."""
-        from .runlog import save_world
-        save_world(self, path)
+        from .runlog import save_state
+        save_state(self.state(), path)
 
     @staticmethod
     def load(path, checkpoint=-1):
         """A World from World.save's file or from a run log's checkpoint (default: the
         last)."""
-        from .runlog import load_world
-        return load_world(path, checkpoint)
+        from .runlog import load_state
+        return World.from_state(load_state(path, checkpoint)[0])
 
-    def __setstate__(self, state):
-        self.__dict__.update(state)
-        self._event_box = typed.List([state["_event_box"]])
+    def state(self):
+        """The whole state as named fields (dicts of arrays and numbers): everything a
+        bit-exact restart needs, nothing derived. docs/runlog.md documents every field;
+        World.from_state(state) is the World again. Version STATE_VERSION."""
+        return {
+            "version": STATE_VERSION,
+            "world": {"dim": self._dim, "units": self._units.name, "kinds": list(self._kinds),
+                      "integrator": self._spec.name, "dt": self._dt, "t_base": self._t_base,
+                      "steps": self._steps, "accumulator": self._accumulator,
+                      "dropped_time": self._dropped, "max_substeps": self._max_substeps,
+                      "origin": self._origin.copy(), "adaptive": self._adaptive.copy(),
+                      "step_control": self._step_control,
+                      "events": self._events[:self._event_count[0]].copy()},
+            "bodies": self._b.state(),
+            "forces": self._forces.state(),
+            "collisions": self._collisions.state(),
+            "actors": self._actors.state(),
+            "stepper": self._stepper.state(),
+            "watch": {} if self._watch is None else dict(zip(
+                ("limit", "E0", "energies", "ids"), self._watch)),
+        }
 
-    def copy(self):
-        """An independent deep copy (same ids, state, time and settings)."""
-        # the integrator spec is immutable and shared: a copied (writeable) table would make
-        # numba compile the kernels a second time for a different array type
-        return copy.deepcopy(self, memo={id(self._spec): self._spec})
+    @classmethod
+    def from_state(cls, s):
+        """The World a state() describes, continuing bit for bit."""
+        version = int(s.get("version", 1))
+        if version != STATE_VERSION:
+            raise ValueError(f"state version {version}: this spacephys reads version "
+                             f"{STATE_VERSION}")
+        w = cls.__new__(cls)
+        ws = s["world"]
+        w._log = None
+        w._dim = int(ws["dim"])
+        w._units = get_units(str(ws["units"]))
+        w._forces = ForceField.from_state(w._dim, s["forces"])
+        w._b = Bodies.from_state(s["bodies"])
+        w._kinds = [str(k) for k in ws["kinds"]]
+        w._collisions = CollisionRules.from_state(s["collisions"])
+        w._actors = Actors(w, 0)
+        w._actors.load(s["actors"])
+        w._spec = get_integrator(str(ws["integrator"]))
+        w._stepper = stepper_for(w._spec)
+        w._stepper.load(s["stepper"])
+        w._adaptive = np.array(ws["adaptive"], np.float64)
+        w._step_control = str(ws["step_control"])
+        w._max_substeps = int(ws["max_substeps"])
+        w._dt = float(ws["dt"])
+        w._t_base = float(ws["t_base"])
+        w._steps = int(ws["steps"])
+        w._accumulator = float(ws["accumulator"])
+        w._dropped = float(ws["dropped_time"])
+        events = np.array(ws["events"], EVENT_DTYPE).reshape(-1)
+        w._events = np.zeros(max(256, 2 * events.size), EVENT_DTYPE)
+        w._events[:events.size] = events
+        w._event_count = np.array([events.size], np.int64)
+        w._origin = np.array(ws["origin"], np.float64)
+        watch = s["watch"]
+        w._watch = None if not watch else (float(watch["limit"]), float(watch["E0"]),
+                                           np.asarray(watch["energies"], np.float64),
+                                           np.asarray(watch["ids"], np.int64))
+        w._plan = None
+        w._scratch = None
+        w._warning = None
+        return w
 
     # ---------------------------------------------------------------- collisions
     def _kind_list(self, kind, field):
@@ -703,238 +842,317 @@ class World(Actors):
         kind_a), "break_a", "break_b" (a bounce, restitution default 1, after which that body
         is destroyed: the seed's brick). A kind may be "*" for every kind.
         """
-        codes_a = self._kind_list(kind_a, "kind_a")
-        codes_b = self._kind_list(kind_b, "kind_b")
-        if not isinstance(response, str) or response not in RESPONSES:
-            raise ValueError(f"response={response!r} is not known; valid: {', '.join(RESPONSES)}")
-        code = RESPONSES[response]
-        if code in (collide.BREAK_A, collide.BREAK_B) and restitution is None:
-            restitution = 1.0
-        if code in (collide.BOUNCE, collide.BREAK_A, collide.BREAK_B):
-            if restitution is None:
-                raise ValueError("response='bounce' needs restitution, in [0, 1]")
-            restitution = check.scalar("restitution", restitution, minimum=0.0)
-            if restitution > 1.0:
-                raise ValueError(f"restitution = {restitution}: must be <= 1")
-        elif restitution is not None:
-            raise ValueError(f"restitution = {restitution!r} is only used with response='bounce'")
-        for a in codes_a:
-            for b in codes_b:
-                self._response[a, b] = code
-                self._response[b, a] = _MIRRORED.get(code, code) if a != b else code
-                if restitution is not None:
-                    self._restitution[a, b] = self._restitution[b, a] = restitution
+        self._collisions.set(self._kind_list(kind_a, "kind_a"),
+                             self._kind_list(kind_b, "kind_b"), response, restitution)
+        self._plan = None
 
     def collision(self, kind_a, kind_b):
         """The response set for (kind_a, kind_b), and its restitution."""
-        a = self.kind_code(kind_a)
-        b = self.kind_code(kind_b)
-        name = next(k for k, v in RESPONSES.items() if v == self._response[a, b])
-        return name, float(self._restitution[a, b])
+        return self._collisions.rule(self.kind_code(kind_a), self.kind_code(kind_b))
 
     def add_plane(self, point, normal, restitution=1.0):
         """An immovable wall: the plane (a line in 2D) through point, bodies on the side the
         normal points to. Returns its index in w.walls."""
-        point = check.floats("point", point, (self._dim,))
-        normal = check.floats("normal", normal, (self._dim,))
-        length = float(np.linalg.norm(normal))
-        if length == 0:
-            raise ValueError("normal = 0: a plane needs a direction")
-        return self._add_wall(collide.PLANE, point, normal / length, restitution)
+        k = self._collisions.plane(point, normal, restitution, self._dim)
+        self._plan = None
+        return k
 
     def add_segment(self, a, b, restitution=1.0):
         """An immovable wall segment from a to b (with round ends): the seed's circle-on-wall.
         Returns its index in w.walls."""
-        a = check.floats("a", a, (self._dim,))
-        b = check.floats("b", b, (self._dim,))
-        if np.array_equal(a, b):
-            raise ValueError(f"a = b = {a.tolist()}: a segment needs two distinct ends")
-        return self._add_wall(collide.SEGMENT, a, b, restitution)
-
-    def _add_wall(self, kind, p, q, restitution):
-        restitution = check.scalar("restitution", restitution, minimum=0.0)
-        if restitution > 1.0:
-            raise ValueError(f"restitution = {restitution}: must be <= 1")
-        row = np.zeros(8)
-        row[0] = kind
-        row[1:1 + self._dim] = p
-        row[4:4 + self._dim] = q
-        row[7] = restitution
-        self._walls = np.vstack([self._walls, row])
-        return len(self._walls) - 1
+        k = self._collisions.segment(a, b, restitution, self._dim)
+        self._plan = None
+        return k
 
     @property
     def walls(self):
         """(W, 8) rows [type (0 plane, 1 segment), x0, y0, z0, x1, y1, z1, restitution]."""
-        return _readonly(self._walls)
+        return _readonly(self._collisions.walls)
 
     def clear_walls(self):
-        self._walls = np.zeros((0, 8))
+        self._collisions.walls = np.zeros((0, 8))
+        self._plan = None
 
     def set_boundary(self, mode, lo=None, hi=None, restitution=1.0):
         """The world's edge: "open" (none), "reflect" (walls of the box lo..hi) or "periodic"
         (Asteroids-style: leaving one side enters the opposite one; contacts across the seam
         count; gravity itself is not periodic)."""
-        if not isinstance(mode, str) or mode not in BOUNDARIES:
-            raise ValueError(f"boundary={mode!r} is not known; valid: {', '.join(BOUNDARIES)}")
-        box = np.zeros((2, 3))
-        if mode != "open":
-            if lo is None or hi is None:
-                raise ValueError(f"boundary={mode!r} needs lo and hi, the box's corners")
-            box[0, :self._dim] = check.floats("lo", lo, (self._dim,))
-            box[1, :self._dim] = check.floats("hi", hi, (self._dim,))
-            bad = np.flatnonzero(box[1, :self._dim] <= box[0, :self._dim])
-            if bad.size:
-                raise ValueError(f"hi[{bad[0]}] = {box[1, bad[0]]} is not above "
-                                 f"lo[{bad[0]}] = {box[0, bad[0]]}")
-        restitution = check.scalar("restitution", restitution, minimum=0.0)
-        if restitution > 1.0:
-            raise ValueError(f"restitution = {restitution}: must be <= 1")
-        self._boundary, self._box, self._box_restitution = BOUNDARIES[mode], box, restitution
+        self._collisions.set_boundary(mode, lo, hi, restitution, self._dim)
+        self._plan = None
 
     @property
     def boundary(self):
         """(mode, lo, hi, restitution)."""
-        mode = next(k for k, v in BOUNDARIES.items() if v == self._boundary)
-        return mode, self._box[0, :self._dim].copy(), self._box[1, :self._dim].copy(), \
-            self._box_restitution
+        return self._collisions.boundary_of(self._dim)
 
     @property
     def collision_cell(self):
         """The broad phase's grid cell [length]; None (default): the largest diameter."""
-        return self._cell
+        return self._collisions.cell
 
     @collision_cell.setter
+    @journaled_setter("collision_cell")
     def collision_cell(self, value):
-        self._cell = None if value is None else check.scalar("collision_cell", value,
-                                                             positive=True)
+        self._collisions.set_cell(value)
+        self._plan = None
+
+    @property
+    def collides(self):
+        """Whether anything can collide: a response set, a wall, or a boundary."""
+        return self._collisions.enabled()
 
     @property
     def events(self):
         """Structured array (spacephys.EVENT_DTYPE) of what happened in the last step() or
         advance() (launches made before it included): kind, ids a and b, time, time within
         its step, contact point, normal, closing speed, kinetic energy lost, distance."""
-        return self._event_box[0][:self._event_count[0]].copy()
+        return self._events[:self._event_count[0]].copy()
 
-    def _giants(self):
-        """(rows of the giants, grid cell). With the default cell: the largest bodies above
-        the widest gap (at least 2x in radius) among the 65 largest, at most 64 of them, are
-        giants, tested against every body; the cell is the largest diameter of the rest.
-        A cell set by the user puts every body in the grid."""
-        r = self._b.radius[:self._b.n]
-        if self._cell is not None:
-            return np.zeros(0, np.int64), self._cell
-        if r.size == 0:
-            return np.zeros(0, np.int64), 1.0
-        top = min(r.size, 65)
-        rows = np.argpartition(-r, top - 1)[:top] if top < r.size else np.arange(r.size)
-        rows = rows[np.argsort(-r[rows], kind="stable")]
-        ordered = r[rows]
-        giants = 0
-        if ordered.size > 1:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                # a body with a radius above points: an infinite gap; between points: none
-                gaps = np.where(ordered[1:] > 0, ordered[:-1] / ordered[1:],
-                                np.where(ordered[:-1] > 0, np.inf, 1.0))
-            k = int(np.argmax(gaps))
-            if gaps[k] >= 2.0 and k < 64:
-                giants = k + 1
-        biggest = ordered[giants] if giants < ordered.size else 0.0
-        return np.sort(rows[:giants]).astype(np.int64), 2.0 * biggest if biggest > 0 else 1.0
+    # ---------------------------------------------------------------- ships and missiles
+    def add_ship(self, spec, pos, vel=None, heading=None):
+        """Add a ship; returns its id. spec : ShipSpec; pos, vel : (dim,); heading : the
+        direction the main engine pushes, an angle [rad] from +x (2D) or a vector (2D or
+        3D); default +x. It starts with full fuel, throttle 0 and no turning."""
+        return self._actors.add_ship(spec, pos, vel, heading)
 
-    def _collisions_enabled(self):
-        """Whether anything can collide: a response set, a wall, or a boundary."""
-        return bool(self._response.any() or len(self._walls) or self._boundary != collide.OPEN)
+    def control(self, body, *, throttle=None, turn=None, strafe=None):
+        """Set a ship's (or missile's) controls, held until changed.
 
-    def _collision_setup(self):
+        throttle in [0, 1] of max_thrust; turn in [-1, 1]: 2D a number (+ counter-clockwise),
+        3D (roll, pitch, yaw) about the body axes (x forward, y left, z up), fractions of
+        turn_rate (arcade) or of torque (physical rotation); strafe in [-1, 1]: 2D a number
+        (+ to the left of the heading), 3D (left, up), fractions of side_thrust. Guided
+        missiles steer themselves and ignore turn."""
+        self._actors.control(body, throttle, turn, strafe)
+
+    def heading(self, body):
+        """Where the main engine points: an angle [rad] in (-pi, pi] in 2D, a unit (3,)
+        vector in 3D."""
+        return self._actors.heading(body)
+
+    def orientation(self, body):
+        """The unit quaternion (w, x, y, z) turning body axes (x forward, y left, z up) into
+        world axes."""
+        return self._actors.orientation(body)
+
+    def set_heading(self, body, heading):
+        """Point an actor: an angle [rad] (2D) or a vector; stops physical rotation."""
+        self._actors.set_heading(body, heading)
+
+    def angular_velocity(self, body):
+        """Body-frame angular velocity [rad/time]: the z rate in 2D, (3,) in 3D (physical
+        rotation; arcade turning has none between steps)."""
+        return self._actors.angular_velocity(body)
+
+    def fuel(self, body):
+        """Fuel left [mass]."""
+        return self._actors.fuel(body)
+
+    def set_fuel(self, body, fuel):
+        """Refuel (or drain) an actor; its mass becomes dry + fuel."""
+        self._actors.set_fuel(body, fuel)
+
+    def delta_v(self, body):
+        """Speed change the fuel left can still give, ve ln((dry + fuel) / dry)
+        (Tsiolkovsky) [length/time]."""
+        return self._actors.delta_v(body)
+
+    def launch(self, parent, spec, target=None, heading=None):
+        """Launch a missile from any live body; returns its id.
+
+        It appears just outside the parent (centres r_parent + r_missile apart) along the
+        heading (default: the parent's own, if it is a ship), with the parent's velocity plus
+        spec.launch_speed along the heading; with spec.recoil the parent gives up the
+        missile's mass and takes the opposite momentum. target : an id to guide toward and
+        fuse against. A launch event is reported with the next step's events."""
+        return self._actors.launch(parent, spec, target, heading)
+
+    def explode(self, body, spec=None):
+        """Remove a body and throw out its debris: spec, or the ExplosionSpec it was made
+        with. Returns the (count,) ids of the debris."""
+        return self._actors.explode(body, spec)
+
+    @property
+    def actor_ids(self):
+        """(k,) int64 ids of the ships and missiles, in row order."""
         b = self._b
-        n = b.n
-        enabled = self._collisions_enabled()
-        kind = b.kind[:n].astype(np.int64)
-        if enabled:
-            giants, cell = self._giants()
-            # a kind needs the grid if it can meet a kind with bodies besides giants (itself:
-            # two)
-            gridded = np.ones(n, np.bool_)
-            gridded[giants] = False
-            K = len(self._kinds)
-            counts = np.bincount(kind[gridded], minlength=K)
-            meets = (self._response != collide.IGNORE) & \
-                (counts[None, :] > np.eye(K, dtype=np.int64))
-            gridded &= meets.any(axis=1)[kind]
-        else:                     # no collisions: no grid to plan (a cheaper step() call)
-            giants, cell, gridded = np.zeros(0, np.int64), 1.0, np.zeros(n, np.bool_)
-        return collide.Setup(enabled, b.ids[:n], kind, b.radius[:n],
-                             np.ones(n, dtype=np.bool_), self._event_box, self._event_count,
-                             self.t, self._response, self._restitution, b.category[:n],
-                             b.mask[:n], b.fixed[:n], self._walls, self._boundary, self._box,
-                             self._box_restitution, cell, self._dim,
-                             np.full(n, -1, np.int64), giants, gridded)
+        if "actor" not in b.columns:
+            return np.zeros(0, np.int64)
+        return b.ids[:b.n][b.actor[:b.n]].copy()
 
-    # ---------------------------------------------------------------- stepping
+    @property
+    def intensity(self):
+        """(n,) float in [0, 1] for renderers: (1 - age/lifetime)^fade for bodies with a
+        lifetime (debris fade out), 1 for the others."""
+        return self._actors.intensity()
+
+    # ---------------------------------------------------------------- the kernels' tables
     def _invalidate(self):
-        """The set of bodies, a mass or an active flag changed: derived lists are stale."""
-        self._sources = None
-        self._jacobi = None
+        """The set of bodies or a per-body setting the tables derive from changed."""
+        self._plan = None
         self._rewatch()
 
     def _rewatch(self):
         """The World was changed between steps (bodies added, removed or set, the origin
         moved): the watched energy starts again from here."""
-        if self.__dict__.get("_watch") is not None:
+        if self._watch is not None:
             self._watch = (self._watch[0],) + self._energy_reference()
 
-    def _source_lists(self):
+    def _sources(self):
         """(src, passive, still): the bodies that pull, the others, the immovable ones."""
-        if self._sources is None:
-            b = self._b
-            pulls = b.active[:b.n] & (b.mass[:b.n] > 0)
-            self._sources = (np.flatnonzero(pulls).astype(np.int64),
-                             np.flatnonzero(~pulls).astype(np.int64),
-                             np.flatnonzero(b.fixed[:b.n]).astype(np.int64))
-        return self._sources
-
-    def _gravity_args(self):
-        """The gravity arguments of the kernels, after pos (see kernels/gravity.py)."""
         b = self._b
-        src, passive, still = self._source_lists()
-        return (self._model, b.mass[:b.n], src, passive, self._G, self._softening ** 2,
-                self._field, self._field_mass, still)
+        pulls = b.active[:b.n] & (b.mass[:b.n] > 0)
+        return (np.flatnonzero(pulls).astype(np.int64),
+                np.flatnonzero(~pulls).astype(np.int64),
+                np.flatnonzero(b.fixed[:b.n]).astype(np.int64))
+
+    def _scratch_rows(self, n):
+        """Per-body scratch (State's acc, pos0, vel0, alive; the collision pass's), kept at
+        the capacity (fresh arrays every step cost more in page faults than the work done
+        in them), as views of n rows."""
+        cap = self._b.capacity
+        if self._scratch is None or self._scratch["acc"].shape[0] != cap:
+            shapes = {"acc": ((3,), np.float64), "pos0": ((3,), np.float64),
+                      "vel0": ((3,), np.float64), "alive": ((), np.bool_),
+                      **{k: ((v[0],) if v[0] != () else (), v[1]) for k, v in SCRATCH.items()}}
+            self._scratch = {name: np.zeros((cap,) + shape, dtype)
+                             for name, (shape, dtype) in shapes.items()}
+        return {name: a[:n] for name, a in self._scratch.items()}
+
+    def bytes_per_body(self):
+        """Memory held per body [bytes], by part: the state columns (ids, pos, vel, prev, mass,
+        radius, kind, flags, collision bits, serial and whatever ships, lifetimes or
+        Gauss-Radau added), the id slots, the kernels' scratch (kept at the capacity)."""
+        b = self._b
+        self._scratch_rows(b.n)
+        per = lambda a: a.itemsize * int(np.prod(a.shape[1:]))
+        return {"state columns": sum(per(getattr(b, c)) for c in b.columns),
+                "id slots": b.generation.itemsize + b.index.itemsize,
+                "kernel scratch": sum(per(a) for a in self._scratch.values())}
+
+    def tables(self):
+        """The kernels' tables for the bodies now alive (a steppers.Plan: state, forces,
+        rules, actors, method), built when something they hold changed. For tools that time
+        or test the kernels on a World (bench, tests); a game never needs it. Refuses (with
+        the reason) an integrator that cannot run the scene."""
+        plan = self._plan
+        if plan is not None:
+            return plan
+        b = self._b
+        n = b.n
+        sources = self._sources()
+        actors = np.flatnonzero(b.actor[:n]) if "actor" in b.columns else np.zeros(0, int)
+        self._stepper.check(self, sources, actors)
+        scratch = self._scratch_rows(n)
+        alive = scratch["alive"]
+        alive[:] = True
+        state = kstate.make(b.pos[:n], b.vel[:n], b.prev[:n], b.mass[:n], b.ids[:n], alive,
+                            scratch["acc"], scratch["pos0"], scratch["vel0"], self._events,
+                            self._event_count, self._dim)
+        forces = self._forces.table(b.mass[:n], b.ids[:n], *sources,
+                                    b.held[:n] if HELD in b.columns else None)
+        rules = self._collisions.table(b.kind[:n].astype(np.int64), b.radius[:n],
+                                       b.category[:n], b.mask[:n], b.fixed[:n],
+                                       self._actors.owners(), self._dim, scratch)
+        plan = Plan(self, state, forces, rules, self._actors.table(),
+                    self._stepper.method(self, sources), alive)
+        self._plan = plan
+        return plan
+
+    # ---------------------------------------------------------------- stepping
+    @journaled
+    def step(self, n=1):
+        """Advance n steps of dt, the loop inside numba; returns the new time. w.events then
+        holds what happened during these steps."""
+        if type(n) is not int or n < 0:
+            n = check.count("n", n)
+        t0 = self.t
+        self._begin_events()
+        status = 0
+        if n:
+            status = self._run_framed(n)
+        if self._log is not None:
+            self._log.record_events(self.events)
+        if n:
+            self._check_health(t0, status)
+        return self.t
+
+    def _begin_events(self):
+        """This step's events start empty, but for launches made since the last one."""
+        self._event_count[0] = 0
+        if self._actors.queued and not self._actors.write_queued(self._events,
+                                                                 self._event_count):
+            self._events = np.zeros(2 * len(self._actors.queued), dtype=EVENT_DTYPE)
+            self._plan = None
+            self._actors.write_queued(self._events, self._event_count)
+
+    def _run_framed(self, n):
+        """_run, with the frames a recording takes (captured inside the kernels, at most
+        _frame_room() per call). Returns the status of the last kernel call."""
+        log = self._log
+        status = 0
+        while n:
+            if log is not None and self._b.n:
+                room = self._frame_room()
+                at = log.frame_offsets(self, n, room)
+                k = int(at[-1]) if at.size == room else n
+                status = self._run(k, at)
+            else:
+                k = n if log is None else min(n, log.until_frame(self))
+                if self._b.n:
+                    status = self._run(k)
+                else:
+                    self._steps += k
+                if log is not None:
+                    log.stepped(self, k)
+            n -= k
+        return status
 
     def _run(self, nsteps, frame_at=None):
         """Take nsteps steps; a kernel call ends early after a collision removed or merged
-        bodies (or filled the event buffer), and is resumed once World has caught up.
-        frame_at : sorted step counts (from now) after which the recording takes a frame
-        inside the kernel (fixed-step integrators only)."""
+        bodies (or a detonation, an expiry), and is resumed once World has caught up.
+        frame_at : sorted step counts (from now) after which the recording takes a frame.
+        Returns the last call's status."""
         consumed = 0
+        status = 0
         while nsteps:
-            setup = self._collision_setup()
-            ctrl = self._control_setup(setup)
-            first_event = int(self._event_count[0])
+            plan = self.tables()
+            first = int(self._event_count[0])
             frames = None if frame_at is None else self._frame_buffers(frame_at, consumed)
-            done = None
-            try:
-                done = self._run_kernel(nsteps, setup, ctrl, frames)
-            finally:
-                # bodies destroyed or merged away leave, even if the integration then failed;
-                # the destroyed ones with an explosion throw out their debris
-                self._merged_actors(first_event)
-                if frames is not None and done is not None:
-                    self._log.captured(self, *frames, done)
-                dead = np.flatnonzero(~setup.alive)
-                if dead.size:
-                    blasts = self._explode_dead(setup, first_event)
-                    self._b.remove(dead)
-                    self._invalidate()
-                    self._spawn_debris(blasts)
+            done, status = self._stepper.run(plan, frames, self._dt, nsteps, self.t)
+            if self._event_count[0] > self._events.shape[0]:
+                self._events = kstate.events_of(plan.state)        # the kernel grew it
+                self._plan = None
+            events = self._events[first:self._event_count[0]]
+            if status & REMOVED:
+                self._actors.merged(events)
+            if frames is not None:
+                self._log.captured(self, *frames, done)
             self._steps += done
+            if status & REMOVED:
+                # bodies destroyed or merged away leave, at the end of the step they died in;
+                # the destroyed ones with an explosion throw out their debris, born then
+                dead = np.flatnonzero(~plan.alive)
+                blasts = self._actors.explode_dead(dead, events)
+                self._b.remove(dead)
+                self._invalidate()
+                self._actors.spawn_debris(blasts)
             if frames is not None:
                 self._log.captured_last(self, frames[0], done)
+            if status & FAILED:
+                self._b.prev[:self._b.n] = self._b.pos[:self._b.n]   # nothing to interpolate
+                self._stepper.failed(self, done)
             nsteps -= done
             consumed += done
-            if self._pending_warning:
-                message, self._pending_warning = self._pending_warning, None
+            if self._warning:
+                message, self._warning = self._warning, None
                 warnings.warn(message, RuntimeWarning, stacklevel=4)
+        return status
+
+    def warn_later(self, message):
+        """A RuntimeWarning given once the current call has booked its steps (a warning
+        turned into an error must find the World consistent)."""
+        self._warning = message
 
     def _frame_room(self):
         """Frames one kernel call may capture: buffers of at most 8 MB."""
@@ -946,201 +1164,7 @@ class World(Actors):
         at = frame_at[frame_at > consumed] - consumed
         return (at,) + self._log.frame_buffers(at.size, self._b.n)
 
-    def _workspace(self):
-        """arrays.Work with n rows, views of buffers kept at the capacity (see arrays.Work)."""
-        cap, n = self._b.capacity, self._b.n
-        if self._work is None or self._work.acc.shape[0] != cap:
-            shapes = {"ever": np.bool_, "touched": np.bool_, "in_focus": np.bool_,
-                      "is_giant": np.bool_, "merged": np.int64, "partners": np.int64,
-                      "tb": np.float64}
-            self._work = Work(*(np.zeros(cap, shapes[name]) if name in shapes
-                                else np.zeros((cap, 3)) for name in Work._fields))
-        return Work(*(a[:n] for a in self._work))
-
-    def _run_kernel(self, nsteps, setup, ctrl, frames=None):
-        b = self._b
-        spec = self._spec
-        frames = _NO_FRAMES if frames is None else frames
-        if spec.family == "splitting":
-            return splitting_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.drift,
-                                   spec.kick, self._drag, self._dt, nsteps, setup, ctrl,
-                                   self._workspace(), *frames)
-        if spec.family == "rk":
-            return rk_steps(b.pos[:b.n], b.vel[:b.n], *self._gravity_args(), spec.a, spec.b,
-                            self._drag, self._dt, nsteps, setup, ctrl, self._workspace(),
-                            *frames)
-        if self._drag[0] > 0.0:
-            raise ValueError(f"drag = {self._drag[0]:g}: integrator {spec.name!r} has no drag "
-                             f"yet; use a fixed-step one (leapfrog, yoshida4..8, rk4)")
-        if spec.family == "gauss_radau":
-            return self._run_gauss_radau(nsteps, setup, ctrl)
-        return self._run_wisdom_holman(nsteps, setup, ctrl)
-
-    def _run_wisdom_holman(self, nsteps, setup, ctrl):
-        if self._model != DIRECT:
-            raise ValueError(f"integrator {self._spec.name!r} needs gravity='direct' with a "
-                             f"dominant body among the bodies (gravity={self._gravity!r})")
-        b = self._b
-        n = b.n
-        args = self._gravity_args()
-        src, passive, still = args[2], args[3], args[8]
-        if still.size:
-            raise ValueError(f"integrator {self._spec.name!r} cannot hold bodies fixed "
-                             f"({still.size} are): use a fixed-step or the adaptive integrator")
-        pulling_actors = ctrl.actors[np.isin(ctrl.actors, src)]
-        if pulling_actors.size:
-            raise ValueError(f"integrator {self._spec.name!r}: ship or missile "
-                             f"{int(b.ids[pulling_actors[0]])} pulls (active): its mass changes "
-                             f"as it burns, which the Jacobi frames cannot follow; make it "
-                             f"passive or use another integrator")
-        order, m = self._jacobi_order(src, passive)
-        saved = b.pos[:n].copy(), b.vel[:n].copy()
-        done, ok = wisdom_holman_steps(b.pos[:n], b.vel[:n], *args, order, m, self._dt, nsteps,
-                                       self._spec.corrector > 0, setup, ctrl,
-                                       self._workspace())
-        if not ok:
-            if done == 0:
-                b.pos[:n], b.vel[:n] = saved
-            self._steps += done          # the kernel undid the failed step (see its docstring)
-            setup.alive[:] = True
-            raise FloatingPointError(
-                f"{self._spec.name}: a Kepler drift did not converge: a body sits at the centre "
-                f"of mass of the bodies before it (its Jacobi orbit is singular), or the state "
-                f"is NaN. The state is that at t = {self.t:g}. Wisdom-Holman is for scenes "
-                f"with one dominant mass; use gauss_radau or yoshida6 otherwise.")
-        return done
-
-    def _jacobi_order(self, src, passive):
-        """The bodies in Jacobi order and their Jacobi masses, cached with the source lists:
-        the heaviest pulling body is the centre, the other pulling bodies follow in their
-        order (add planets inside out: each Jacobi orbit is about the bodies before it), then
-        the passive ones, which do not move the Jacobi frames (mass 0)."""
-        b = self._b
-        if self._jacobi is None:
-            if src.size == 0:
-                order = np.arange(b.n, dtype=np.int64)
-            else:
-                src = src[np.argsort(b.serial[src], kind="stable")]    # in order of addition
-                central = src[np.argmax(b.mass[src])]
-                order = np.concatenate([[central], src[src != central], passive]).astype(np.int64)
-            m = np.zeros(b.n)
-            m[:src.size] = b.mass[order[:src.size]]
-            self._jacobi = (order, m)
-        return self._jacobi
-
-    def _run_gauss_radau(self, nsteps, setup, ctrl):
-        b = self._b
-        n = b.n
-        cols = [b.ensure_column(name, shape)[:n] for name, shape in
-                (("csx", (3,)), ("csv", (3,)), ("gr_b", (7, 3)), ("gr_e", (7, 3)))]
-        args = self._gravity_args()
-        src, passive = args[2], args[3]
-        pulling = self._model == DIRECT and (
-            self.step_control == "pulling" and src.size
-            or self.step_control == "auto" and src.size >= 2)
-        if pulling:
-            control, riders = src, passive
-        else:
-            control, riders = np.arange(n, dtype=np.int64), passive[:0]
-        spec = self._spec
-        stats = self._adaptive_stats
-        before = stats.copy()
-        done = gauss_radau_steps(b.pos[:n], b.vel[:n], *args, *cols, control, riders,
-                                    spec.nodes, spec.c_gb, spec.d_bg, self._dt, nsteps,
-                                    self._adaptive, stats, setup, ctrl, self._workspace())
-        if stats[gr.FAILED]:
-            stats[gr.FAILED] = 0
-            self._steps += done          # the state is that of the last completed interval
-            self._reset_adaptive()       # the failed step's tiny proposal and wild polynomial
-            b.prev[:n] = b.pos[:n]       # nothing to interpolate across a failure
-            pair = self._closest_pair(src)
-            met = (f"; the closest pulling bodies are {self._named(pair)}, which may have "
-                   f"met (or the coordinates are too far from the origin to resolve the "
-                   f"step: see shift_origin)" if pair.size else "")
-            raise InstabilityError(
-                f"gauss_radau: the step shrank below the resolution of time or became NaN "
-                f"after t = {self.t:g} (next step {self._adaptive[3]:.3g}){met}. The state "
-                f"is that at t = {self.t:g}. Set min_step, or soften gravity.",
-                b.ids[pair].copy(), self.t)
-        if stats[gr.AT_MIN_STEP] > before[gr.AT_MIN_STEP]:
-            # warned by _run once the time is booked (a warning turned error must find the
-            # World consistent)
-            self._pending_warning = (
-                f"gauss_radau: {stats[gr.AT_MIN_STEP] - before[gr.AT_MIN_STEP]} substeps were "
-                f"held at min_step = {self._adaptive[2]:g}; the error is no longer controlled "
-                f"there")
-        return done
-
-    def _closest_pair(self, rows):
-        """The two rows of `rows` closest together (none if fewer than 2, or too many to
-        compare all pairs in a failure's message)."""
-        if not 2 <= rows.size <= 2048:
-            return rows[:0]
-        p = self._b.pos[rows]
-        d2 = ((p[:, None, :] - p[None, :, :]) ** 2).sum(axis=2)
-        d2[np.diag_indices(rows.size)] = np.inf
-        i, j = np.unravel_index(np.argmin(d2), d2.shape)
-        return rows[[i, j]]
-
-    def _reset_adaptive(self):
-        """Forget the adaptive integrator's carried state: step proposal, prediction, the
-        per-body polynomials and compensations."""
-        self._adaptive[3:5] = min(self._dt, self._adaptive[1])
-        self._adaptive[5] = 0.0
-        for name in ("gr_b", "gr_e", "csx", "csv"):
-            if name in self._b.columns:
-                getattr(self._b, name)[:] = 0.0
-
-    def step(self, n=1):
-        """Advance n steps of dt, the loop inside numba; returns the new time. w.events then
-        holds what happened during these steps."""
-        n = check.count("n", n)
-        t0 = self.t
-        self._event_count[:] = 0
-        self._write_queued_events()
-        if n:
-            if n > 1:
-                self._run_framed(n - 1)
-            b = self._b
-            b.prev[:b.n] = b.pos[:b.n]
-            self._run_framed(1)
-        if self._log is not None:
-            self._log.record_events(self.events)
-        if n:
-            self._check_health(t0)
-        return self.t
-
-    def _run_framed(self, n):
-        """_run, with the frames a recording takes: captured inside the fixed-step kernels,
-        or by cutting the run at each frame for the adaptive and Wisdom-Holman ones."""
-        log = self._log
-        inside = self._spec.family in ("splitting", "rk")
-        while n:
-            if log is not None and inside and self._b.n:
-                room = self._frame_room()
-                at = log.frame_offsets(self, n, room)
-                k = int(at[-1]) if at.size == room else n
-                self._run(k, at)
-            else:
-                k = n if log is None else min(n, log.until_frame(self))
-                if self._b.n:
-                    self._run(k)
-                else:
-                    self._steps += k
-                if log is not None:
-                    log.stepped(self, k)
-            n -= k
-
-    def _write_queued_events(self):
-        """Launches made since the last step open this step's events."""
-        queued, self._queued_events = self._queued_events, []
-        if queued:
-            buf = self._event_box[0]
-            if len(buf) < len(queued):
-                self._event_box[0] = buf = np.zeros(2 * len(queued), dtype=EVENT_DTYPE)
-            buf[:len(queued)] = queued
-            self._event_count[0] = len(queued)
-
+    @journaled
     def advance(self, frame_time):
         """Fixed-step accumulator for variable frame time; returns alpha in [0, 1).
 
@@ -1149,26 +1173,28 @@ class World(Actors):
         simulation down instead of making the next frame slower still). Draw
         w.interpolate(alpha), between the states before and after the last step.
         """
-        frame_time = check.scalar("frame_time", frame_time, minimum=0.0)
+        if type(frame_time) is not float or not 0.0 <= frame_time < math.inf:
+            frame_time = check.scalar("frame_time", frame_time, minimum=0.0)
+        dt = self._dt
         acc = self._accumulator + frame_time
         # a hair of slack so that 4 frames of dt/4 make one step, not 0.99999 of one
-        whole = acc / self._dt * (1.0 + 1e-12)
+        whole = acc / dt * (1.0 + 1e-12)
         if whole >= self._max_substeps + 1:          # also a frame of inf steps
-            n, left, dropped = self._max_substeps, 0.0, acc - self._max_substeps * self._dt
+            n, left, dropped = self._max_substeps, 0.0, acc - self._max_substeps * dt
         else:
             n = int(whole)
-            left, dropped = max(acc - n * self._dt, 0.0), 0.0
+            left, dropped = max(acc - n * dt, 0.0), 0.0
         steps = self._steps
         try:
             self.step(n)                 # the only part that can fail: nothing changed before
         except InstabilityError:
             if self._steps - steps == n:     # the steps were taken; the check found them bad
                 self._accumulator = left
-                self.dropped_time += dropped
+                self._dropped += dropped
             raise
         self._accumulator = left
-        self.dropped_time += dropped
-        return min(left / self._dt, np.nextafter(1.0, 0.0))
+        self._dropped += dropped
+        return min(left / dt, 0.9999999999999999)
 
     def interpolate(self, alpha):
         """(n, dim) positions for rendering: prev + alpha (pos - prev), alpha in [0, 1]."""
@@ -1180,25 +1206,37 @@ class World(Actors):
         return prev + alpha * (b.pos[:b.n, :self._dim] - prev)
 
     # ---------------------------------------------------------------- instability
-    def _named(self, rows, most=5):
+    def named(self, rows, most=5):
         """'body 3 (planet), body 7 (moon) and 12 more' for rows of live bodies."""
         b = self._b
         names = [f"body {int(b.ids[r])} ({self._kinds[b.kind[r]]})" for r in rows[:most]]
         more = f" and {len(rows) - most} more" if len(rows) > most else ""
         return ", ".join(names) + more
 
-    def _check_health(self, t0):
-        """After a step() from time t0: InstabilityError if a body's state is not finite, or
-        if the watched energy error passed its limit."""
+    def closest_pulling_pair(self):
+        """The rows of the two pulling bodies closest together (none if fewer than 2, or too
+        many to compare all pairs for an error message)."""
+        rows = self._sources()[0]
+        if not 2 <= rows.size <= 2048:
+            return rows[:0]
+        p = self._b.pos[rows]
+        d2 = ((p[:, None, :] - p[None, :, :]) ** 2).sum(axis=2)
+        d2[np.diag_indices(rows.size)] = np.inf
+        i, j = np.unravel_index(np.argmin(d2), d2.shape)
+        return rows[[i, j]]
+
+    def _check_health(self, t0, status):
+        """After a step() from time t0: InstabilityError if a body's state is not finite (the
+        kernel's status says), or if the watched energy error passed its limit."""
         b = self._b
         n = b.n
-        if n and not diagnostics.finite_state(b.pos[:n], b.vel[:n]):
+        if status & NONFINITE:
             rows = np.flatnonzero(~(np.isfinite(b.pos[:n]).all(axis=1)
                                     & np.isfinite(b.vel[:n]).all(axis=1)))
             if rows.size:
                 raise InstabilityError(
                     f"the state became NaN or infinite between t = {t0:g} and t = {self.t:g}: "
-                    f"{self._named(rows)}. A step too long for a close approach, bodies "
+                    f"{self.named(rows)}. A step too long for a close approach, bodies "
                     f"meeting without softening, or a speed past the range of doubles; take "
                     f"a shorter dt, soften gravity, or use gauss_radau (w.remove(ids) drops "
                     f"them)", b.ids[rows].copy(), self.t)
@@ -1219,19 +1257,19 @@ class World(Actors):
         shares = ", ".join(f"{change[k]:.2g}" for k in order[:5])
         raise InstabilityError(
             f"energy error {error:.3g} since watch_energy passed its limit {limit:g} between "
-            f"t = {t0:g} and t = {self.t:g}; the energy changed most in {self._named(rows)} "
+            f"t = {t0:g} and t = {self.t:g}; the energy changed most in {self.named(rows)} "
             f"({shares} of |E0|). Their orbits are not resolved by dt = {self._dt:g} with "
             f"{self.integrator}: take a shorter dt or use gauss_radau",
             b.ids[rows].copy(), self.t)
 
     def _body_energies(self):
-        model, mass, src, passive, G, eps2, field, field_mass, still = self._gravity_args()
         b = self._b
         out = np.empty(b.n)
-        diagnostics.body_energies(b.pos[:b.n], b.vel[:b.n], model, self._masses(True), src, G,
-                                  eps2, field, field_mass, out)
+        diagnostics.body_energies(self._force_table(), b.pos[:b.n], b.vel[:b.n],
+                                  self._masses(True), out)
         return out
 
+    @journaled
     def watch_energy(self, limit):
         """From now on, raise InstabilityError after any step() or advance() that leaves the
         relative energy error of the pulling bodies (since this call) above limit, naming the
@@ -1259,6 +1297,7 @@ class World(Actors):
         started with [length]: the absolute position of a body is origin + pos."""
         return self._origin[:self._dim].copy()
 
+    @journaled
     def shift_origin(self, delta):
         """Move the coordinate origin by delta (dim,) [length]: every position (bodies, the
         central body, walls, the boundary box, launches not yet reported) drops by delta,
@@ -1271,18 +1310,13 @@ class World(Actors):
         d = self._dim
         b.pos[:b.n, :d] -= delta
         b.prev[:b.n, :d] -= delta
-        if self._model == CENTRAL:
-            self._field[:d] -= delta
-        if len(self._walls):
-            self._walls[:, 1:1 + d] -= delta
-            segments = self._walls[:, 0] == collide.SEGMENT
-            self._walls[segments, 4:4 + d] -= delta
-        if self._boundary != collide.OPEN:
-            self._box[:, :d] -= delta
-        for ev in self._queued_events:      # launches waiting for the next step's events
-            for c, name in enumerate("xyz"[:d]):
-                ev[name] -= delta[c]
+        d3 = np.zeros(3)
+        d3[:d] = delta
+        self._forces.shift(d3)
+        self._collisions.shift(delta, d)
+        self._actors.shift(delta)
         self._origin[:d] += delta
+        self._plan = None
         self._rewatch()              # a uniform field's potential has no natural zero
 
     # ---------------------------------------------------------------- diagnostics
@@ -1293,17 +1327,25 @@ class World(Actors):
         b = self._b
         return np.where(self.pulls, b.mass[:b.n], 0.0) if pulling_only else b.mass[:b.n]
 
+    def _force_table(self):
+        """The kernels' Forces for the bodies now (the diagnostics read its gravity)."""
+        plan = self._plan
+        if plan is not None:
+            return plan.forces
+        b = self._b
+        return self._forces.table(b.mass[:b.n], b.ids[:b.n], *self._sources(), None)
+
     def kinetic_energy(self, pulling_only=False):
         b = self._b
         return diagnostics.kinetic_energy(b.vel[:b.n], self._masses(pulling_only))
 
     def potential_energy(self, pulling_only=False):
         """Potential energy in the gravity model (passive bodies in the pulling ones' field)."""
-        model, mass, src, passive, *rest = self._gravity_args()
-        if pulling_only:
-            mass, passive = self._masses(True), passive[:0]
-        return diagnostics.potential_energy(self._b.pos[:self._b.n], model, mass, src, passive,
-                                            *rest)
+        f = self._force_table()
+        b = self._b
+        passive = self._sources()[1]
+        return diagnostics.potential_energy(f, b.pos[:b.n], self._masses(pulling_only),
+                                            passive[:0] if pulling_only else passive)
 
     def energy(self, pulling_only=False):
         """Kinetic + potential energy [mass length^2 / time^2]."""
@@ -1338,6 +1380,7 @@ class World(Actors):
             raise ValueError("center_of_mass_velocity: the total mass is 0 (only test particles)")
         return self.momentum() / M
 
+    @journaled
     def move_to_center_of_mass(self):
         """Shift every body so that the centre of mass rests at the origin."""
         r, v = self.center_of_mass(), self.center_of_mass_velocity()
@@ -1348,13 +1391,14 @@ class World(Actors):
         self._rewatch()
 
     def __repr__(self):
-        return (f"World(dim={self._dim}, n={self.n}, gravity={self._gravity!r}, "
+        return (f"World(dim={self._dim}, n={self.n}, gravity={self.gravity!r}, "
                 f"integrator={self.integrator!r}, dt={self._dt!r}, t={self.t!r})")
 
 
-# the calls a run log records (runlog.py): every public method that changes the World
+# the calls a run log records (journal.py): every public method that changes the World (step,
+# advance, watch_energy, shift_origin and move_to_center_of_mass are decorated above)
 for _name in ("add_kind", "add_body", "add_bodies", "set_body", "remove", "set_collision",
-              "add_plane", "add_segment", "clear_walls", "set_boundary", "step", "advance",
-              "move_to_center_of_mass", "add_ship", "control", "set_heading", "set_fuel",
-              "launch", "explode", "watch_energy", "shift_origin"):
+              "add_plane", "add_segment", "clear_walls", "set_boundary", "add_ship", "control",
+              "set_heading", "set_fuel", "launch", "explode", "apply_force",
+              "apply_acceleration", "add_force", "set_force_params", "remove_force"):
     setattr(World, _name, journaled(getattr(World, _name)))

@@ -451,8 +451,7 @@ def test_copies_continue_identically():
 # ----------------------------------------------------------------------------- bad input
 
 def _snapshot(w):
-    b = w._b
-    return {name: getattr(b, name)[:b.n].copy() for name in b.columns}
+    return w.state()["bodies"]["columns"]
 
 
 def _unchanged(w, snap):
@@ -498,7 +497,7 @@ def test_bad_launches_change_nothing():
         w.launch(ship, sp.MissileSpec(mass=5.0, recoil=True))
     with pytest.raises(ValueError, match="MissileSpec"):
         w.launch(ship, sp.ShipSpec())
-    assert _unchanged(w, snap) and not w._queued_events
+    assert _unchanged(w, snap) and w.state()["actors"]["queued"].size == 0
 
 
 @pytest.mark.parametrize("kwargs, field", [

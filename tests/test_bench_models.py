@@ -3,7 +3,7 @@ import json
 
 import pytest
 
-from spacephys import bench
+from spacephys.study import bench
 from spacephys.cli import main
 
 

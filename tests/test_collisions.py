@@ -45,19 +45,18 @@ def kinetic(w):
 
 def _grid_and_brute(w, B=None, tb=None):
     """The candidate pairs of the grid and of brute force for w's bodies, as sets."""
-    setup = w._collision_setup()
+    plan = w.tables()
     n, dim = w.n, w.dim
     A = np.zeros((n, 3))
     A[:, :dim] = w.pos
     B = np.zeros((n, 3)) if B is None else B
     tb = np.zeros(n) if tb is None else tb
     lo, hi = np.empty((n, 3)), np.empty((n, 3))
-    grid, _ = collide.candidate_pairs(A, B, tb, setup.radius, setup.alive, setup.kind, setup,
-                                      lo, hi)
-    brute = collide.brute_pairs(A, B, tb, setup.radius, setup.alive, setup.kind, setup, lo, hi)
+    grid, _ = collide.candidate_pairs(A, B, tb, plan.alive, plan.rules, lo, hi)
+    brute = collide.brute_pairs(A, B, tb, plan.alive, plan.rules, lo, hi)
     as_set = lambda pairs: {tuple(p) for p in pairs.tolist()}
     assert len(as_set(grid)) == len(grid)            # never reported twice
-    return as_set(grid), as_set(brute), setup
+    return as_set(grid), as_set(brute), plan
 
 
 @settings(deadline=None, max_examples=40)
@@ -91,8 +90,8 @@ def test_default_cell_with_giants_finds_the_brute_force_pairs(seed, n, dim, gian
                      kind="ball")
     B = np.zeros((w.n, 3))
     B[:, :dim] = w.vel * 0.2
-    grid, brute, setup = _grid_and_brute(w, B, rng.uniform(0, 0.5, w.n) * (rng.random(w.n) < .3))
-    assert setup.giants.size >= (giants > 0)      # the giants path is exercised
+    grid, brute, plan = _grid_and_brute(w, B, rng.uniform(0, 0.5, w.n) * (rng.random(w.n) < .3))
+    assert collide.giants_of(plan.rules).size >= (giants > 0)   # the giants path is exercised
     assert grid == brute
 
 
@@ -364,8 +363,8 @@ def test_collisions_work_with_every_integrator(name):
 # ----------------------------------------------------------------------------- bad input
 
 def _snapshot(w):
-    return (w._response.copy(), w._restitution.copy(), w._walls.copy(), w.boundary[0],
-            w.collision_cell)
+    c = w.state()["collisions"]
+    return (c["response"], c["restitution"], c["walls"], w.boundary[0], w.collision_cell)
 
 
 @pytest.mark.parametrize("call,message", [
@@ -420,7 +419,7 @@ def test_merging_matches_rebound_line_merge():
     # whose contacts are all pairs: where three bodies touch at once REBOUND's own result
     # varies from run to run)
     import rebound
-    from spacephys.bench import _merging_cluster
+    from spacephys.study.bench import _merging_cluster
     result = _merging_cluster(1500, 10, 0.01, 1, seed=5)
     assert result["merges"] == result["rebound_merges"] > 5
     assert result["same_masses"]
@@ -430,18 +429,18 @@ def test_merging_matches_rebound_line_merge():
 
 def test_broad_phase_work_is_linear():
     # entries per body stay bounded as the field grows: cells per body, not pairs per body
-    from spacephys.bench import circle_field
+    from spacephys.study.bench import circle_field
     setup_entries = []
     for n in (2000, 8000):
         w = circle_field(n)
-        s = w._collision_setup()
+        plan = w.tables()
         A = np.zeros((n, 3))
         A[:, :2] = w.pos
         B = np.zeros((n, 3))
         B[:, :2] = w.vel * w.dt
         lo, hi = np.empty((n, 3)), np.empty((n, 3))
-        pairs, entries = collide.candidate_pairs(A, B, np.zeros(n), s.radius, s.alive, s.kind,
-                                                 s, lo, hi)
+        pairs, entries = collide.candidate_pairs(A, B, np.zeros(n), plan.alive, plan.rules,
+                                                 lo, hi)
         setup_entries.append(entries / n)
         assert len(pairs) < n                        # a sparse field: few candidates
     assert setup_entries[1] == pytest.approx(setup_entries[0], rel=0.1)
@@ -453,12 +452,12 @@ def test_a_2d_body_inside_one_cell_makes_one_entry():
     w.set_collision("*", "*", "elastic")
     w.collision_cell = 1.0
     w.add_bodies(1.0, [[0.5, 0.5], [2.5, 0.5], [0.5, 3.5]], radius=0.2)
-    s = w._collision_setup()
+    plan = w.tables()
     A = np.zeros((3, 3))
     A[:, :2] = w.pos
     lo, hi = np.empty((3, 3)), np.empty((3, 3))
-    pairs, entries = collide.candidate_pairs(A, np.zeros((3, 3)), np.zeros(3), s.radius,
-                                             s.alive, s.kind, s, lo, hi)
+    pairs, entries = collide.candidate_pairs(A, np.zeros((3, 3)), np.zeros(3), plan.alive,
+                                             plan.rules, lo, hi)
     assert entries == 3 and len(pairs) == 0
 
 

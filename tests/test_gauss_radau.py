@@ -218,4 +218,4 @@ def test_after_a_failure_the_integrator_starts_clean():
     fresh.step(4)
     assert w.integrator_stats["steps"] - before == fresh.integrator_stats["steps"]
     np.testing.assert_allclose(w.pos, fresh.pos, rtol=0, atol=1e-14)
-    np.testing.assert_array_equal(w.interpolate(0.0), w._b.prev[:2, :2])
+    np.testing.assert_array_equal(w.interpolate(0.0), w.state()["bodies"]["columns"]["prev"][:, :2])

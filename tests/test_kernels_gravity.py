@@ -1,4 +1,5 @@
-"""The numba gravity and energy kernels against plain numpy, on every model and code path."""
+"""The force contract (kernels/forces.py) and the energy kernels against plain numpy, on every
+gravity model and code path."""
 import math
 
 import numpy as np
@@ -6,8 +7,8 @@ import pytest
 from reference import direct_accelerations, direct_potential
 
 from spacephys._jit import PARALLEL_MIN_PAIRS
-from spacephys.kernels import diagnostics
-from spacephys.kernels.gravity import CENTRAL, DIRECT, NONE, UNIFORM, accelerations
+from spacephys.kernels import diagnostics, forces
+from spacephys.kernels.codes import CENTRAL, DIRECT, NONE, UNIFORM
 
 
 def _scene(rng, n, frac_pulling):
@@ -23,12 +24,14 @@ def _run(pos, mass, pulls, model, G=1.7, eps2=0.0, field=np.zeros(3), field_mass
          still=np.zeros(0, np.int64)):
     src = np.flatnonzero(pulls).astype(np.int64)
     passive = np.flatnonzero(~pulls).astype(np.int64)
-    out = np.full((len(mass), 3), np.nan)
-    scratch = np.empty((4, src.size if model == DIRECT else 1))
-    accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, still, scratch,
-                  out)
-    energy = diagnostics.potential_energy(pos, model, mass, src, passive, G, eps2, field,
-                                          field_mass, still)
+    n = len(mass)
+    out = np.full((n, 3), np.nan)
+    f = forces.make(mass, np.arange(n, dtype=np.int64), model=model, G=G, eps2=eps2,
+                    field=field, field_mass=field_mass, src=src, passive=passive, still=still,
+                    drag=np.zeros(4))
+    forces.accelerations(f, 0.0, pos, np.zeros_like(pos), out, np.arange(n, dtype=np.int64),
+                         False)
+    energy = diagnostics.potential_energy(f, pos, mass, passive)
     return out, energy
 
 

@@ -4,7 +4,7 @@ import pytest
 import rebound
 
 import spacephys as sp
-from spacephys.bench import _rebound_sim
+from spacephys.study import rebound as peer
 from spacephys.scenes import figure_eight, uniform_sphere
 
 
@@ -22,7 +22,7 @@ def test_rebound_is_the_pinned_version():
 def test_leapfrog_matches_rebound_leapfrog(n, steps):
     # REBOUND's leapfrog is drift-kick-drift with Plummer softening, as ours
     w = uniform_sphere(n, seed=11, dt=1e-3, softening=0.05)
-    sim = _rebound_sim(w)
+    sim = peer.simulation(w, "leapfrog", gravity="basic")
     w.step(steps)
     sim.steps(steps)
     pos, vel = _state(sim)
@@ -34,7 +34,7 @@ def test_test_particles_match_rebound_active_split():
     w = uniform_sphere(50, seed=12, dt=1e-3, softening=0.05)
     rng = np.random.default_rng(13)
     w.add_bodies(0.0, rng.normal(size=(200, 3)), rng.normal(scale=0.2, size=(200, 3)))
-    sim = _rebound_sim(w, n_active=50)
+    sim = peer.simulation(w, "leapfrog", gravity="basic", n_active=50)
     w.step(100)
     sim.steps(100)
     pos, _ = _state(sim)

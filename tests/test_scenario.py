@@ -114,8 +114,8 @@ control = { ship = "s", throttle = 0.0 }
      "timeline[0].launch.missile", "not in [missiles]"),
     (BASE + '[[ships]]\nname = "s"\npos = [1.0, 0.0]\nspec = { dry_mass = -1.0 }\n',
      "ships[0].spec", "dry_mass"),
-    (BASE.replace("dim = 2", "dim = 2\nintegrator = 'gauss_radau'\ndrag = 0.1"), "world.drag",
-     "no drag yet"),
+    (BASE.replace("dim = 2", "dim = 2\nintegrator = 'wisdom_holman'\ngravity = 'none'"),
+     "world.integrator", "needs gravity in"),
     ("[world\n", "(file)", "not valid TOML"),
 ])
 def test_each_mistake_is_reported_with_its_key_path(text, path, words):

@@ -41,7 +41,8 @@ def test_random_adds_and_removes_match_a_dict(sequence):
         # the views are the model; rows move on removal, the serials keep the order of
         # addition
         assert dict(zip(w.ids.tolist(), w.mass.tolist())) == model
-        assert w.ids[np.argsort(w._b.serial[:w.n])].tolist() == list(model)
+        serial = w.state()["bodies"]["columns"]["serial"]
+        assert w.ids[np.argsort(serial)].tolist() == list(model)
         assert np.array_equal(w.pos[:, 0], w.mass)        # rows moved together
         for i in model:
             assert w.ids[w.index_of(i)] == i

@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from spacephys import tradeoff
+from spacephys.study import tradeoff
 
 
 @pytest.fixture(scope="module")
@@ -78,7 +78,7 @@ def test_peers_do_the_same_work_and_report_a_ratio_per_pair():
 
 
 def test_state_is_linear_in_the_number_of_bodies():
-    from spacephys.bench import memory_used
+    from spacephys.study.bench import memory_used
     small = memory_used(20_000)[0] / 20_000
     large = memory_used(200_000)[0] / 200_000
     # the same bytes per body at 10x the bodies (what is fixed, e.g. the event buffer, fades),

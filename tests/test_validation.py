@@ -12,7 +12,7 @@ docs/validation.md says so, and this checks that it still does rather than quiet
 import pytest
 
 from spacephys.integrators import INTEGRATORS
-from spacephys.validate import PROBLEMS, format_markdown, validate
+from spacephys.study.validate import PROBLEMS, format_markdown, validate
 
 FAILS, DIVERGES = "fails", "diverges"
 

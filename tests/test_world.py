@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import spacephys as sp
-import spacephys.world as world_module
+from spacephys import steppers
 from spacephys.scenes import kepler
 
 
@@ -74,7 +74,7 @@ def test_capacity_grows_geometrically():
     buffers = set()
     for k in range(3000):
         w.add_body(1.0, (k, 0))
-        buffers.add(id(w._b.pos))
+        buffers.add(w.state()["bodies"]["capacity"])
     assert len(buffers) <= 13                    # doubling: log2(3000) + 1 reallocations
     assert w.n == 3000 and w.pos[2999, 0] == 2999
 
@@ -83,19 +83,25 @@ def test_two_dimensional_world_stays_in_its_plane():
     w = kepler(0.3, dim=2, integrator="rk4", dt=1e-3)
     w.step(1000)
     assert w.pos.shape == (2, 2)
-    assert np.all(w._b.pos[:2, 2] == 0) and np.all(w._b.vel[:2, 2] == 0)
+    columns = w.state()["bodies"]["columns"]
+    assert np.all(columns["pos"][:, 2] == 0) and np.all(columns["vel"][:, 2] == 0)
 
 
 def test_step_runs_the_loop_in_one_kernel_call(monkeypatch):
     calls = []
-    real = world_module.splitting_steps
-    monkeypatch.setattr(world_module, "splitting_steps",
-                        lambda *a: calls.append(a[-8]) or real(*a))   # nsteps
+    real = steppers.Plan.call
+    monkeypatch.setattr(steppers.Plan, "call", lambda self, kernel, frames, dt, n, t0:
+                        calls.append(n) or real(self, kernel, frames, dt, n, t0))
     w = kepler(0.5, integrator="leapfrog", dt=1e-3)
+    before = w.pos.copy()
     w.step(1000)
-    # one call for the first n - 1 steps, one for the last (so positions before it are kept
-    # for render interpolation)
-    assert calls == [999, 1]
+    # one call: the kernel keeps the positions before the last step for render
+    # interpolation itself
+    assert calls == [1000]
+    again = kepler(0.5, integrator="leapfrog", dt=1e-3)
+    again.step(999)
+    np.testing.assert_array_equal(w.interpolate(0.0), again.pos)
+    assert not np.array_equal(before, w.interpolate(0.0))
 
 
 def test_step_n_equals_n_single_steps():
@@ -184,10 +190,9 @@ def test_interpolation_follows_adds_removes_and_shifts():
 
 
 def _snapshot(w):
-    b = w._b
-    return (b.n, w.t, w.dt, w.integrator, w.softening, tuple(w.kinds),
-            *(getattr(b, c)[:b.n].copy() for c in ("ids", "pos", "vel", "mass", "radius", "kind",
-                                                   "active")))
+    return (w.n, w.t, w.dt, w.integrator, w.softening, tuple(w.kinds),
+            *(getattr(w, c).copy() for c in ("ids", "pos", "vel", "mass", "radius", "kind",
+                                             "active")))
 
 
 def _same(a, b):

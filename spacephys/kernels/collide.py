@@ -20,41 +20,40 @@ fastmath: the time-of-impact roots and the exact velocity swap of equal masses n
 rounding.
 """
 import math
-from collections import namedtuple
 
 import numpy as np
+from numba import types
+from numba.experimental import structref
 
 from .._jit import kernel
 from .arrays import grown_pairs, stable_argsort
-
-# responses of the kind x kind matrix
-IGNORE, SENSOR, ELASTIC, BOUNCE, MERGE, DESTROY_A, DESTROY_B, DESTROY_BOTH = range(8)
-BREAK_A, BREAK_B = 8, 9          # a bounce, then the first (second) body is destroyed
-# world boundaries
-OPEN, REFLECT, PERIODIC = 0, 1, 2
-# wall rows: [type, x0, y0, z0, x1, y1, z1, restitution]; a plane through (x0, y0, z0) with
-# unit normal (x1, y1, z1) toward the side bodies live on, or a segment from point 0 to point 1
-PLANE, SEGMENT = 0, 1
-# event kinds (spacephys.events)
-_BOUNCE, _MERGE, _DESTROY, _SENSOR, _WALL = 1, 2, 3, 4, 5
+from .codes import (BOUNCE, BREAK_A, DESTROY_A, DESTROY_B, DESTROY_BOTH, ELASTIC, EV_BOUNCE,
+                    EV_DESTROY, EV_MERGE, EV_SENSOR, EV_WALL, IGNORE, MERGE, PERIODIC, PLANE,
+                    REFLECT, REFLECTING, SENSOR, TOUCH_ENDS)
+from .state import record
 
 _MAX_PASSES = 32
 
-Setup = namedtuple("Setup", [
-    "enabled",       # bool: run the collision pass after each step
-    "ids",           # (n,) int64 body ids, for the events
+
+@structref.register
+class RulesType(types.StructRef):
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(t)) for name, t in fields)
+
+
+class Rules(structref.StructRefProxy):
+    """The collision pass's table (see FIELDS); made by `make`, read by the kernels."""
+
+
+FIELDS = (
     "kind",          # (n,) int64 kind codes
     "radius",        # (n,) float64, updated by merges
-    "alive",         # (n,) bool, set False for bodies destroyed or merged away
-    "events",        # numba typed List holding one EVENT_DTYPE array, grown as needed
-    "count",         # (1,) int64: events written
-    "t0",            # float: the simulation time at the start of the kernel call
-    "response",      # (K, K) int64, the kind x kind matrix of responses
-    "restitution",   # (K, K) float64, for BOUNCE
     "category",      # (n,) int64 bits a body is
     "mask",          # (n,) int64 bits a body collides with
     "fixed",         # (n,) bool: immovable (infinite mass)
-    "walls",         # (W, 8) float64, see PLANE and SEGMENT
+    "response",      # (K, K) int64, the kind x kind matrix of responses
+    "restitution",   # (K, K) float64, for BOUNCE
+    "walls",         # (W, 8) float64, see codes.PLANE and SEGMENT
     "boundary",      # int: OPEN | REFLECT | PERIODIC
     "box",           # (2, 3) float64: the boundary's low and high corners
     "box_restitution",  # float
@@ -64,10 +63,46 @@ Setup = namedtuple("Setup", [
     "giants",        # (G,) int64 rows of bodies far larger than the cell: tested against all
     "gridded",       # (n,) bool: the bodies entered in the grid (not giants, and of a kind
                      # that can meet some body other than a giant)
-])
-"""What the collision pass needs besides positions, velocities and masses; built by World."""
+    # per-body scratch of the pass, reused from step to step
+    "A", "B", "D", "lo", "hi",                 # (n, 3) float64: lines, impulses, boxes
+    "tb",                                      # (n,) float64: where each line begins
+    "ever", "touched", "in_focus", "is_giant",  # (n,) bool
+    "merged", "partners",                      # (n,) int64
+)
+structref.define_proxy(Rules, RulesType, list(FIELDS))
 
 
+@kernel
+def _make(kind, radius, category, mask, fixed, response, restitution, walls, boundary, box,
+          box_restitution, cell, dim, owner, giants, gridded, A, B, D, lo, hi, tb, ever,
+          touched, in_focus, is_giant, merged, partners):
+    return Rules(kind, radius, category, mask, fixed, response, restitution, walls, boundary,
+                 box, box_restitution, cell, dim, owner, giants, gridded, A, B, D, lo, hi, tb,
+                 ever, touched, in_focus, is_giant, merged, partners)
+
+
+def make(kind, radius, category, mask, fixed, response, restitution, walls, boundary, box,
+         box_restitution, cell, dim, owner, giants, gridded, scratch):
+    """A Rules table (arrays shared, not copied); scratch : dict of the per-body scratch
+    arrays named in FIELDS, n rows each."""
+    return _make(kind, radius, category, mask, fixed, response, restitution, walls,
+                 int(boundary), box, float(box_restitution), float(cell), int(dim), owner,
+                 giants, gridded, *(scratch[k] for k in ("A", "B", "D", "lo", "hi", "tb",
+                                                          "ever", "touched", "in_focus",
+                                                          "is_giant", "merged", "partners")))
+
+
+@kernel
+def giants_of(rules):
+    """The rows of the giants a Rules table holds (for tests and tools)."""
+    return rules.giants
+
+
+SCRATCH = {"A": (3, np.float64), "B": (3, np.float64), "D": (3, np.float64),
+           "lo": (3, np.float64), "hi": (3, np.float64), "tb": ((), np.float64),
+           "ever": ((), np.bool_), "touched": ((), np.bool_), "in_focus": ((), np.bool_),
+           "is_giant": ((), np.bool_), "merged": ((), np.int64), "partners": ((), np.int64)}
+"""The per-body scratch of the pass: name -> (trailing shape, dtype)."""
 
 
 @kernel
@@ -79,12 +114,12 @@ def _wrap(d, length):
 
 
 @kernel
-def _periods(setup):
+def _periods(rules):
     """Box lengths per axis when wrapping, else zeros."""
     L = np.zeros(3)
-    if setup.boundary == PERIODIC:
-        for c in range(setup.dim):
-            L[c] = setup.box[1, c] - setup.box[0, c]
+    if rules.boundary == PERIODIC:
+        for c in range(rules.dim):
+            L[c] = rules.box[1, c] - rules.box[0, c]
     return L
 
 
@@ -198,13 +233,13 @@ def _wall_time(A, B, i, r, wall, t_lo):
 
 
 @kernel(inline=True)
-def _allowed(setup, kind, i, j):
+def _allowed(rules, kind, i, j):
     """The response for the pair, IGNORE when the category/mask bits filter it out."""
-    if (setup.category[i] & setup.mask[j]) == 0 or (setup.category[j] & setup.mask[i]) == 0:
+    if (rules.category[i] & rules.mask[j]) == 0 or (rules.category[j] & rules.mask[i]) == 0:
         return IGNORE
-    if setup.owner[i] == j or setup.owner[j] == i:
+    if rules.owner[i] == j or rules.owner[j] == i:
         return IGNORE                     # a missile and its launcher, before it is armed
-    return setup.response[kind[i], kind[j]]
+    return rules.response[kind[i], kind[j]]
 
 
 @kernel
@@ -275,26 +310,27 @@ def _radix_sort(keys, values, keys_out, values_out):
 
 
 @kernel
-def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
+def candidate_pairs(A, B, tb, alive, rules, lo, hi):
     """Pairs (i < j) whose swept boxes share a cell and whose response is not IGNORE.
 
     Returns (pairs (m, 2) int64, entries): each pair once, in a deterministic order.
     """
+    radius, kind = rules.radius, rules.kind
     n = A.shape[0]
-    L = _periods(setup)
+    L = _periods(rules)
     origin = np.zeros(3)
-    cell = np.full(3, setup.cell)
+    cell = np.full(3, rules.cell)
     ncell = np.zeros(3, np.int64)
     for c in range(3):
         if L[c] > 0.0:
-            origin[c] = setup.box[0, c]
-            ncell[c] = max(1, int(L[c] // setup.cell))
+            origin[c] = rules.box[0, c]
+            ncell[c] = max(1, int(L[c] // rules.cell))
             cell[c] = L[c] / ncell[c]                  # whole cells around the period
     cell = 1.0 / cell                                  # multiplied below: no divisions
-    for c in range(setup.dim, 3):
+    for c in range(rules.dim, 3):
         cell[c] = 0.0                                  # a flat axis: every box in layer 0
-    _bounds(A, B, tb, radius, alive, lo, hi, setup.giants[:0])
-    gridded = setup.gridded
+    _bounds(A, B, tb, radius, alive, lo, hi, rules.giants[:0])
+    gridded = rules.gridded
     # the entries (body, cell): counted, then written in body order (sequentially)
     total = 0
     for i in range(n):
@@ -363,7 +399,7 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
                 # the filter last: most pairs sharing a cell fail the box test, which reads
                 # less memory than the kinds, categories and masks
                 if home and _cell_key(kx, ky, kz) == keys[eu] and \
-                        _allowed(setup, kind, i, j) != IGNORE:
+                        _allowed(rules, kind, i, j) != IGNORE:
                     if m == pairs.shape[0]:
                         pairs = grown_pairs(pairs, m)
                     pairs[m, 0] = i
@@ -373,7 +409,7 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
     # the giants against everyone, x first (most bodies are far along it); a pair of giants
     # once, from the lower row
     wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
-    giants = setup.giants
+    giants = rules.giants
     for q in range(giants.size):
         g = giants[q]
         if not alive[g]:
@@ -384,7 +420,7 @@ def candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
             if j == g or not alive[j] or (j < g and _in_sorted(giants, j)):
                 continue
             i, k = min(g, j), max(g, j)
-            if _boxes_meet(lo, hi, i, k, L) and _allowed(setup, kind, i, k) != IGNORE:
+            if _boxes_meet(lo, hi, i, k, L) and _allowed(rules, kind, i, k) != IGNORE:
                 if m == pairs.shape[0]:
                     pairs = grown_pairs(pairs, m)
                 pairs[m, 0] = i
@@ -428,15 +464,15 @@ def _boxes_meet(lo, hi, i, j, L):
 
 
 @kernel
-def focused_pairs(A, B, tb, radius, alive, kind, setup, lo, hi, focus, in_focus, partners,
-                  is_giant):
+def focused_pairs(A, B, tb, alive, rules, lo, hi, focus, in_focus, partners, is_giant):
     """Pairs with at least one body of `focus` (whose lines changed in the last pass) and
     overlapping boxes: O(len(focus) N), cheaper than a new grid when few bodies changed.
     lo, hi : the boxes of the last pass, refreshed here for the focus bodies only (the others'
     lines did not change); partners : the rows that can meet a body other than a giant (the
     gridded ones and the giants): what a focus body that is no giant is tested against."""
+    radius, kind = rules.radius, rules.kind
     n = A.shape[0]
-    L = _periods(setup)
+    L = _periods(rules)
     _bounds(A, B, tb, radius, alive, lo, hi, focus)
     pairs = np.empty((16, 2), np.int64)
     m = 0
@@ -455,7 +491,7 @@ def focused_pairs(A, B, tb, radius, alive, kind, setup, lo, hi, focus, in_focus,
             if j == i or not alive[j] or (in_focus[j] and j < i):
                 continue                               # a pair of two focus bodies: once
             a, b = min(i, j), max(i, j)
-            if not _boxes_meet(lo, hi, a, b, L) or _allowed(setup, kind, a, b) == IGNORE:
+            if not _boxes_meet(lo, hi, a, b, L) or _allowed(rules, kind, a, b) == IGNORE:
                 continue
             if m == pairs.shape[0]:
                 pairs = grown_pairs(pairs, m)
@@ -466,19 +502,20 @@ def focused_pairs(A, B, tb, radius, alive, kind, setup, lo, hi, focus, in_focus,
 
 
 @kernel
-def brute_pairs(A, B, tb, radius, alive, kind, setup, lo, hi):
+def brute_pairs(A, B, tb, alive, rules, lo, hi):
     """Every pair (i < j) whose swept boxes overlap (minimum image when wrapping) and whose
     response is not IGNORE: the O(N^2) reference the grid is tested against."""
+    radius, kind = rules.radius, rules.kind
     n = A.shape[0]
-    L = _periods(setup)
-    _bounds(A, B, tb, radius, alive, lo, hi, setup.giants[:0])
+    L = _periods(rules)
+    _bounds(A, B, tb, radius, alive, lo, hi, rules.giants[:0])
     pairs = np.empty((16, 2), np.int64)
     m = 0
     for i in range(n):
         if not alive[i]:
             continue
         for j in range(i + 1, n):
-            if not alive[j] or _allowed(setup, kind, i, j) == IGNORE:
+            if not alive[j] or _allowed(rules, kind, i, j) == IGNORE:
                 continue
             if _boxes_meet(lo, hi, i, j, L):
                 if m == pairs.shape[0]:
@@ -509,35 +546,6 @@ def _fractions(m_i, m_j, fixed_i, fixed_j):
 
 
 @kernel
-def _record(events, count, kind, a, b, time, t_in_step, point, normal, speed, lost, distance):
-    """Append an event to the buffer events[0], doubling it when full."""
-    k = count[0]
-    buf = events[0]
-    if k >= buf.shape[0]:
-        grown = np.zeros(2 * buf.shape[0] + 16, dtype=buf.dtype)
-        for q in range(buf.shape[0]):                  # a loop: compiles 3 s faster
-            grown[q] = buf[q]
-        events[0] = grown
-        buf = grown
-    ev = buf[k]
-    ev.kind = kind
-    ev.a = a
-    ev.b = b
-    ev.time = time
-    ev.t_in_step = t_in_step
-    ev.x = point[0]
-    ev.y = point[1]
-    ev.z = point[2]
-    ev.nx = normal[0]
-    ev.ny = normal[1]
-    ev.nz = normal[2]
-    ev.speed = speed
-    ev.energy_lost = lost
-    ev.distance = distance
-    count[0] = k + 1
-
-
-@kernel
 def _velocity_at(V0, V1, D, k, t, out):
     """Body k's velocity at fraction t of the step: the integrator's, interpolated between the
     step's start and end, plus the impulses of this step's earlier contacts."""
@@ -546,8 +554,8 @@ def _velocity_at(V0, V1, D, k, t, out):
 
 
 @kernel
-def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, setup, dt, t0,
-             L, events, count):
+def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rules, dt, t0,
+             L, state):
     """Apply response resp to the contact of i and j at time t of the step. Returns 0 when
     nothing changed a trajectory, 1 when velocities changed, 2 when a body was removed or
     merged (the caller must refresh what depends on the set of bodies)."""
@@ -580,13 +588,13 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, se
     closing = 0.0
     for c in range(3):
         closing += (uj[c] - ui[c]) * n[c]             # < 0 when approaching
-    fixed_i = setup.fixed[i]
-    fixed_j = setup.fixed[j]
+    fixed_i = rules.fixed[i]
+    fixed_j = rules.fixed[j]
     when = t0 + t * dt
     if resp == SENSOR:
-        _record(events, count, _SENSOR, ids[i], ids[j], when, t * dt, point, n, -closing, 0.0, dist)
+        record(state, EV_SENSOR, ids[i], ids[j], when, t * dt, point, n, -closing, 0.0, dist)
         return 0
-    if resp == ELASTIC or resp == BOUNCE or resp == BREAK_A or resp == BREAK_B:
+    if resp in REFLECTING:
         if closing >= 0.0:
             return 0
         fi, fj = _fractions(mass[i], mass[j], fixed_i, fixed_j)
@@ -617,7 +625,7 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, se
         else:
             reduced = mass[i] * fj          # m_i m_j / (m_i + m_j)
         lost = 0.5 * (1.0 - e * e) * reduced * closing * closing
-        _record(events, count, _BOUNCE, ids[i], ids[j], when, t * dt, point, n, -closing, lost, dist)
+        record(state, EV_BOUNCE, ids[i], ids[j], when, t * dt, point, n, -closing, lost, dist)
         if resp == ELASTIC or resp == BOUNCE:
             return 1
         # a break: the bounce happened (the other body keeps its rebound), then the broken
@@ -629,7 +637,7 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, se
             B[k, c] = 0.0
         alive[k] = False
         mass[k] = 0.0
-        _record(events, count, _DESTROY, ids[k], ids[j if k == i else i], when, t * dt, point,
+        record(state, EV_DESTROY, ids[k], ids[j if k == i else i], when, t * dt, point,
                 n, -closing, 0.0, dist)
         return 2
     if resp == MERGE:
@@ -645,7 +653,7 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, se
         rel2 = 0.0
         for c in range(3):
             rel2 += (uj[c] - ui[c]) ** 2
-        if setup.fixed[s]:
+        if rules.fixed[s]:
             ws, wo = 1.0, 0.0
         for c in range(3):
             centre = ws * ps[c] + wo * po[c]
@@ -657,7 +665,7 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, se
             A[s, c] = centre - B[s, c] * t
             A[o, c] = po[c] - B[o, c] * t
         tb[s] = t
-        if setup.dim == 3:
+        if rules.dim == 3:
             radius[s] = (radius[s] ** 3 + radius[o] ** 3) ** (1.0 / 3.0)
         else:
             radius[s] = math.sqrt(radius[s] ** 2 + radius[o] ** 2)
@@ -669,7 +677,7 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, se
         for c in range(3):
             B[o, c] = 0.0
             A[o, c] = po[c]
-        _record(events, count, _MERGE, ids[s], ids[o], when, t * dt, point, n, -closing, lost,
+        record(state, EV_MERGE, ids[s], ids[o], when, t * dt, point, n, -closing, lost,
                 dist)
         return 2
     # destroy one or both: frozen where they met, no mass, out of the game
@@ -687,20 +695,20 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, se
                 B[k, c] = 0.0
             alive[k] = False
             mass[k] = 0.0
-            _record(events, count, _DESTROY, ids[k], ids[other], when, t * dt, point, n,
+            record(state, EV_DESTROY, ids[k], ids[other], when, t * dt, point, n,
                     -closing, lost, dist)
     return 2
 
 
 @kernel
-def _respond_wall(i, t, n0, n1, n2, e, A, B, tb, V0, V1, D, mass, radius, ids, setup, dt, t0,
-                  events, count):
+def _respond_wall(i, t, n0, n1, n2, e, A, B, tb, V0, V1, D, mass, radius, ids, rules, dt, t0,
+                  state):
     """Reflect body i off a wall (immovable) with restitution e: v -= (1 + e) (v . n) n."""
     n = np.array([n0, n1, n2])
     u = np.empty(3)
     _velocity_at(V0, V1, D, i, t, u)
     un = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]
-    if un >= 0.0 or setup.fixed[i]:
+    if un >= 0.0 or rules.fixed[i]:
         return 0
     p = np.empty(3)
     for c in range(3):
@@ -717,14 +725,15 @@ def _respond_wall(i, t, n0, n1, n2, e, A, B, tb, V0, V1, D, mass, radius, ids, s
         normal[c] = -n[c]
     # the wall does not move: a restitution e takes (1 - e^2) of the normal kinetic energy
     lost = 0.5 * (1.0 - e * e) * mass[i] * un * un
-    _record(events, count, _WALL, ids[i], -1, t0 + t * dt, t * dt, point, normal, -un, lost,
+    record(state, EV_WALL, ids[i], -1, t0 + t * dt, t * dt, point, normal, -un, lost,
             radius[i])
     return 1
 
 
 @kernel
-def pair_contacts(A, B, tb, pairs, radius, L, setup):
+def pair_contacts(A, B, tb, pairs, L, rules):
     """Narrow phase: (times, i, j) of the candidate pairs that touch within the step."""
+    radius = rules.radius
     m = pairs.shape[0]
     ct = np.empty(m)
     ci = np.empty(m, np.int64)
@@ -733,9 +742,9 @@ def pair_contacts(A, B, tb, pairs, radius, L, setup):
     for q in range(m):
         i = pairs[q, 0]
         j = pairs[q, 1]
-        resp = _allowed(setup, setup.kind, i, j)
+        resp = _allowed(rules, rules.kind, i, j)
         t = _pair_time(A, B, i, j, radius[i] + radius[j], max(tb[i], tb[j]), L,
-                       MERGE <= resp <= DESTROY_BOTH)
+                       resp in TOUCH_ENDS)
         if t >= 0.0:
             ct[k] = t
             ci[k] = i
@@ -745,25 +754,25 @@ def pair_contacts(A, B, tb, pairs, radius, L, setup):
 
 
 @kernel
-def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0, work):
+def collide_step(state, rules, dt, t0):
     """Find and resolve every contact of one step, in time order.
 
-    pos0, vel0 : (n, 3) positions and velocities at the start of the step (vel0 is used as
-    scratch: merges overwrite it); pos, vel : (n, 3) at its end, updated where a contact
-    changed them, left bit for bit as they were elsewhere (a contact at fraction t of the step
-    sees the velocity interpolated between the two);
-    mass : (n,), updated by merges (bodies destroyed or merged away get mass 0 and are marked
-    dead in setup.alive); setup : Setup; dt : the step [time]; t0 : the simulation time at
-    its start; work : arrays.Work, scratch of n rows. Events are appended to setup.events.
+    state : the kernels' State: pos0, vel0 hold the positions and velocities at the start of
+    the step (vel0 is used as scratch: merges overwrite it); pos, vel those at its end,
+    updated where a contact changed them, left bit for bit as they were elsewhere (a contact
+    at fraction t of the step sees the velocity interpolated between the two); mass is
+    updated by merges (bodies destroyed or merged away get mass 0 and are marked dead in
+    state.alive); events are appended to its buffer. rules : Rules; dt : the step [time];
+    t0 : the simulation time at its start.
     Returns 2 if a body was removed or merged, 1 if only velocities changed, 0 if nothing.
     """
-    radius, kind, alive, ids = setup.radius, setup.kind, setup.alive, setup.ids
-    events, count = setup.events, setup.count
+    pos0, vel0, pos, vel, mass = state.pos0, state.vel0, state.pos, state.vel, state.mass
+    radius, kind, alive, ids = rules.radius, rules.kind, state.alive, state.ids
     n = pos.shape[0]
-    L = _periods(setup)
-    A, B, D, lo, hi, tb = work.A, work.B, work.D, work.lo, work.hi, work.tb
-    ever, touched, in_focus, is_giant = work.ever, work.touched, work.in_focus, work.is_giant
-    merged_into = work.merged
+    L = _periods(rules)
+    A, B, D, lo, hi, tb = rules.A, rules.B, rules.D, rules.lo, rules.hi, rules.tb
+    ever, touched, in_focus, is_giant = rules.ever, rules.touched, rules.in_focus, rules.is_giant
+    merged_into = rules.merged
     for i in range(n):
         tb[i] = 0.0
         ever[i] = False
@@ -779,44 +788,44 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0, work):
     # D: impulses of this step, per body; ever: bodies whose line a contact changed
     V0 = vel0                                          # merges mix these in place
     V1 = vel
-    walls = setup.walls
-    nbox = 2 * setup.dim if setup.boundary == REFLECT else 0
+    walls = rules.walls
+    nbox = 2 * rules.dim if rules.boundary == REFLECT else 0
     box_walls = np.zeros((nbox, 8))
     for c in range(nbox // 2):
         for side in range(2):
             row = box_walls[2 * c + side]
             row[0] = PLANE
-            row[1 + c] = setup.box[side, c]
+            row[1 + c] = rules.box[side, c]
             row[4 + c] = 1.0 if side == 0 else -1.0
-            row[7] = setup.box_restitution
+            row[7] = rules.box_restitution
     changed = 0
     # merged_into: a body merged away hands its remaining contacts of the step to its
     # survivor, so that everything that touched within the step ends up one body (merges
     # chain transitively)
-    for q in range(setup.giants.size):
-        is_giant[setup.giants[q]] = True
-    partners = work.partners
+    for q in range(rules.giants.size):
+        is_giant[rules.giants[q]] = True
+    partners = rules.partners
     size = 0
     for i in range(n):
-        if setup.gridded[i] or is_giant[i]:
+        if rules.gridded[i] or is_giant[i]:
             partners[size] = i
             size += 1
     partners = partners[:size]
     for sweep in range(_MAX_PASSES + 1):
         last = sweep == _MAX_PASSES
         if sweep == 0:
-            pairs, _ = candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi)
+            pairs, _ = candidate_pairs(A, B, tb, alive, rules, lo, hi)
         else:
             # only pairs with a body whose line changed in the last pass can be new
             focus = np.flatnonzero(touched)
             for i in range(n):
                 in_focus[i] = touched[i]
             if focus.size <= 64:                        # O(kN) box tests beat a new grid
-                pairs = focused_pairs(A, B, tb, radius, alive, kind, setup, lo, hi, focus,
-                                      in_focus, partners, is_giant)
+                pairs = focused_pairs(A, B, tb, alive, rules, lo, hi, focus, in_focus,
+                                      partners, is_giant)
             else:
-                pairs, _ = candidate_pairs(A, B, tb, radius, alive, kind, setup, lo, hi)
-        pt, pi_, pj_ = pair_contacts(A, B, tb, pairs, radius, L, setup)
+                pairs, _ = candidate_pairs(A, B, tb, alive, rules, lo, hi)
+        pt, pi_, pj_ = pair_contacts(A, B, tb, pairs, L, rules)
         # contacts: (time, i, j) with j < 0 for walls (-1 - row; box walls after the walls)
         k = pt.size
         ct = np.empty(k + n * (walls.shape[0] + nbox))
@@ -853,7 +862,7 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0, work):
             j = cj[c] if cj[c] < 0 else _survivor(merged_into, cj[c])
             if i == j or not alive[i] or (j >= 0 and not alive[j]):
                 continue
-            chained = j >= 0 and _allowed(setup, kind, min(i, j), max(i, j)) == MERGE
+            chained = j >= 0 and _allowed(rules, kind, min(i, j), max(i, j)) == MERGE
             if not chained and (touched[i] or (j >= 0 and touched[j])):
                 continue
             if j >= 0 and i > j:
@@ -865,14 +874,13 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0, work):
                 w = -1 - j
                 row = walls[w] if w < walls.shape[0] else box_walls[w - walls.shape[0]]
                 r = _respond_wall(i, t, cn[c, 0], cn[c, 1], cn[c, 2], row[7], A, B, tb, V0, V1,
-                                  D, mass, radius, ids, setup, dt, t0, events, count)
+                                  D, mass, radius, ids, rules, dt, t0, state)
             else:
-                resp = _allowed(setup, kind, i, j)
-                if resp == SENSOR and sweep > 0 and _seen(events, count, ids[i], ids[j], t0):
+                resp = _allowed(rules, kind, i, j)
+                if resp == SENSOR and sweep > 0 and _seen(state, ids[i], ids[j], t0):
                     continue
-                r = _respond(i, j, t, resp, setup.restitution[kind[i], kind[j]], A, B, tb,
-                             V0, V1, D, mass, radius, alive, ids, setup, dt, t0, L, events,
-                             count)
+                r = _respond(i, j, t, resp, rules.restitution[kind[i], kind[j]], A, B, tb,
+                             V0, V1, D, mass, radius, alive, ids, rules, dt, t0, L, state)
                 if resp == MERGE:
                     merged_into[i if not alive[i] else j] = j if not alive[i] else i
             if r > 0:
@@ -892,7 +900,7 @@ def collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0, work):
         for c in range(3):
             x = A[i, c] + B[i, c] if ever[i] else pos[i, c]
             if L[c] > 0.0:
-                x = setup.box[0, c] + (x - setup.box[0, c]) % L[c]
+                x = rules.box[0, c] + (x - rules.box[0, c]) % L[c]
             pos[i, c] = x
             if ever[i]:
                 vel[i, c] = V1[i, c] + D[i, c]
@@ -909,13 +917,13 @@ def _survivor(merged_into, i):
 
 
 @kernel
-def _seen(events, count, a, b, t0):
+def _seen(state, a, b, t0):
     """Whether a sensor event of this pair was already recorded in this step."""
-    buf = events[0]
-    for k in range(count[0] - 1, -1, -1):
+    buf = state.events
+    for k in range(state.count[0] - 1, -1, -1):
         ev = buf[k]
         if ev.time < t0:
             break
-        if ev.kind == _SENSOR and ((ev.a == a and ev.b == b) or (ev.a == b and ev.b == a)):
+        if ev.kind == EV_SENSOR and ((ev.a == a and ev.b == b) or (ev.a == b and ev.b == a)):
             return True
     return False

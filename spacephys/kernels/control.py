@@ -18,24 +18,34 @@ after the collisions after_step fires proximity fuses and ends lifetimes.
 Compiled without fastmath: log1p and the series of g carry the small-burn accuracy.
 """
 import math
-from collections import namedtuple
 
 import numpy as np
+from numba import types
+from numba.experimental import structref
 
 from .._jit import kernel
-from .collide import _periods, _record, _wrap, collide_step
+from .codes import (EV_BURNOUT, EV_DETONATION, EV_EXPIRY, EV_FUEL_EMPTY, NO_GUIDANCE,
+                    PURSUIT)
+from .collide import _wrap
+from .state import record
 
-# guidance laws
-NO_GUIDANCE, PURSUIT, PROPORTIONAL = 0, 1, 2
-# event kinds (spacephys.events)
-_LAUNCH, _BURNOUT, _FUEL_EMPTY, _DETONATION, _EXPIRY = 6, 7, 8, 9, 10
 # flags: what has been reported once
 _FLAG_EMPTY, _FLAG_BURNOUT = 1, 2
 # burn columns
 DX, DY, DZ, F, MDOT, M0, T_STOP, VE = range(8)
 
-Control = namedtuple("Control", [
-    "enabled",     # bool: actors or lifetimes to handle
+
+@structref.register
+class ActorsType(types.StructRef):
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(t)) for name, t in fields)
+
+
+class Actors(structref.StructRefProxy):
+    """The actors' table (see FIELDS); made by `make`, read and updated by the kernels."""
+
+
+FIELDS = (
     "actors",      # (A,) int64 rows of the ships and missiles
     "quat",        # (n, 4) orientation quaternion (w, x, y, z): body x is the heading
     "omega",       # (n, 3) body-frame angular velocity [rad/time] (physical rotation)
@@ -62,8 +72,30 @@ Control = namedtuple("Control", [
     "flags",       # (n,) int64: _FLAG_* already reported
     "expires",     # (n,) time of expiry (inf: never), or (0,) when no body has a lifetime
     "dim",         # 2 or 3
-])
-"""What the actors' kernels need besides positions, velocities and masses; built by World."""
+    "burn",        # (A, 8) this step's burn per actor (see the module)
+    "saved",       # (A, 7) orientations and rates at the step's start, to undo a failed step
+)
+structref.define_proxy(Actors, ActorsType, list(FIELDS))
+
+
+@kernel
+def _make(actors, quat, omega, throttle, turn, strafe, dry, fuel, thrust, side, exhaust,
+          turn_rate, inertia, torque, curve, curve_table, guidance, nav, target, burn_end,
+          armed_at, fuse, kill, flags, expires, dim, burn, saved):
+    return Actors(actors, quat, omega, throttle, turn, strafe, dry, fuel, thrust, side,
+                  exhaust, turn_rate, inertia, torque, curve, curve_table, guidance, nav,
+                  target, burn_end, armed_at, fuse, kill, flags, expires, dim, burn, saved)
+
+
+def make(columns, actors, target, curve_table, expires, dim):
+    """An Actors table: columns maps the per-body FIELDS (quat ... flags but target) to (n, ...)
+    arrays, shared, not copied; actors (A,) rows, target (n,) rows, expires (n,) or (0,)."""
+    c = columns
+    return _make(actors, c["quat"], c["omega"], c["throttle"], c["turn"], c["strafe"],
+                 c["dry"], c["fuel"], c["thrust"], c["side"], c["exhaust"], c["turn_rate"],
+                 c["inertia"], c["torque"], c["curve"], curve_table, c["guidance"], c["nav"],
+                 target, c["burn_end"], c["armed_at"], c["fuse"], c["kill"], c["flags"],
+                 expires, int(dim), np.zeros((actors.size, 8)), np.zeros((actors.size, 7)))
 
 
 # ---------------------------------------------------------------- rotations
@@ -105,13 +137,13 @@ def _normalised(q0, q1, q2, q3):
 
 
 @kernel(inline=True)
-def _curve_factor(ctrl, i, speed):
+def _curve_factor(act, i, speed):
     """The thrust curve at this speed: piecewise linear through the table rows, flat beyond."""
-    first = ctrl.curve[i, 0]
-    count = ctrl.curve[i, 1]
+    first = act.curve[i, 0]
+    count = act.curve[i, 1]
     if count == 0:
         return 1.0
-    table = ctrl.curve_table
+    table = act.curve_table
     if speed <= table[first, 0]:
         return table[first, 1]
     for k in range(first + 1, first + count):
@@ -123,7 +155,7 @@ def _curve_factor(ctrl, i, speed):
 
 
 @kernel(inline=True)
-def _desired(ctrl, i, j, pos, vel, hx, hy, hz, a_max, L):
+def _desired(act, i, j, pos, vel, hx, hy, hz, a_max, L):
     """The direction guidance asks missile i to accelerate in, toward target j; the heading
     when there is nothing to do. Pursuit: along the line of sight. Proportional navigation:
     the lateral acceleration N Vc (line-of-sight rate) = N Vc v_perp / |r|, plus whatever
@@ -135,7 +167,7 @@ def _desired(ctrl, i, j, pos, vel, hx, hy, hz, a_max, L):
     if r == 0.0:
         return hx, hy, hz
     ux, uy, uz = rx / r, ry / r, rz / r
-    if ctrl.guidance[i] == PURSUIT:
+    if act.guidance[i] == PURSUIT:
         return ux, uy, uz
     wx = vel[j, 0] - vel[i, 0]
     wy = vel[j, 1] - vel[i, 1]
@@ -144,7 +176,7 @@ def _desired(ctrl, i, j, pos, vel, hx, hy, hz, a_max, L):
     closing = -along
     if closing <= 0.0:
         return ux, uy, uz
-    k = ctrl.nav[i] * closing / r
+    k = act.nav[i] * closing / r
     cx = k * (wx - along * ux)
     cy = k * (wy - along * uy)
     cz = k * (wz - along * uz)
@@ -284,11 +316,19 @@ def next_stop(actors, burn, after):
 
 
 @kernel
-def begin_step(ctrl, setup, pos, vel, mass, t0, dt, burn):
-    """Arm fuses, turn every live actor over the step and set its burn (see the module)."""
-    actors = ctrl.actors
-    alive = setup.alive
-    L = _periods(setup)
+def begin_step(act, rules, state, t0, dt, L):
+    """Arm fuses (rules: the collision table or None), keep every actor's orientation (for
+    undo_turns), turn every live actor over the step and set its burn in act.burn (see the
+    module). L : (3,) the periods of a wrapping boundary (zeros: none)."""
+    actors = act.actors
+    alive = state.alive
+    pos, vel, mass, burn = state.pos, state.vel, state.mass, act.burn
+    for q in range(actors.size):
+        i = actors[q]
+        for k in range(4):
+            act.saved[q, k] = act.quat[i, k]
+        for k in range(3):
+            act.saved[q, 4 + k] = act.omega[i, k]
     for q in range(actors.size):
         i = actors[q]
         for k in range(8):
@@ -297,57 +337,57 @@ def begin_step(ctrl, setup, pos, vel, mass, t0, dt, burn):
         burn[q, M0] = 1.0
         if not alive[i]:
             continue
-        if setup.owner[i] >= 0 and t0 >= ctrl.armed_at[i]:
-            setup.owner[i] = -1                      # armed: its launcher can be hit now
-        q0, q1, q2, q3 = ctrl.quat[i, 0], ctrl.quat[i, 1], ctrl.quat[i, 2], ctrl.quat[i, 3]
+        if rules is not None and rules.owner[i] >= 0 and t0 >= act.armed_at[i]:
+            rules.owner[i] = -1                      # armed: its launcher can be hit now
+        q0, q1, q2, q3 = act.quat[i, 0], act.quat[i, 1], act.quat[i, 2], act.quat[i, 3]
         hx, hy, hz = _rotate(q0, q1, q2, q3, 1.0, 0.0, 0.0)
         speed = math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2 + vel[i, 2] ** 2)
-        burning = ctrl.fuel[i] > 0.0 and t0 < ctrl.burn_end[i]
-        main = ctrl.throttle[i] * ctrl.thrust[i] * _curve_factor(ctrl, i, speed) \
+        burning = act.fuel[i] > 0.0 and t0 < act.burn_end[i]
+        main = act.throttle[i] * act.thrust[i] * _curve_factor(act, i, speed) \
             if burning else 0.0
-        j = ctrl.target[i]
-        if ctrl.guidance[i] != NO_GUIDANCE and j >= 0 and alive[j]:
+        j = act.target[i]
+        if act.guidance[i] != NO_GUIDANCE and j >= 0 and alive[j]:
             # a world-frame turn toward what guidance asks for, at most turn_rate dt
             a_max = main / mass[i] if mass[i] > 0.0 else 0.0
-            dx, dy, dz = _desired(ctrl, i, j, pos, vel, hx, hy, hz, a_max, L)
+            dx, dy, dz = _desired(act, i, j, pos, vel, hx, hy, hz, a_max, L)
             ax, ay, az, angle = _turn_toward(q0, q1, q2, q3, hx, hy, hz, dx, dy, dz,
-                                             ctrl.turn_rate[i] * dt, ctrl.dim)
+                                             act.turn_rate[i] * dt, act.dim)
             m0, m1, m2, m3 = _qexp(ax, ay, az, 0.5 * angle)
             e0, e1, e2, e3 = _qexp(ax, ay, az, angle)
             h0, h1, h2, h3 = _qmul(m0, m1, m2, m3, q0, q1, q2, q3)
             n0, n1, n2, n3 = _qmul(e0, e1, e2, e3, q0, q1, q2, q3)
         else:
             # body-frame rates: commanded (arcade) or from torque (physical, the step's mean)
-            if ctrl.inertia[i] > 0.0:
-                wx = ctrl.omega[i, 0]
-                wy = ctrl.omega[i, 1]
-                wz = ctrl.omega[i, 2]
-                f = ctrl.torque[i] / ctrl.inertia[i] * dt
-                ctrl.omega[i, 0] += f * ctrl.turn[i, 0]
-                ctrl.omega[i, 1] += f * ctrl.turn[i, 1]
-                ctrl.omega[i, 2] += f * ctrl.turn[i, 2]
-                wx = 0.5 * (wx + ctrl.omega[i, 0])
-                wy = 0.5 * (wy + ctrl.omega[i, 1])
-                wz = 0.5 * (wz + ctrl.omega[i, 2])
+            if act.inertia[i] > 0.0:
+                wx = act.omega[i, 0]
+                wy = act.omega[i, 1]
+                wz = act.omega[i, 2]
+                f = act.torque[i] / act.inertia[i] * dt
+                act.omega[i, 0] += f * act.turn[i, 0]
+                act.omega[i, 1] += f * act.turn[i, 1]
+                act.omega[i, 2] += f * act.turn[i, 2]
+                wx = 0.5 * (wx + act.omega[i, 0])
+                wy = 0.5 * (wy + act.omega[i, 1])
+                wz = 0.5 * (wz + act.omega[i, 2])
             else:
-                wx = ctrl.turn_rate[i] * ctrl.turn[i, 0]
-                wy = ctrl.turn_rate[i] * ctrl.turn[i, 1]
-                wz = ctrl.turn_rate[i] * ctrl.turn[i, 2]
+                wx = act.turn_rate[i] * act.turn[i, 0]
+                wy = act.turn_rate[i] * act.turn[i, 1]
+                wz = act.turn_rate[i] * act.turn[i, 2]
             m0, m1, m2, m3 = _qexp(wx, wy, wz, 0.5 * dt)
             e0, e1, e2, e3 = _qexp(wx, wy, wz, dt)
             h0, h1, h2, h3 = _qmul(q0, q1, q2, q3, m0, m1, m2, m3)
             n0, n1, n2, n3 = _qmul(q0, q1, q2, q3, e0, e1, e2, e3)
         n0, n1, n2, n3 = _normalised(n0, n1, n2, n3)
-        ctrl.quat[i, 0] = n0
-        ctrl.quat[i, 1] = n1
-        ctrl.quat[i, 2] = n2
-        ctrl.quat[i, 3] = n3
+        act.quat[i, 0] = n0
+        act.quat[i, 1] = n1
+        act.quat[i, 2] = n2
+        act.quat[i, 3] = n3
         if not burning:
             continue
         # thrust along the mid-step frame: main along x, side thrusters along y and z
         fx, fy, fz = _rotate(h0, h1, h2, h3, main, 0.0, 0.0)
-        sy = ctrl.side[i] * ctrl.strafe[i, 1]
-        sz = ctrl.side[i] * ctrl.strafe[i, 2]
+        sy = act.side[i] * act.strafe[i, 1]
+        sz = act.side[i] * act.strafe[i, 2]
         px, py, pz = _rotate(h0, h1, h2, h3, 0.0, sy, sz)
         fx += px
         fy += py
@@ -355,70 +395,71 @@ def begin_step(ctrl, setup, pos, vel, mass, t0, dt, burn):
         force = math.sqrt(fx * fx + fy * fy + fz * fz)
         if force == 0.0 or mass[i] <= 0.0:
             continue
-        mdot = (abs(main) + abs(sy) + abs(sz)) / ctrl.exhaust[i]
+        mdot = (abs(main) + abs(sy) + abs(sz)) / act.exhaust[i]
         burn[q, DX] = fx / force
         burn[q, DY] = fy / force
         burn[q, DZ] = fz / force
         burn[q, F] = force
         burn[q, MDOT] = mdot
         burn[q, M0] = mass[i]
-        burn[q, T_STOP] = min(ctrl.fuel[i] / mdot, ctrl.burn_end[i] - t0)
+        burn[q, T_STOP] = min(act.fuel[i] / mdot, act.burn_end[i] - t0)
         burn[q, VE] = force / mdot
 
 
 @kernel
-def end_burn(ctrl, setup, pos, mass, t0, dt, burn):
+def end_burn(act, state, t0, dt):
     """Book the fuel the step burned; report fuel running out and burn times ending."""
-    actors = ctrl.actors
+    actors = act.actors
+    pos, mass, burn = state.pos, state.mass, act.burn
     for q in range(actors.size):
         i = actors[q]
-        if not setup.alive[i]:
+        if not state.alive[i]:
             continue
         if burn[q, F] != 0.0:
             t_burn = min(dt, burn[q, T_STOP])
-            fuel = ctrl.fuel[i] - burn[q, MDOT] * t_burn
+            fuel = act.fuel[i] - burn[q, MDOT] * t_burn
             # empty within the step, or left with the rounding of the subtractions (which
             # would burn for a sliver of the next step)
-            empty = ctrl.fuel[i] / burn[q, MDOT] <= min(dt, ctrl.burn_end[i] - t0) or \
+            empty = act.fuel[i] / burn[q, MDOT] <= min(dt, act.burn_end[i] - t0) or \
                 fuel <= 1e-9 * burn[q, MDOT] * dt
             if empty:
                 fuel = 0.0
-                if ctrl.flags[i] & _FLAG_EMPTY == 0:
-                    ctrl.flags[i] |= _FLAG_EMPTY
-                    _event(setup, _FUEL_EMPTY, i, -1, t0, t_burn, pos, 0.0)
-            ctrl.fuel[i] = max(fuel, 0.0)
-            mass[i] = ctrl.dry[i] + ctrl.fuel[i]     # exactly dry once the fuel is gone
-        end = ctrl.burn_end[i]
-        if t0 < end <= t0 + dt and ctrl.fuel[i] > 0.0 and ctrl.flags[i] & _FLAG_BURNOUT == 0:
-            ctrl.flags[i] |= _FLAG_BURNOUT
-            _event(setup, _BURNOUT, i, -1, t0, end - t0, pos, 0.0)
+                if act.flags[i] & _FLAG_EMPTY == 0:
+                    act.flags[i] |= _FLAG_EMPTY
+                    _event(state, EV_FUEL_EMPTY, i, -1, t0, t_burn, pos, 0.0)
+            act.fuel[i] = max(fuel, 0.0)
+            mass[i] = act.dry[i] + act.fuel[i]     # exactly dry once the fuel is gone
+        end = act.burn_end[i]
+        if t0 < end <= t0 + dt and act.fuel[i] > 0.0 and act.flags[i] & _FLAG_BURNOUT == 0:
+            act.flags[i] |= _FLAG_BURNOUT
+            _event(state, EV_BURNOUT, i, -1, t0, end - t0, pos, 0.0)
 
 
 @kernel
-def _event(setup, kind, i, j, t0, t_in_step, pos, distance):
+def _event(state, kind, i, j, t0, t_in_step, pos, distance):
     point = np.empty(3)
     normal = np.zeros(3)
     for c in range(3):
         point[c] = pos[i, c]
-    _record(setup.events, setup.count, kind, setup.ids[i], setup.ids[j] if j >= 0 else -1,
-            t0 + t_in_step, t_in_step, point, normal, 0.0, 0.0, distance)
+    record(state, kind, state.ids[i], state.ids[j] if j >= 0 else -1, t0 + t_in_step,
+           t_in_step, point, normal, 0.0, 0.0, distance)
 
 
 @kernel
-def after_step(ctrl, setup, pos0, pos, mass, t0, dt):
+def after_step(act, state, t0, dt, L):
     """Proximity fuses (the closest approach along both bodies' straight lines over the step)
     and lifetimes. Returns True when a body died (World must remove it, and may spawn its
     explosion)."""
-    alive = setup.alive
+    alive = state.alive
+    pos0, pos = state.pos0, state.pos
     died = False
-    actors = ctrl.actors
+    actors = act.actors
     point = np.empty(3)
     normal = np.empty(3)
-    L = _periods(setup)
     for q in range(actors.size):
         i = actors[q]
-        j = ctrl.target[i]
-        if ctrl.fuse[i] <= 0.0 or j < 0 or not alive[i] or not alive[j]:
+        j = act.target[i]
+        if act.fuse[i] <= 0.0 or j < 0 or not alive[i] or not alive[j]:
             continue
         d0 = np.empty(3)
         e = np.empty(3)
@@ -430,7 +471,7 @@ def after_step(ctrl, setup, pos0, pos, mass, t0, dt):
         s = 0.0
         if ee > 0.0:
             s = min(max(-(d0[0] * e[0] + d0[1] * e[1] + d0[2] * e[2]) / ee, 0.0), 1.0)
-        armed = ctrl.armed_at[i]
+        armed = act.armed_at[i]
         if t0 + s * dt < armed:
             if t0 + dt < armed:
                 continue
@@ -441,7 +482,7 @@ def after_step(ctrl, setup, pos0, pos, mass, t0, dt):
         for c in range(3):
             normal[c] = d0[c] + s * e[c]
             dist2 += normal[c] * normal[c]
-        fuse = ctrl.fuse[i]
+        fuse = act.fuse[i]
         if dist2 > fuse * fuse:
             continue
         dist = math.sqrt(dist2)
@@ -451,30 +492,28 @@ def after_step(ctrl, setup, pos0, pos, mass, t0, dt):
             if dist > 0.0:
                 normal[c] /= dist
                 closing -= normal[c] * e[c] / dt
-        _record(setup.events, setup.count, _DETONATION, setup.ids[i], setup.ids[j], t0 + s * dt,
-                s * dt, point, normal, closing, 0.0, dist)
+        record(state, EV_DETONATION, state.ids[i], state.ids[j], t0 + s * dt, s * dt, point,
+               normal, closing, 0.0, dist)
         alive[i] = False
-        if ctrl.kill[i]:
+        if act.kill[i]:
             alive[j] = False
         died = True
-    if ctrl.expires.size:
+    if act.expires.size:
         t1 = t0 + dt
         for i in range(pos.shape[0]):
-            if alive[i] and ctrl.expires[i] <= t1:
+            if alive[i] and act.expires[i] <= t1:
                 alive[i] = False
                 died = True
-                _event(setup, _EXPIRY, i, -1, t0, max(ctrl.expires[i] - t0, 0.0), pos, 0.0)
+                _event(state, EV_EXPIRY, i, -1, t0, max(act.expires[i] - t0, 0.0), pos, 0.0)
     return died
 
 
 @kernel
-def finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work):
-    """Everything after a step's integration: fuel, collisions, fuses and lifetimes. True when
-    bodies were removed or merged (the kernel returns so that World can catch up)."""
-    if ctrl.enabled:
-        end_burn(ctrl, setup, pos, mass, t0, dt, burn)
-    removed = setup.enabled and \
-        collide_step(pos0, vel0, pos, vel, mass, setup, dt, t0, work) == 2
-    if ctrl.enabled and after_step(ctrl, setup, pos0, pos, mass, t0, dt):
-        removed = True
-    return removed
+def undo_turns(act):
+    """Put every actor's orientation and rate back to where begin_step found them."""
+    for q in range(act.actors.size):
+        i = act.actors[q]
+        for k in range(4):
+            act.quat[i, k] = act.saved[q, k]
+        for k in range(3):
+            act.omega[i, k] = act.saved[q, 4 + k]

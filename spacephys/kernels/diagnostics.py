@@ -5,7 +5,7 @@ Compiled without fastmath: reassociation would optimise the compensation away.
 import numpy as np
 
 from .._jit import kernel
-from .gravity import CENTRAL, DIRECT, UNIFORM
+from .codes import CENTRAL, DIRECT, UNIFORM
 
 
 @kernel
@@ -41,13 +41,17 @@ def _pair_potential(xi, yi, zi, mi, xj, yj, zj, mj, eps2):
 
 
 @kernel
-def potential_energy(pos, model, mass, src, passive, G, eps2, field, field_mass, still):
-    """Potential energy of the state under the model (arguments as gravity.accelerations).
+def potential_energy(f, pos, mass, passive):
+    """Potential energy of the state pos (n, 3) under the gravity model of the Forces table f,
+    with the masses mass (n,) (f.mass, or those of the pulling bodies only).
 
-    DIRECT: -G m_i m_j / sqrt(r^2 + eps2) over pairs of sources, and over (passive, source)
-    pairs: a passive body sits in the sources' field. CENTRAL: each body in the fixed body's
-    field. UNIFORM: -m g.x. NONE: 0. still: unused (the immovable bodies' potential counts).
+    DIRECT: -G m_i m_j / sqrt(r^2 + eps2) over pairs of sources (f.src), and over (passive,
+    source) pairs for the rows `passive`: a passive body sits in the sources' field. CENTRAL:
+    each body in the fixed body's field. UNIFORM: -m g.x. NONE: 0. The immovable bodies'
+    potential counts.
     """
+    model, src, G, eps2 = f.model, f.src, f.G, f.eps2
+    field, field_mass = f.field, f.field_mass
     s = 0.0
     c = 0.0
     if model == DIRECT:
@@ -80,12 +84,14 @@ def potential_energy(pos, model, mass, src, passive, G, eps2, field, field_mass,
 
 
 @kernel
-def body_energies(pos, vel, model, mass, src, G, eps2, field, field_mass, out):
+def body_energies(f, pos, vel, mass, out):
     """Each body's share of the energy into out (n,): 1/2 m |v|^2 plus, under DIRECT, half
     of each pair potential among the sources src (other bodies get their kinetic energy
     only: give them mass 0 to leave them out); under CENTRAL and UNIFORM, its potential in
     the field. Sums to the total energy, to rounding: used to name the bodies whose energy
-    changed when the total went wrong."""
+    changed when the total went wrong. f : the Forces table (its model and sources)."""
+    model, src, G, eps2 = f.model, f.src, f.G, f.eps2
+    field, field_mass = f.field, f.field_mass
     for i in range(mass.size):
         v2 = vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1] + vel[i, 2] * vel[i, 2]
         out[i] = 0.5 * mass[i] * v2
@@ -104,14 +110,3 @@ def body_energies(pos, vel, model, mass, src, G, eps2, field, field_mass, out):
                                                  pos[j, 0], pos[j, 1], pos[j, 2], mass[j], eps2)
                 out[i] += half
                 out[j] += half
-
-
-@kernel
-def finite_state(pos, vel):
-    """True if every entry of pos and vel (n, 3) is finite: x * 0 is 0 for a finite x and NaN
-    for NaN or inf, and a NaN anywhere makes the sum NaN (one pass, no temporaries)."""
-    s = 0.0
-    for i in range(pos.shape[0]):
-        s += (pos[i, 0] * 0.0 + pos[i, 1] * 0.0 + pos[i, 2] * 0.0
-              + vel[i, 0] * 0.0 + vel[i, 1] * 0.0 + vel[i, 2] * 0.0)
-    return s == 0.0

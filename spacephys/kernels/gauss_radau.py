@@ -18,9 +18,10 @@ import numpy as np
 
 from .._jit import kernel
 from .arrays import copy_into
-from .control import add_thrust, begin_step, finish_step, next_stop, snap_stops
-from .gravity import ALL, PASSIVE, PULLING, _pull, accelerations, gather_sources
-from .integrate import _scratch
+from .codes import FAILED
+from .control import add_thrust, next_stop, snap_stops
+from .forces import accelerations, velocity_dependent
+from .step import begin, capture, end, status, undo
 
 _PC_TOLERANCE = 1e-16      # corrector converged: the sweep changed b7 by < this fraction of |a|
 _PC_ROUNDOFF = 1e-10       # below this, an error that stops shrinking is round-off: also converged
@@ -31,7 +32,7 @@ _SAFETY = 0.25             # redo a step if the criterion asks for < 1/4 of it; 
 _TRUNCATION_FLOOR = 1e-8
 
 # stats slots
-STEPS, REJECTED, AT_MIN_STEP, NOT_CONVERGED, FAILED, RIDER_SUBSTEPS, SWEEPS = range(7)
+STEPS, REJECTED, AT_MIN_STEP, NOT_CONVERGED, RIDER_SUBSTEPS, SWEEPS = range(6)
 # most substeps a rider may take within one step of the bodies that set it
 _MAX_RIDER_SUBSTEPS = 4096
 
@@ -82,6 +83,23 @@ def _position_at(rows, pos, csx, vel, a0, b, tau, h, x):
             s = s * tau + b[i, 0, c] / 6.0
             s = s * tau + a0[i, c] / 2.0
             x[i, c] = pos[i, c] + (tau * h * (vel[i, c] + tau * h * s) - csx[i, c])
+
+
+@kernel
+def _velocity_at(rows, vel, csv, a0, b, tau, h, v):
+    """v = v0 + tau h [a0 + sum_k b_k tau^(k+1) / (k+2)] for the bodies in rows, with v0 the
+    compensated velocity (vel - csv): the velocities the stage's drag and user forces see."""
+    for q in range(rows.size):
+        i = rows[q]
+        for c in range(3):
+            s = b[i, 6, c] / 8.0
+            s = s * tau + b[i, 5, c] / 7.0
+            s = s * tau + b[i, 4, c] / 6.0
+            s = s * tau + b[i, 3, c] / 5.0
+            s = s * tau + b[i, 2, c] / 4.0
+            s = s * tau + b[i, 1, c] / 3.0
+            s = s * tau + b[i, 0, c] / 2.0
+            v[i, c] = vel[i, c] + (tau * h * (a0[i, c] + tau * s) - csv[i, c])
 
 
 @kernel
@@ -198,34 +216,39 @@ def _predict(b, e, q, have_predictor):
 
 
 @kernel(parallel=True, inline=True)
-def _sweep(rows, which, first, everyone, pos, csx, vel, a0, b, g, x, a, b7, h, nodes, c_gb,
-           model, mass, src, passive, G, eps2, field, field_mass, still, scratch, thrust):
+def _sweep(rows, targets, first, f, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7, h, nodes,
+           c_gb, thrust):
     """One predictor-corrector sweep over the seven nodes, updating the bodies in rows (whose
-    accelerations `which` selects, see gravity.accelerations). first = -1 evaluates a0, the
-    acceleration at the step's start (of every body), before the nodes. thrust = (actors,
-    burn, t_off, rider, want): the burns (control.begin_step) are added for the actors whose
-    rider flag equals want (-1: all), the step starting t_off after the interval's. Returns the change of b7 in this sweep relative to the largest |a|
-    (over rows)."""
+    accelerations are computed for `targets`, see forces.accelerations). first = -1 evaluates
+    a0, the acceleration at the step's start (of every body), before the nodes. f : Forces;
+    t : the time of the step's start. thrust = (actors, burn, t_off, rider, want): the burns
+    (control.begin_step) are added for the actors whose rider flag equals want (-1: all), the
+    step starting t_off after the interval's. Returns the change of b7 in this sweep relative
+    to the largest |a| (over rows)."""
     for q in range(rows.size):
         for c in range(3):
             b7[rows[q], c] = b[rows[q], 6, c]
+    moving = velocity_dependent(f)
     for node in range(first, 7):
-        # the only call of the force code in the kernel: each call site of an inlined
-        # parallel loop is compiled anew
+        # the only call of the force code for the bodies setting the step: each call site of
+        # an inlined parallel loop is compiled anew
         if node >= 0:
-            _position_at(everyone, pos, csx, vel, a0, b, nodes[node], h, x)
+            _position_at(f.everyone, pos, csx, vel, a0, b, nodes[node], h, x)
+            if moving:
+                _velocity_at(f.everyone, vel, csv, a0, b, nodes[node], h, v)
         else:
             # the start: no polynomial needed (and a0, not yet known, must not enter: 0 * an
             # uninitialised NaN is NaN)
             for i in range(pos.shape[0]):
                 for c in range(3):
                     x[i, c] = pos[i, c] - csx[i, c]
-        accelerations(x, model, mass, src, passive, G, eps2, field, field_mass, still, scratch,
-                      a if node >= 0 else a0, which if node >= 0 else ALL)
+                    v[i, c] = vel[i, c] - csv[i, c]
+        tau = nodes[node] * h if node >= 0 else 0.0
+        accelerations(f, t + tau, x, v, a if node >= 0 else a0,
+                      targets if node >= 0 else f.everyone, True)
         actors, burn, t_off, rider, want = thrust
         if burn.shape[0]:
-            add_thrust(actors, burn, a if node >= 0 else a0,
-                       t_off + (nodes[node] * h if node >= 0 else 0.0), rider,
+            add_thrust(actors, burn, a if node >= 0 else a0, t_off + tau, rider,
                        want if node >= 0 else -1)
         if node >= 0:
             _correct_at_node(rows, node, nodes, a, a0, g, b, c_gb)
@@ -240,17 +263,15 @@ def _sweep(rows, which, first, everyone, pos, csx, vel, a0, b, g, x, a, b7, h, n
 
 
 @kernel(parallel=True, inline=True)
-def _converge(rows, which, with_a0, everyone, pos, csx, vel, a0, b, g, x, a, b7, h, nodes,
-              c_gb, model, mass, src, passive, G, eps2, field, field_mass, still, scratch,
-              thrust):
+def _converge(rows, targets, with_a0, f, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7, h,
+              nodes, c_gb, thrust):
     """Sweep until b7 stops changing: below _PC_TOLERANCE, or stalled at round-off. Returns
     (converged within _PC_MAX_SWEEPS, sweeps made). with_a0: evaluate a0 first."""
     last = np.inf
     for sweep in range(_PC_MAX_SWEEPS):
         first = -1 if with_a0 and sweep == 0 else 0
-        error = _sweep(rows, which, first, everyone, pos, csx, vel, a0, b, g, x, a, b7, h, nodes,
-                       c_gb, model, mass, src, passive, G, eps2, field, field_mass, still,
-                       scratch, thrust)
+        error = _sweep(rows, targets, first, f, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7,
+                       h, nodes, c_gb, thrust)
         if error < _PC_TOLERANCE or (sweep > 1 and error >= last and error < _PC_ROUNDOFF):
             return True, sweep + 1
         last = error
@@ -276,31 +297,21 @@ def _needy_riders(riders, b, a0, h, dt_scale, mask, converged):
     return needy
 
 
-@kernel
-def _rider_forces(needy, control, src, mass, x, G, eps2, scratch, out):
-    """The pull of the sources (at x) on the needy riders (at x): serial, they are few."""
-    gather_sources(src, x, mass, scratch)
-    for q in range(needy.size):
-        r = needy[q]
-        ax, ay, az = _pull(x[r, 0], x[r, 1], x[r, 2], scratch, eps2)
-        out[r, 0] = G * ax
-        out[r, 1] = G * ay
-        out[r, 2] = G * az
-
-
-@kernel
-def _substep_riders(needy, h, dt_scale, reject_above, control, src, mass, G, eps2, nodes,
-                    c_gb, d_bg, pos, csx, vel, csv, a0, b, g, x, a, b7, stats, actors, burn,
-                    t_off, needy_mask):
+@kernel(parallel=True, inline=True)
+def _substep_riders(needy, h, dt_scale, reject_above, control, f, t, nodes, c_gb, d_bg, pos,
+                    csx, vel, csv, a0, b, g, x, v, a, b7, stats, actors, burn, t_off,
+                    needy_mask):
     """Integrate the needy riders across the step [0, h] in adaptive substeps of their own.
 
-    The control bodies have not moved yet: at any time of the step their positions come from
-    their fitted polynomials (pos, a0, b over h), so the riders see them where they are and
-    never change them. Each substep is a Gauss-Radau step of the riders alone, iterated to
-    convergence, its length from the riders' dynamical time, redone when its truncation
-    error says it was too long; at most _MAX_RIDER_SUBSTEPS of them. Thrusting riders (in
-    needy_mask) add their thrust, the step starting t_off after the interval's."""
-    scratch = np.empty((4, src.size))
+    The control bodies have not moved yet: at any time of the step their positions (and
+    velocities) come from their fitted polynomials (pos, a0, b over h), so the riders see
+    them where they are and never change them. Each substep is a Gauss-Radau step of the
+    riders alone, iterated to convergence, its length from the riders' dynamical time, redone
+    when its truncation error says it was too long; at most _MAX_RIDER_SUBSTEPS of them.
+    Forces come from forces.accelerations for the needy riders only (f : Forces; t : the time
+    of the step's start). Thrusting riders (in needy_mask) add their thrust, the step
+    starting t_off after the interval's."""
+    moving = velocity_dependent(f)
     hs = np.inf
     for q in range(needy.size):
         hs = min(hs, dt_scale * _body_time(b, a0, h, needy[q]))
@@ -317,11 +328,14 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, src, mass, G, eps
             _scale_rows(needy, b, h_try / hs)
             hs = h_try
         _position_at(control, pos, csx, vel, a0, b, elapsed / h, h, x)
+        if moving:
+            _velocity_at(control, vel, csv, a0, b, elapsed / h, h, v)
         for q in range(needy.size):
             r = needy[q]
             for c in range(3):
                 x[r, c] = pos[r, c] - csx[r, c]
-        _rider_forces(needy, control, src, mass, x, G, eps2, scratch, a0)
+                v[r, c] = vel[r, c] - csv[r, c]
+        accelerations(f, t + elapsed, x, v, a0, needy, True)
         if burn.shape[0]:
             add_thrust(actors, burn, a0, t_off + elapsed, needy_mask, 1)
         for q in range(needy.size):
@@ -332,10 +346,13 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, src, mass, G, eps
                 for c in range(3):
                     b7[needy[q], c] = b[needy[q], 6, c]
             for node in range(7):
-                _position_at(control, pos, csx, vel, a0, b, (elapsed + nodes[node] * hs) / h,
-                             h, x)
+                at = (elapsed + nodes[node] * hs) / h
+                _position_at(control, pos, csx, vel, a0, b, at, h, x)
                 _position_at(needy, pos, csx, vel, a0, b, nodes[node], hs, x)
-                _rider_forces(needy, control, src, mass, x, G, eps2, scratch, a)
+                if moving:
+                    _velocity_at(control, vel, csv, a0, b, at, h, v)
+                    _velocity_at(needy, vel, csv, a0, b, nodes[node], hs, v)
+                accelerations(f, t + elapsed + nodes[node] * hs, x, v, a, needy, True)
                 if burn.shape[0]:
                     add_thrust(actors, burn, a, t_off + elapsed + nodes[node] * hs,
                                needy_mask, 1)
@@ -403,45 +420,46 @@ def _predict_rows(rows, b, q):
 
 
 @kernel(parallel=True)
-def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
-                      csx, csv, b, e, control, riders, nodes, c_gb, d_bg, dt_out, nsteps,
-                      params, stats, setup, ctrl, work):
+def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nsteps, t0):
     """Advance nsteps intervals of dt_out, landing exactly on the end of each.
 
-    pos, vel : (n, 3), updated in place; csx, csv : (n, 3), their Kahan compensations;
+    The arguments of every step kernel (kernels/step.py); method = (csx, csv, b, e, control,
+    riders, nodes, c_gb, d_bg, params, stats):
+    csx, csv : (n, 3), the Kahan compensations of pos and vel;
     b, e : (n, 7, 3), the polynomial coefficients and their last prediction, carried over;
-    control : int64 indices of the bodies that set the step and whose convergence is required
-    for it; riders : the passive bodies outside control (empty, or exactly `passive`), iterated
-    to convergence afterwards against the control bodies' final polynomials, so that they
-    never change them; nodes : (7,) Gauss-Radau spacings; c_gb : (7, 7), b_k = sum_j c_gb[j, k]
-    g_j; d_bg : (7, 7), g_j = sum_k d_bg[k, j] b_k.
+    control : int64 rows of the bodies that set the step and whose convergence is required
+    for it; riders : the passive bodies outside control (empty, or exactly forces.passive),
+    iterated to convergence afterwards against the control bodies' final polynomials, so that
+    they never change them; nodes : (7,) Gauss-Radau spacings; c_gb : (7, 7),
+    b_k = sum_j c_gb[j, k] g_j; d_bg : (7, 7), g_j = sum_k d_bg[k, j] b_k.
     params : float64 [tolerance, max_step, min_step, dt_proposal, dt_of_b, have_predictor];
              the last three are updated. tolerance 0: fixed steps of min(dt_proposal, max_step).
-    stats : int64 [steps, rejected, at_min_step, not_converged, failed], incremented; failed
-            is set when the step underflows or turns NaN: the kernel then restores the state
-            at the start of the interval and returns.
-    model ... still : the gravity arguments of gravity.accelerations; setup : collide.Setup,
-    whose pass runs at the end of each interval (so dt_out caps the collision step);
-    work : arrays.Work, scratch for the collision pass;
-    ctrl : control.Control: controls are held over each interval, thrust is sampled at the
-    nodes, and steps end where a burn stops (fuel or burn time), so none straddles the jump.
-    Returns the number of intervals completed: fewer than nsteps after a failure, or when a
+    stats : int64 [steps, rejected, at_min_step, not_converged, rider_substeps, sweeps],
+            incremented.
+    The collision pass runs at the end of each interval (so dt_out caps the collision step);
+    controls are held over each interval, thrust is sampled at the nodes, and steps end where
+    a burn stops (fuel or burn time), so none straddles the jump. Drag and user forces are
+    evaluated at each node's velocity, read off the velocity polynomial.
+    Returns (intervals completed, status): FAILED when a step underflowed the clock or turned
+    NaN (the state is then that at the start of the failed interval), REMOVED when a
     collision removed or merged bodies.
     """
+    csx, csv, b, e, control, riders, nodes, c_gb, d_bg, params, stats = method
+    pos, vel = state.pos, state.vel
     n = pos.shape[0]
     tolerance, max_step, min_step = params[0], params[1], params[2]
     dt = params[3]
     dt_b = params[4]
     have_predictor = params[5] != 0.0
-    scratch = _scratch(model, src)
     a0 = np.empty((n, 3))
     a = np.empty((n, 3))
     x = np.empty((n, 3))
+    v = np.empty((n, 3))
     g = np.empty((n, 7, 3))
     b7 = np.empty((n, 3))
-    saved = np.empty((4, n, 3))                       # the state at the interval's start
+    saved = np.empty((2, n, 3))                       # compensations at the interval's start
     everyone = control.size == n
-    all_rows = np.arange(n)
+    all_rows = forces.everyone
     needy_mask = np.zeros(n, np.bool_)
     dt_scale = (5040.0 * tolerance) ** (1.0 / 7.0)     # (7! tolerance)^(1/7)
     # the step was over 4x too long (b7 ~ dt^7); but never within the round-off of b7 / |a|,
@@ -452,27 +470,19 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
     fixed_h = min(dt_out, max_step)
     if tolerance == 0.0:
         dt = fixed_h
-    vel0 = np.empty((n, 3))
-    actors = ctrl.actors
-    burn = np.zeros((actors.size, 8))
-    turned = np.empty((actors.size, 7))               # orientations at the interval's start
+    movers = np.zeros(0, np.int64) if actors is None else actors.actors
+    burn = np.zeros((0, 8)) if actors is None else actors.burn
     rider = np.zeros(n, np.bool_)
     for q in range(riders.size):
         rider[riders[q]] = True
+    frame = 0
+    done = 0
+    removed = False
     for interval in range(nsteps):
-        t0 = setup.t0 + interval * dt_out
-        copy_into(vel0, vel)
-        copy_into(saved[0], pos)
-        copy_into(saved[1], vel)
-        copy_into(saved[2], csx)
-        copy_into(saved[3], csv)
-        if ctrl.enabled:
-            for q in range(actors.size):
-                for k in range(4):
-                    turned[q, k] = ctrl.quat[actors[q], k]
-                for k in range(3):
-                    turned[q, 4 + k] = ctrl.omega[actors[q], k]
-            begin_step(ctrl, setup, pos, vel, mass, t0, dt_out, burn)
+        t_start = t0 + interval * dt_out
+        begin(state, rules, actors, t_start, dt_out, True, interval == nsteps - 1)
+        copy_into(saved[0], csx)
+        copy_into(saved[1], csv)
         elapsed = 0.0
         while True:
             h = min(dt, max_step)
@@ -483,8 +493,8 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             # end the step where a burn stops: thrust jumps there
             stop = np.inf
             if burn.shape[0]:
-                snap_stops(actors, burn, elapsed, 1e-12 * dt_out)
-                stop = next_stop(actors, burn, elapsed)
+                snap_stops(movers, burn, elapsed, 1e-12 * dt_out)
+                stop = next_stop(movers, burn, elapsed)
             clipped = stop < elapsed + h and stop < dt_out * (1.0 - 1e-12)
             if clipped:
                 h = stop - elapsed
@@ -506,12 +516,10 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
                 if phase == 1 and (everyone or riders.size == 0):
                     break
                 rows = control if phase == 0 else riders
-                which = (ALL if everyone else PULLING) if phase == 0 else PASSIVE
                 want = (-1 if everyone else 0) if phase == 0 else 1
-                converged, sweeps = _converge(rows, which, phase == 0, all_rows, pos, csx, vel,
-                                              a0, b, g, x, a, b7, h, nodes, c_gb, model, mass,
-                                              src, passive, G, eps2, field, field_mass, still,
-                                              scratch, (actors, burn, elapsed, rider, want))
+                converged, sweeps = _converge(rows, rows, phase == 0, forces, t_start + elapsed,
+                                              pos, csx, vel, csv, a0, b, g, x, v, a, b7, h,
+                                              nodes, c_gb, (movers, burn, elapsed, rider, want))
                 if phase == 1:
                     # riders that do not converge over the whole step take substeps below
                     riders_converged = converged
@@ -566,9 +574,10 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             if not everyone and riders.size and tolerance > 0.0:
                 needy = _needy_riders(riders, b, a0, h, dt_scale, needy_mask, riders_converged)
                 if needy.size:
-                    _substep_riders(needy, h, dt_scale, reject_above, control, src, mass, G,
-                                    eps2, nodes, c_gb, d_bg, pos, csx, vel, csv, a0, b, g, x, a,
-                                    b7, stats, actors, burn, elapsed, needy_mask)
+                    _substep_riders(needy, h, dt_scale, reject_above, control, forces,
+                                    t_start + elapsed, nodes, c_gb, d_bg, pos, csx, vel, csv,
+                                    a0, b, g, x, v, a, b7, stats, movers, burn, elapsed,
+                                    needy_mask)
             _finish_step(all_rows if needy.size == 0 else all_rows[~needy_mask], pos, vel,
                          csx, csv, a0, b, h)
             needy_mask[needy] = False
@@ -594,28 +603,19 @@ def gauss_radau_steps(pos, vel, model, mass, src, passive, G, eps2, field, field
             if landing:
                 break
         if not landing:                              # the interval was abandoned
-            stats[FAILED] = 1
-            copy_into(pos, saved[0])
-            copy_into(vel, saved[1])
-            copy_into(csx, saved[2])
-            copy_into(csv, saved[3])
-            if ctrl.enabled:
-                for q in range(actors.size):
-                    for k in range(4):
-                        ctrl.quat[actors[q], k] = turned[q, k]
-                    for k in range(3):
-                        ctrl.omega[actors[q], k] = turned[q, 4 + k]
+            undo(state, actors)
+            copy_into(csx, saved[0])
+            copy_into(csv, saved[1])
             params[3] = dt
             params[4] = dt_b
             params[5] = 1.0 if have_predictor else 0.0
-            return interval
-        if (setup.enabled or ctrl.enabled) and \
-                finish_step(saved[0], vel0, pos, vel, mass, setup, ctrl, burn, dt_out, t0, work):
-            params[3] = dt
-            params[4] = dt_b
-            params[5] = 1.0 if have_predictor else 0.0
-            return interval + 1
+            return interval, status(state, False) | FAILED
+        done = interval + 1
+        removed = end(state, rules, actors, t_start, dt_out)
+        frame = capture(frames, frame, done, state)
+        if removed:
+            break
     params[3] = dt
     params[4] = dt_b
     params[5] = 1.0 if have_predictor else 0.0
-    return nsteps
+    return done, status(state, removed)

@@ -20,10 +20,10 @@ import math
 import numpy as np
 
 from .._jit import kernel
-from .arrays import copy_into
-from .control import F, begin_step, finish_step, thrust_dv
-from .gravity import accelerations
-from .integrate import _scratch
+from .codes import FAILED
+from .control import F, thrust_dv
+from .forces import accelerations
+from .step import begin, capture, end, next_frame, status, undo
 
 # 1/n! for n = 0..25, for the Stumpff series
 _INV_FACTORIAL = tuple(1.0 / math.factorial(n) for n in range(26))
@@ -275,17 +275,21 @@ def _drift_all(xj, vj, M, G, dt):
 
 
 @kernel(parallel=True, inline=True)
-def _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_mass, still,
-          scratch, pos, vel, acc, dt, actors, thrust):
-    """v'_k += dt (J(a) + G M_k x'_k / r'^3): the interaction part of the N-body acceleration,
-    plus the thrust accelerations (A, 3) of the actors (rows `actors`)."""
+def _kick(xj, vj, order, m, M, f, t, pos, vel, acc, dt, actors, thrust, dissipate):
+    """v'_k += dt (J(a) + G M_k x'_k / r'^3): the interaction part of the acceleration of
+    every body (forces.accelerations, drag aside), plus the thrust accelerations (A, 3) of the
+    actors (rows `actors`). dissipate: the kick also relaxes the velocities toward the wind
+    (forces.drag_kick in Jacobi coordinates, where every relative velocity relaxes toward 0
+    and the centre of mass toward the wind, the Jacobi transformation being linear with
+    weights summing to one)."""
     _from_jacobi(xj, vj, order, m, M, pos, vel)
-    accelerations(pos, model, mass, src, passive, G, eps2, field, field_mass, still, scratch,
-                  acc)
+    accelerations(f, t, pos, vel, acc, f.everyone, False)
     for q in range(actors.size):
         for c in range(3):
             acc[actors[q], c] += thrust[q, c]
-    # Jacobi transform of the accelerations: a'_k = a_k - (mass-weighted mean of a over 0..k-1)
+    # Jacobi transform of the accelerations: a'_k = a_k - (mass-weighted mean of a over 0..k-1),
+    # written into acc's rows in Jacobi order (acc[order[k]] is not read again once done)
+    G = f.G
     Mprev = m[0]
     A0 = acc[order[0], 0]
     A1 = acc[order[0], 1]
@@ -298,21 +302,47 @@ def _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_
         r2 = xj[k, 0] * xj[k, 0] + xj[k, 1] * xj[k, 1] + xj[k, 2] * xj[k, 2]
         # no Kepler part about no mass (and none to remove): 0, not 0/0
         w = G * M[k] / (r2 * math.sqrt(r2)) if M[k] > 0.0 else 0.0
-        vj[k, 0] += dt * (a0 + w * xj[k, 0])
-        vj[k, 1] += dt * (a1 + w * xj[k, 1])
-        vj[k, 2] += dt * (a2 + w * xj[k, 2])
         Mk = Mprev + m[k]
         if Mk > 0.0:
             A0 += m[k] * a0 / Mk
             A1 += m[k] * a1 / Mk
             A2 += m[k] * a2 / Mk
         Mprev = Mk
-    if Mprev == 0.0:
-        # nothing pulls: the first body is its own "centre of mass", kicked by its own
-        # (non-gravitational) acceleration; with mass the centre's acceleration is 0
-        vj[0, 0] += dt * A0
-        vj[0, 1] += dt * A1
-        vj[0, 2] += dt * A2
+        acc[i, 0] = a0 + w * xj[k, 0]
+        acc[i, 1] = a1 + w * xj[k, 1]
+        acc[i, 2] = a2 + w * xj[k, 2]
+    # the centre of mass moves with the mass-weighted mean acceleration A: zero under mutual
+    # gravity alone (kept exactly 0, not rounding noise); held and user forces can push it.
+    # Nothing pulls: the first body is its own "centre of mass", kicked by its own acceleration
+    free = Mprev == 0.0 or f.held.shape[0] > 0 or len(f.user) > 0
+    j = order[0]
+    acc[j, 0] = A0
+    acc[j, 1] = A1
+    acc[j, 2] = A2
+    _jacobi_kick(vj, acc, order, f, dt, dissipate, 0 if free else 1)
+
+
+@kernel
+def _jacobi_kick(vj, acc, order, f, dt, dissipate, first):
+    """vj[k] += dt acc[order[k]] for k >= first, or with drag (dissipate) the exact relaxation
+    of forces.drag_kick: toward the wind for the centre of mass (k = 0), toward rest for the
+    relative velocities."""
+    k_drag = f.drag[0] if dissipate else 0.0
+    if k_drag > 0.0:
+        E = math.exp(-k_drag * dt)
+        for k in range(order.size):
+            i = order[k]
+            for c in range(3):
+                # the centre's own acceleration only where it has one (see _kick)
+                a = acc[i, c] if k >= first else 0.0
+                vt = (f.drag[1 + c] if k == 0 else 0.0) + a / k_drag
+                vj[k, c] = vt + (vj[k, c] - vt) * E
+        return
+    for k in range(first, order.size):
+        i = order[k]
+        vj[k, 0] += dt * acc[i, 0]
+        vj[k, 1] += dt * acc[i, 1]
+        vj[k, 2] += dt * acc[i, 2]
 
 
 # Third-order corrector (Wisdom, Holman & Touma 1996): C = X(a, b) X(-a, -b) with
@@ -352,69 +382,65 @@ def _schedule(q, nsteps, dt, corrector):
 
 
 @kernel(parallel=True)
-def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, field_mass, still,
-                        order, m, dt, nsteps, corrector, setup, ctrl, work):
-    """Advance nsteps steps of dt with the Wisdom-Holman map. Returns (steps taken, ok): ok
-    False if a Kepler solve did not converge; the state is then that after the steps taken
-    when stepping one at a time (collisions or actors), unreliable otherwise (the caller keeps
-    a copy). Fewer steps when a collision removed or merged bodies.
+def wisdom_holman_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
+    """Advance nsteps steps of dt with the Wisdom-Holman map.
 
-    pos, vel : (n, 3), updated in place; order : (n,) int64, the central body first, then the
-    other pulling bodies, then the passive ones; m : (n,) masses in that order, 0 for passive
-    bodies (they do not move the Jacobi frames); corrector : apply the third-order symplectic
-    corrector at the start and its inverse at the end.
-    model ... still : the gravity arguments of gravity.accelerations (model must be DIRECT);
-    setup : collide.Setup; ctrl : control.Control; work : arrays.Work. With collisions or actors the state is
-    synchronised (and the corrector applied) every step, so that the collision pass sees
-    positions and velocities; thrust enters the step's kick as its exact velocity change over
-    the step, dv(dt) / dt (actors must be passive: their mass changes).
+    The arguments of every step kernel (kernels/step.py); method = (order, m, corrector):
+    order : (n,) int64, the central body first, then the other pulling bodies, then the
+    passive ones; m : (n,) masses in that order, 0 for passive bodies (they do not move the
+    Jacobi frames); corrector : apply the third-order symplectic corrector at the start and
+    its inverse at the end of each run of steps between synchronisations.
+    The state is synchronised (and the corrector applied) after every step when there are
+    collisions or actors, so that the collision pass sees positions and velocities; else at
+    the frames a recording takes and before the call's last step (whose start is kept for
+    interpolation). Thrust enters the step's kick as its exact velocity change over the step,
+    dv(dt) / dt (actors must be passive: their mass changes); drag relaxes the velocities
+    exactly within the step's kick. Returns (steps taken, status): FAILED when a Kepler solve
+    did not converge or the state turned NaN (the state is then that after the steps
+    reported), REMOVED when a collision removed or merged bodies.
     """
+    order, m, corrector = method
+    pos, vel = state.pos, state.vel
     n = order.size
     xj = np.empty((n, 3))
     vj = np.empty((n, 3))
-    acc, pos0, vel0 = work.acc, work.pos0, work.vel0
+    acc = state.acc
     M = np.cumsum(m)
-    scratch = _scratch(model, src)
-    actors = ctrl.actors
-    burn = np.zeros((actors.size, 8))
-    thrust = np.zeros((actors.size, 3))
-    none = np.zeros((actors.size, 3))
-    quat0 = np.empty((actors.size, 4))
-    omega0 = np.empty((actors.size, 3))
+    G = forces.G
+    movers = np.zeros(0, np.int64) if actors is None else actors.actors
+    burn = np.zeros((0, 8)) if actors is None else actors.burn
+    thrust = np.zeros((movers.size, 3))
+    none = np.zeros((movers.size, 3))
+    every = rules is not None or actors is not None
     ok = True
-    # In chunks of steps between synchronisations: all of them at once, or one at a time when
-    # collisions need the state after every step. Within a chunk, one loop of drift-then-kick
+    done = 0
+    frame = 0
+    removed = False
+    # In chunks of steps between synchronisations. Within a chunk, one loop of drift-then-kick
     # over the whole schedule, so that the force code appears once in the compiled kernel
     # (each call site of an inlined parallel loop is compiled again). Corrector drifts merge
     # with their neighbours: Kepler flows compose exactly.
-    chunk = 1 if setup.enabled or ctrl.enabled else max(nsteps, 1)
-    done = 0
     while done < nsteps:
-        t0 = setup.t0 + done * dt
-        if setup.enabled or ctrl.enabled:
-            copy_into(pos0, pos)
-            copy_into(vel0, vel)
-        if ctrl.enabled:
-            for q in range(actors.size):       # kept to undo a failed step's turn
-                for c in range(4):
-                    quat0[q, c] = ctrl.quat[actors[q], c]
-                for c in range(3):
-                    omega0[q, c] = ctrl.omega[actors[q], c]
-            begin_step(ctrl, setup, pos, vel, mass, t0, dt, burn)
-            for q in range(actors.size):
-                dv = thrust_dv(burn, q, dt) if burn[q, F] != 0.0 else 0.0
-                for c in range(3):
-                    thrust[q, c] = dv / dt * burn[q, c]
-        steps = min(chunk, nsteps - done)
+        t = t0 + done * dt
+        upto = min(nsteps - 1 if done < nsteps - 1 else nsteps,
+                   next_frame(frames, frame, nsteps))
+        steps = 1 if every else upto - done
+        begin(state, rules, actors, t, dt, True, done == nsteps - 1)
+        for q in range(movers.size):
+            dv = thrust_dv(burn, q, dt) if burn[q, F] != 0.0 else 0.0
+            for c in range(3):
+                thrust[q, c] = dv / dt * burn[q, c]
         _to_jacobi(pos, vel, order, m, xj, vj)
         kicks = steps + (4 if corrector else 0)
+        tau = 0.0
         for q in range(kicks):
             d, k = _schedule(q, steps, dt, corrector)
             ok = _drift_all(xj, vj, M, G, d) & ok
-            # the step's own kick carries the thrust, the corrector's kicks do not
+            tau += d
+            # the step's own kick carries the thrust and the drag, the corrector's do not
             main = not corrector or 2 <= q < steps + 2
-            _kick(xj, vj, order, m, M, model, mass, src, passive, G, eps2, field, field_mass,
-                  still, scratch, pos, vel, acc, k, actors, thrust if main else none)
+            _kick(xj, vj, order, m, M, forces, t + tau, pos, vel, acc, k, movers,
+                  thrust if main else none, main)
         ok = _drift_all(xj, vj, M, G, _CORRECTOR_A * dt if corrector else 0.5 * dt) & ok
         _from_jacobi(xj, vj, order, m, M, pos, vel)
         for i in range(pos.shape[0]):
@@ -422,19 +448,13 @@ def wisdom_holman_steps(pos, vel, model, mass, src, passive, G, eps2, field, fie
                 if not (abs(pos[i, c]) < np.inf and abs(vel[i, c]) < np.inf):
                     ok = False
         if not ok:
-            if setup.enabled or ctrl.enabled:
-                # undo the failed step alone: the state is that after `done` steps, as the
-                # actors' fuel and the collisions already booked say
-                copy_into(pos, pos0)
-                copy_into(vel, vel0)
-                for q in range(actors.size):
-                    for c in range(4):
-                        ctrl.quat[actors[q], c] = quat0[q, c]
-                    for c in range(3):
-                        ctrl.omega[actors[q], c] = omega0[q, c]
-            return done, ok
+            # the failed chunk taken back: the state is that after `done` steps, as the
+            # actors' fuel and the collisions already booked say
+            undo(state, actors)
+            return done, status(state, False) | FAILED
         done += steps
-        if (setup.enabled or ctrl.enabled) and \
-                finish_step(pos0, vel0, pos, vel, mass, setup, ctrl, burn, dt, t0, work):
-            return done, ok
-    return done, ok
+        removed = end(state, rules, actors, t, dt)
+        frame = capture(frames, frame, done, state)
+        if removed:
+            break
+    return done, status(state, removed)

@@ -14,11 +14,11 @@ from typing import Callable
 
 import numpy as np
 
-from .integrators import INTEGRATORS
-from .kernels.wisdom_holman import kepler_drift
-from .orbits import elements_to_state, period
-from .scenes import FIGURE_EIGHT_PERIOD, kepler, outer_solar_system, pythagorean, figure_eight
-from .world import World
+from ..integrators import INTEGRATORS
+from ..kernels.wisdom_holman import kepler_drift
+from ..orbits import elements_to_state, period
+from ..scenes import FIGURE_EIGHT_PERIOD, kepler, outer_solar_system, pythagorean, figure_eight
+from ..world import World
 
 
 @dataclass(frozen=True)
@@ -78,23 +78,13 @@ PROBLEMS = {
 
 
 def _rebound_reference(w, duration):
-    from .bench import _rebound
-    rebound = _rebound()
-    sim = rebound.Simulation()
-    sim.G = w.G
-    sim.integrator = "ias15"
-    pos = np.zeros((w.n, 3))
-    vel = np.zeros((w.n, 3))
-    pos[:, :w.dim] = w.pos
-    vel[:, :w.dim] = w.vel
-    for m, p, v in zip(w.mass, pos, vel):
-        sim.add(m=float(m), x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
+    from . import rebound as peer
+    sim = peer.simulation(w, "ias15")
     E0 = sim.energy()
     start = time.perf_counter()
     sim.integrate(duration)
     wall = time.perf_counter() - start
-    xyz = np.empty((sim.N, 3))
-    sim.serialize_particle_data(xyz=xyz)
+    xyz = peer.positions(sim)
     return {"pos": xyz[:, :w.dim], "energy_error": abs(sim.energy() / E0 - 1),
             "steps": int(sim.steps_done), "wall": wall}
 

@@ -25,8 +25,8 @@ import time
 
 import numpy as np
 
-from .integrators import INTEGRATORS
-from .world import InstabilityError
+from ..integrators import INTEGRATORS
+from ..world import InstabilityError
 
 # fixed-step candidates in the order they are tried (cheapest per step first); Euler and
 # symplectic Euler are left out: first order, never the cheapest in docs/tradeoff.md
@@ -101,8 +101,8 @@ def recommend(scene, error=1e-6, *, budget=None, duration=None):
     seconds per unit of simulated time; when nothing meets both, the most accurate setting
     within the budget is returned with met=False and the reason. Returns a Recommendation;
     the World is not changed."""
-    from .scenario import Scenario, load_scenario
-    from . import _validate as check
+    from ..scenario import Scenario, load_scenario
+    from .. import _validate as check
     if isinstance(scene, str) or hasattr(scene, "__fspath__"):
         scene = load_scenario(scene)
     note = None
@@ -138,7 +138,7 @@ def _orbits(w):
     nan = np.full(n, np.nan)
     pos, vel, mass, pulls = w.pos, w.vel, w.mass, w.pulls
     if w.gravity == "central":
-        centre, cvel, M, dominant = w._field[:w.dim], np.zeros(w.dim), w._field_mass, None
+        centre, cvel, M, dominant = w.central_pos, np.zeros(w.dim), w.central_mass, None
         others = np.ones(n, bool)
     elif w.gravity == "direct" and pulls.any() and \
             np.sort(np.where(pulls, mass, 0.0))[-2:][0] < DOMINANCE * mass[pulls].max():
@@ -263,11 +263,10 @@ class _Trials:
         # and with the origin at the bodies' mean position, since far from the origin
         # precision is lost (docs/extremes.md) and position errors are differences anyway
         world = world.copy()
-        world._watch = None
-        b = world._b
-        self.steering = "actor" in b.columns and bool(b.actor[:b.n].any())
+        world.watch_energy(None)
+        self.steering = world.actor_ids.size > 0
         # with collisions Gauss-Radau's substeps must not step over a contact
-        self.collisions = world._collisions_enabled()
+        self.collisions = world.collides
         world.shift_origin(world.pos.mean(axis=0))
         self.w = world
         self.target = error
@@ -289,7 +288,7 @@ class _Trials:
         size = float(np.linalg.norm(world.pos - world.pos.mean(axis=0), axis=1).max()) or 1.0
         self.size = size
         if world.gravity == "central":
-            scale = np.linalg.norm(world.pos - world._field[:world.dim], axis=1)
+            scale = np.linalg.norm(world.pos - world.central_pos, axis=1)
             scale[scale == 0] = size
         elif pulls.size:
             d = np.linalg.norm(world.pos[:, None, :] - world.pos[None, pulls, :], axis=2)

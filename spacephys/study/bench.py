@@ -13,7 +13,8 @@ import time
 
 import numpy as np
 
-from .scenes import uniform_sphere
+from ..scenes import uniform_sphere
+from . import rebound as peer
 
 
 def _header(name, quick, rebound=None):
@@ -25,30 +26,6 @@ def _header(name, quick, rebound=None):
     return {"benchmark": name, "quick": quick,
             "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
             "numba_threads": numba.get_num_threads(), "versions": versions}
-
-
-def _rebound():
-    try:
-        import rebound
-    except ImportError:
-        raise ValueError("the benchmarks compare with REBOUND: pip install 'spacephys[test]'") from None
-    return rebound
-
-
-def _rebound_sim(w, *, n_active=None):
-    """A REBOUND leapfrog simulation with w's bodies, G, softening and dt (gravity "basic")."""
-    sim = _rebound_copy(w, "leapfrog")
-    sim.gravity = "basic"
-    if n_active is not None:
-        sim.N_active = n_active
-        sim.testparticle_type = 0          # test particles feel, do not pull: as spacephys
-    return sim
-
-
-def _rebound_velocities(sim):
-    v = np.empty((sim.N, 3))
-    sim.serialize_particle_data(vxvyvz=v)
-    return v
 
 
 def _alternating(ours, theirs, steps, repeats):
@@ -80,13 +57,13 @@ def _steps_for(run, budget):
 
 def _case(name, w, *, repeats, budget, n_active=None, check_steps=5):
     """Time a leapfrog step of World w and of REBOUND on the same bodies."""
-    sim = _rebound_sim(w, n_active=n_active)
+    sim = peer.simulation(w, "leapfrog", gravity="basic", n_active=n_active)
     # same work: a few steps from identical states must agree to round-off. Velocities, not
     # positions: from rest, positions move by less than their own rounding in a few steps.
-    a, s = w.copy(), _rebound_sim(w, n_active=n_active)
+    a, s = w.copy(), peer.simulation(w, "leapfrog", gravity="basic", n_active=n_active)
     a.step(check_steps)
     s.steps(check_steps)
-    agreement = float(np.max(np.abs(a.vel - _rebound_velocities(s)[:, :w.dim])) /
+    agreement = float(np.max(np.abs(a.vel - peer.velocities(s)[:, :w.dim])) /
                       np.max(np.abs(a.vel)))
 
     ours = _steps_for(w.step, budget)
@@ -138,7 +115,7 @@ def _compile_times():
 
 def gravity(quick=False):
     """The gravity benchmark of the Core issue: direct summation, leapfrog, G = 1, eps = 1e-3."""
-    rebound = _rebound()
+    rebound = peer.load()
     repeats, budget = (2, 0.1) if quick else (5, 0.3)
     sizes = (256, 1024) if quick else (1024, 4096)
     cases = []
@@ -158,39 +135,16 @@ def gravity(quick=False):
             "cases": cases, "compile": _compile_times()}
 
 
-def _rebound_copy(w, integrator, **settings):
-    rebound = _rebound()
-    sim = rebound.Simulation()
-    sim.G = w.G
-    sim.softening = w.softening
-    sim.integrator = integrator
-    sim.dt = w.dt
-    for key, value in settings.items():
-        setattr(sim.integrator, key, value)
-    pos = np.zeros((w.n, 3))
-    vel = np.zeros((w.n, 3))
-    pos[:, :w.dim], vel[:, :w.dim] = w.pos, w.vel
-    for m, p, v in zip(w.mass, pos, vel):
-        sim.add(m=float(m), x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
-    return sim
-
-
-def _positions(sim):
-    xyz = np.empty((sim.N, 3))
-    sim.serialize_particle_data(xyz=xyz)
-    return xyz
-
-
 def _gauss_radau_case(n, duration, repeats):
     """Gauss-Radau and IAS15 over the same interval of the same cluster: time per step."""
-    from .scenes import uniform_sphere
+    from ..scenes import uniform_sphere
     make = lambda: uniform_sphere(n, seed=1, softening=0.01, integrator="gauss_radau",
                                   dt=duration)
     make().step(1)                                      # compile outside the timing
     best_ours = best_theirs = float("inf")
     for _ in range(repeats):
         w = make()
-        sim = _rebound_copy(w, "ias15")
+        sim = peer.simulation(w, "ias15")
         start = time.perf_counter()
         w.step(1)
         ours = time.perf_counter() - start
@@ -200,7 +154,7 @@ def _gauss_radau_case(n, duration, repeats):
         steps, rsteps = w.integrator_stats["steps"], int(sim.steps_done)
         best_ours = min(best_ours, ours / steps)
         best_theirs = min(best_theirs, theirs / rsteps)
-    diff = float(np.max(np.abs(w.pos - _positions(sim))) / np.max(np.abs(w.pos)))
+    diff = float(np.max(np.abs(w.pos - peer.positions(sim))) / np.max(np.abs(w.pos)))
     return {"case": f"gauss_radau vs IAS15, N={n}, t={duration:g}", "bodies": n,
             "steps": steps, "rebound_steps": rsteps,
             "spacephys_s_per_step": best_ours, "rebound_s_per_step": best_theirs,
@@ -210,16 +164,16 @@ def _gauss_radau_case(n, duration, repeats):
 def _wisdom_holman_case(corrector, steps, repeats):
     """Sun + 8 planets, 5-day steps: WH and WHFast (safe mode off: both synchronise at the
     end of the batch only)."""
-    from .scenes import solar_system
+    from ..scenes import solar_system
     name = "wisdom_holman_corrected" if corrector else "wisdom_holman"
     w = solar_system(integrator=name, dt=5 / 365.25)
-    sim = _rebound_copy(w, "whfast", corrector=corrector, safe_mode=0)
+    sim = peer.simulation(w, "whfast", corrector=corrector, safe_mode=0)
     E0, E0r = w.energy(), sim.energy()
     w.step(1)
     sim.steps(1)
     t_ours, t_theirs = _alternating(w.step, sim.steps, steps, repeats)
     sim.synchronize()
-    diff = float(np.max(np.abs(w.pos - _positions(sim))) / np.max(np.abs(w.pos)))
+    diff = float(np.max(np.abs(w.pos - peer.positions(sim))) / np.max(np.abs(w.pos)))
     return {"case": f"{name} vs WHFast{' (corrector 3)' if corrector else ''}, Sun + 8 "
                     f"planets, dt = 5 d", "bodies": w.n, "steps": 1 + repeats * steps,
             "spacephys_s_per_step": t_ours, "rebound_s_per_step": t_theirs,
@@ -230,7 +184,7 @@ def _wisdom_holman_case(corrector, steps, repeats):
 
 def integrators(quick=False):
     """The high-accuracy integrators against REBOUND's: IAS15 and WHFast, same problems."""
-    rebound = _rebound()
+    rebound = peer.load()
     repeats = 2 if quick else 3
     cases = [_gauss_radau_case(16, 0.5 if quick else 2.0, repeats),
              _gauss_radau_case(256 if quick else 1024, 0.01 if quick else 0.05, 1)]
@@ -244,7 +198,7 @@ def circle_field(n, seed=0, dim=2):
     """n circles, radii 0.2..1 with 1% up to 3, on a jittered lattice (no overlaps at the
     start), 5% of the area covered, moving a third of a radius per step on average; every
     pair collides elastically."""
-    from .world import World
+    from ..world import World
     rng = np.random.default_rng(seed)
     r = rng.uniform(0.2, 1.0, n)
     big = rng.random(n) < 0.01
@@ -263,9 +217,9 @@ def circle_field(n, seed=0, dim=2):
 def _detection_pass(w, brute=False):
     """One broad + narrow phase pass over the step the bodies' velocities make: seconds,
     candidate pairs, contacts."""
-    from .kernels import collide
+    from ..kernels import collide
     n = w.n
-    setup = w._collision_setup()
+    plan = w.tables()
     A = np.zeros((n, 3))
     B = np.zeros((n, 3))
     A[:, :w.dim] = w.pos
@@ -275,11 +229,10 @@ def _detection_pass(w, brute=False):
     L = np.zeros(3)
     start = time.perf_counter()
     if brute:
-        pairs = collide.brute_pairs(A, B, tb, setup.radius, setup.alive, setup.kind, setup, lo, hi)
+        pairs = collide.brute_pairs(A, B, tb, plan.alive, plan.rules, lo, hi)
     else:
-        pairs, _ = collide.candidate_pairs(A, B, tb, setup.radius, setup.alive, setup.kind,
-                                           setup, lo, hi)
-    contacts = collide.pair_contacts(A, B, tb, pairs, setup.radius, L, setup)[0].size
+        pairs, _ = collide.candidate_pairs(A, B, tb, plan.alive, plan.rules, lo, hi)
+    contacts = collide.pair_contacts(A, B, tb, pairs, L, plan.rules)[0].size
     return time.perf_counter() - start, len(pairs), contacts
 
 
@@ -290,8 +243,8 @@ def _merging_cluster(n, steps, radius, repeats, seed=4):
     Where three or more bodies touch in one step REBOUND's result varies from run to run
     (seen: 11, 10, 10 merges for one set of initial conditions in one process); spacephys
     merges all of them, every time. Compare on scenes without such chains."""
-    from .world import World
-    rebound = _rebound()
+    from ..world import World
+    rebound = peer.load()
     rng = np.random.default_rng(seed)
     p = rng.normal(size=(n, 3))
     p *= (rng.random(n) ** (1 / 3) / np.linalg.norm(p, axis=1))[:, None]
@@ -332,7 +285,7 @@ def _merging_cluster(n, steps, radius, repeats, seed=4):
 def collisions(quick=False):
     """Broad + narrow phase on circle fields, brute force against the grid, and merging
     against REBOUND."""
-    rebound = _rebound()
+    rebound = peer.load()
     sizes = (10_000, 20_000) if quick else (100_000, 200_000)
     _detection_pass(circle_field(1000))                # compile
     passes = {}
@@ -366,14 +319,17 @@ def _fleet_split(w, repeats=5):
     (best of repeats, on copies): gravity (one force evaluation: leapfrog makes one per step),
     guidance and thrust (turning, guidance, burns, fuel, fuses, lifetimes) and collisions
     (broad + narrow phase and responses)."""
-    from .kernels import collide, control, gravity as grav
-    b = w._b
-    n = b.n
-    args = w._gravity_args()
-    acc = np.empty((n, 3))
-    scratch = np.empty((4, max(args[2].size, 1)))
-    pos, vel, mass = b.pos[:n].copy(), b.vel[:n].copy(), b.mass[:n].copy()
+    from ..events import EVENT_DTYPE
+    from ..kernels import collide, control, forces
+    from ..kernels import state as kstate
+    n = w.n
+    pos, vel = np.zeros((n, 3)), np.zeros((n, 3))
+    pos[:, :w.dim], vel[:, :w.dim] = w.pos, w.vel
+    mass, ids = w.mass.copy(), w.ids.copy()
     end = pos + w.dt * vel
+    everyone = np.arange(n, dtype=np.int64)
+    acc = np.empty((n, 3))
+    table = w.tables().forces
 
     def best(run):
         times = []
@@ -384,31 +340,27 @@ def _fleet_split(w, repeats=5):
         return 1e3 * min(times)
 
     def guide():
-        c = w.copy()
-        setup = c._collision_setup()
-        ctrl = c._control_setup(setup)
-        burn = np.zeros((ctrl.actors.size, 8))
-        p, v, m = pos.copy(), vel.copy(), mass.copy()
+        plan = w.copy().tables()
+        L = np.zeros(3)
         start = time.perf_counter()
-        control.begin_step(ctrl, setup, p, v, m, c.t, c.dt, burn)
-        control.end_burn(ctrl, setup, p, m, c.t, c.dt, burn)
-        control.after_step(ctrl, setup, pos, end, m, c.t, c.dt)
+        control.begin_step(plan.actors, plan.rules, plan.state, w.t, w.dt, L)
+        control.end_burn(plan.actors, plan.state, w.t, w.dt)
+        control.after_step(plan.actors, plan.state, w.t, w.dt, L)
         return time.perf_counter() - start
 
     def collisions():
-        setup = w._collision_setup()
-        work = w._workspace()
-        p0, v0, p1, v1, m = pos.copy(), vel.copy(), end.copy(), vel.copy(), mass.copy()
+        rules = w.copy().tables().rules
+        state = kstate.make(end.copy(), vel.copy(), end.copy(), mass.copy(), ids,
+                            np.ones(n, np.bool_), np.empty((n, 3)), pos.copy(), vel.copy(),
+                            np.zeros(256, EVENT_DTYPE), np.zeros(1, np.int64), w.dim)
         start = time.perf_counter()
-        collide.collide_step(p0, v0, p1, v1, m, setup, w.dt, w.t, work)
+        collide.collide_step(state, rules, w.dt, w.t)
         return time.perf_counter() - start
 
-    count = int(w._event_count[0])
-    out = {"gravity_ms": best(lambda: grav.accelerations(pos, *args, scratch, acc)),
-           "guidance_ms": 1e3 * min(guide() for _ in range(repeats)),
-           "collisions_ms": 1e3 * min(collisions() for _ in range(repeats))}
-    w._event_count[0] = count                         # the timing runs' events are not the run's
-    return out
+    return {"gravity_ms": best(lambda: forces.accelerations(table, w.t, pos, vel, acc,
+                                                              everyone, False)),
+            "guidance_ms": 1e3 * min(guide() for _ in range(repeats)),
+            "collisions_ms": 1e3 * min(collisions() for _ in range(repeats))}
 
 
 def fleet(quick=False):
@@ -416,8 +368,8 @@ def fleet(quick=False):
     missiles, 50 000 debris, collisions on, leapfrog at 60 Hz; milliseconds per step, split
     into gravity, guidance and collisions; and REBOUND's leapfrog on the same gravity alone
     (the 10 massive bodies as active particles, everything else as test particles)."""
-    from .scenes import fleet_battle
-    rebound = _rebound()
+    from ..scenes import fleet_battle
+    rebound = peer.load()
     scale = 4 if quick else 1
     w = fleet_battle(ships=200 // scale, missiles=2000 // scale, debris=50_000 // scale)
     start = time.perf_counter()
@@ -437,18 +389,14 @@ def fleet(quick=False):
     times = 1e3 * np.array(times)
     split = {key: float(np.median([s[key] for s in splits])) for key in splits[0]}
     # the same gravity without ships, missiles or collisions: spacephys and REBOUND leapfrog
-    from .world import World
+    from ..world import World
     pulls = w.pulls
     plain = World(dim=2, G=w.G, dt=w.dt)
     plain.add_bodies(np.where(pulls, w.mass, 0.0), w.pos, w.vel)
-    sim = rebound.Simulation()
-    sim.G, sim.integrator, sim.gravity, sim.dt = w.G, "leapfrog", "basic", w.dt
     order = np.concatenate([np.flatnonzero(pulls), np.flatnonzero(~pulls)])
-    for i in order:
-        p, v = w.pos[i], w.vel[i]
-        sim.add(m=float(w.mass[i]) if pulls[i] else 0.0, x=p[0], y=p[1], vx=v[0], vy=v[1])
-    sim.N_active = int(pulls.sum())
-    sim.testparticle_type = 0
+    ordered = World(dim=2, G=w.G, dt=w.dt)
+    ordered.add_bodies(np.where(pulls, w.mass, 0.0)[order], w.pos[order], w.vel[order])
+    sim = peer.simulation(ordered, "leapfrog", gravity="basic", n_active=int(pulls.sum()))
     massive = np.flatnonzero(pulls)
     plain.step(1)
     sim.steps(1)
@@ -472,8 +420,8 @@ def log(quick=False):
     repeats. REBOUND's Simulationarchive on the same run (a snapshot every step / every 10th
     step) for comparison, as time per frame."""
     import tempfile
-    from .world import World
-    rebound = _rebound()
+    from ..world import World
+    rebound = peer.load()
     n, steps, reps = 1000, (500 if quick else 3000), (3 if quick else 5)
     rng = np.random.default_rng(7)
     pos = rng.normal(size=(n, 3))
@@ -546,7 +494,7 @@ def log(quick=False):
 
 def _ring_world(n):
     """A star and n test particles on circular orbits 1..2 from it (3D arrays, z = 0)."""
-    from .world import World
+    from ..world import World
     w = World(dim=3, dt=0.01, capacity=n + 1)
     w.add_body(1.0, (0.0, 0.0, 0.0))
     rng = np.random.default_rng(0)
@@ -580,19 +528,14 @@ def memory(quick=False):
     n = 100_000 if quick else 1_000_000
     w = _ring_world(1000)
     w.step(1)
-    b = w._b
-    columns = sum(getattr(b, c).itemsize * int(np.prod(getattr(b, c).shape[1:]))
-                  for c in b.columns)
-    slots = b.generation.itemsize + b.index.itemsize
-    scratch = sum(a.itemsize * int(np.prod(a.shape[1:])) for a in w._work)
+    per_body = w.bytes_per_body()
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     start = time.perf_counter()
     peak, held = memory_used(n)
     seconds = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     return {**_header("memory", quick), "bodies": n,
-            "bytes_per_body": {"state columns": columns, "id slots": slots,
-                               "kernel scratch": scratch},
+            "bytes_per_body": per_body,
             "held_bytes": held, "peak_bytes": peak, "maxrss_growth_bytes": after - before,
             "seconds": seconds}
 
@@ -601,7 +544,7 @@ def _orbit_world(model, n, dt, softening):
     """A star of mass 1 (G = 1) and n bodies on circular orbits at radii 1..3 in 2D, as one of
     the gravity models: "direct" (every body of mass 1e-9 pulls), "test" (the bodies have mass
     0: only the star pulls) or "central" (no star body: a fixed field of mass 1 at 0)."""
-    from .world import World
+    from ..world import World
     rng = np.random.default_rng(0)
     r, th = rng.uniform(1.0, 3.0, n), rng.uniform(0.0, 2 * np.pi, n)
     pos = np.c_[r * np.cos(th), r * np.sin(th)]
@@ -622,7 +565,7 @@ _R, _H, _X = 6.371e6, 1000.0, 100.0
 
 
 def _surface_world(n, reference=False):
-    from .world import World
+    from ..world import World
     rng = np.random.default_rng(1)
     pos = np.c_[rng.uniform(-_X, _X, n), rng.uniform(0.0, _H, n)]
     vel = np.c_[rng.uniform(-20.0, 20.0, n), rng.uniform(20.0, 40.0, n)]
@@ -646,7 +589,7 @@ def models(quick=False):
     full N-body and test particles side by side with REBOUND's leapfrog, N_active = 1 for the
     test particles) and the bodies' position errors after one inner orbit, T = 2 pi, against
     the full N-body run (the uniform field: after 4 s, against the planet as a point mass)."""
-    rebound = _rebound()
+    rebound = peer.load()
     sizes = (200, 4000) if quick else (1000, 10_000)
     repeats, budget = (3, 0.05) if quick else (5, 0.3)
     dt, eps, steps = 2 * np.pi / 500, 0.01, 500

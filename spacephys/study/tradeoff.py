@@ -11,8 +11,8 @@ import time
 
 import numpy as np
 
-from . import scenes
-from .entities import ShipSpec
+from .. import scenes
+from ..entities import ShipSpec
 
 FIXED = ["euler", "symplectic_euler", "leapfrog", "rk4", "yoshida4", "yoshida6", "yoshida8"]
 TARGETS = (1e-3, 1e-6, 1e-9)
@@ -135,7 +135,7 @@ def _write(results, out_dir):
         out.writeheader()
         for row in results["rows"]:
             out.writerow({k: row.get(k) for k in fields})
-    from .plot import _matplotlib
+    from ..plot import _matplotlib
     plt = _matplotlib()
     for scene in SCENES:
         rows = [r for r in results["rows"] if r["scene"] == scene and "failed" not in r]
@@ -187,12 +187,12 @@ PAIRS = {"leapfrog": "leapfrog", "wisdom_holman": "whfast", "gauss_radau": "ias1
 
 def _rebound_run(w, integrator, dt, T, epsilon=None):
     """(best seconds, final positions (n, dim)) of REBOUND on World w's bodies."""
-    from .bench import _positions, _rebound_copy
+    from . import rebound as peer
     best, spent = math.inf, 0.0
     while spent < 0.05:
         settings = {"safe_mode": 0} if integrator == "whfast" else \
             {"epsilon": epsilon} if epsilon is not None else {}
-        sim = _rebound_copy(w, integrator, **settings)
+        sim = peer.simulation(w, integrator, **settings)
         sim.dt = dt
         start = time.perf_counter()
         if integrator == "ias15":
@@ -202,7 +202,7 @@ def _rebound_run(w, integrator, dt, T, epsilon=None):
             sim.synchronize()
         seconds = time.perf_counter() - start
         best, spent = min(best, seconds), spent + seconds
-    return best, _positions(sim)[:, :w.dim]
+    return best, peer.positions(sim)[:, :w.dim]
 
 
 def peers(quick=False, out_dir=None):
@@ -210,8 +210,8 @@ def peers(quick=False, out_dir=None):
     the cost ratio at equal accuracy, interpolated along each method's work-precision
     curve. Thrust has no REBOUND counterpart here: the dogfight is left out."""
     import numba
-    from .bench import _rebound
-    rebound = _rebound()
+    from . import rebound as peer
+    rebound = peer.load()
     rows, ratios = [], []
     for scene, (build, T, dts, wh) in SCENES.items():
         if scene == "dogfight":

@@ -1,0 +1,194 @@
+"""The World's collision rules, one component: the kind x kind response matrix, walls, the
+boundary and the broad phase's cell; it validates them and builds the collision pass's table
+(kernels/collide.Rules). Adding a collision response touches kernels/codes.py (its code and
+name) and kernels/collide.py (what it does at contact)."""
+import numpy as np
+
+from . import _validate as check
+from .kernels import collide
+from .kernels.codes import (BOUNDARIES, BREAK_A, BREAK_B, BOUNCE, IGNORE, MIRRORED, OPEN,
+                            PLANE, RESPONSES, SEGMENT)
+
+
+def _restitution(value):
+    value = check.scalar("restitution", value, minimum=0.0)
+    if value > 1.0:
+        raise ValueError(f"restitution = {value}: must be <= 1")
+    return value
+
+
+class CollisionRules:
+    """What happens when bodies meet (see the module). kinds : the number of declared kinds."""
+
+    def __init__(self, kinds):
+        self.response = np.zeros((kinds, kinds), dtype=np.int64)   # all "ignore" until set
+        self.restitution = np.ones((kinds, kinds))
+        self.walls = np.zeros((0, 8))
+        self.boundary = OPEN
+        self.box = np.zeros((2, 3))
+        self.box_restitution = 1.0
+        self.cell = None                   # None: chosen from the radii (see giants)
+
+    def add_kind(self):
+        """Room for one more kind (every pair with it ignored)."""
+        k = self.response.shape[0] + 1
+        response, restitution = np.zeros((k, k), np.int64), np.ones((k, k))
+        response[:-1, :-1] = self.response
+        restitution[:-1, :-1] = self.restitution
+        self.response, self.restitution = response, restitution
+
+    # ------------------------------------------------------------ rules
+    def set(self, codes_a, codes_b, response, restitution=None):
+        """The response for every pair of kind codes (a, b), either order (see
+        World.set_collision); everything is checked before anything changes."""
+        if not isinstance(response, str) or response not in RESPONSES:
+            raise ValueError(f"response={response!r} is not known; valid: {', '.join(RESPONSES)}")
+        code = RESPONSES[response]
+        if code in (BREAK_A, BREAK_B) and restitution is None:
+            restitution = 1.0
+        if code in (BOUNCE, BREAK_A, BREAK_B):
+            if restitution is None:
+                raise ValueError("response='bounce' needs restitution, in [0, 1]")
+            restitution = _restitution(restitution)
+        elif restitution is not None:
+            raise ValueError(f"restitution = {restitution!r} is only used with response='bounce'")
+        for a in codes_a:
+            for b in codes_b:
+                self.response[a, b] = code
+                self.response[b, a] = MIRRORED.get(code, code) if a != b else code
+                if restitution is not None:
+                    self.restitution[a, b] = self.restitution[b, a] = restitution
+
+    def rule(self, a, b):
+        """(response name, restitution) for kind codes a, b."""
+        name = next(k for k, v in RESPONSES.items() if v == self.response[a, b])
+        return name, float(self.restitution[a, b])
+
+    def add_wall(self, kind, p, q, restitution, dim):
+        """A wall row (codes.PLANE through p with unit normal q, or SEGMENT from p to q)."""
+        restitution = _restitution(restitution)
+        row = np.zeros(8)
+        row[0] = kind
+        row[1:1 + dim] = p
+        row[4:4 + dim] = q
+        row[7] = restitution
+        self.walls = np.vstack([self.walls, row])
+        return len(self.walls) - 1
+
+    def plane(self, point, normal, restitution, dim):
+        point = check.floats("point", point, (dim,))
+        normal = check.floats("normal", normal, (dim,))
+        length = float(np.linalg.norm(normal))
+        if length == 0:
+            raise ValueError("normal = 0: a plane needs a direction")
+        return self.add_wall(PLANE, point, normal / length, restitution, dim)
+
+    def segment(self, a, b, restitution, dim):
+        a = check.floats("a", a, (dim,))
+        b = check.floats("b", b, (dim,))
+        if np.array_equal(a, b):
+            raise ValueError(f"a = b = {a.tolist()}: a segment needs two distinct ends")
+        return self.add_wall(SEGMENT, a, b, restitution, dim)
+
+    def set_boundary(self, mode, lo, hi, restitution, dim):
+        if not isinstance(mode, str) or mode not in BOUNDARIES:
+            raise ValueError(f"boundary={mode!r} is not known; valid: {', '.join(BOUNDARIES)}")
+        box = np.zeros((2, 3))
+        if mode != "open":
+            if lo is None or hi is None:
+                raise ValueError(f"boundary={mode!r} needs lo and hi, the box's corners")
+            box[0, :dim] = check.floats("lo", lo, (dim,))
+            box[1, :dim] = check.floats("hi", hi, (dim,))
+            bad = np.flatnonzero(box[1, :dim] <= box[0, :dim])
+            if bad.size:
+                raise ValueError(f"hi[{bad[0]}] = {box[1, bad[0]]} is not above "
+                                 f"lo[{bad[0]}] = {box[0, bad[0]]}")
+        restitution = _restitution(restitution)
+        self.boundary, self.box, self.box_restitution = BOUNDARIES[mode], box, restitution
+
+    def boundary_of(self, dim):
+        """(mode, lo, hi, restitution)."""
+        mode = next(k for k, v in BOUNDARIES.items() if v == self.boundary)
+        return mode, self.box[0, :dim].copy(), self.box[1, :dim].copy(), self.box_restitution
+
+    def set_cell(self, value):
+        self.cell = None if value is None else check.scalar("collision_cell", value,
+                                                            positive=True)
+
+    def enabled(self):
+        """Whether anything can collide: a response set, a wall, or a boundary."""
+        return bool(self.response.any() or len(self.walls) or self.boundary != OPEN)
+
+    def shift(self, delta, dim):
+        """The origin moved by delta (dim,): walls and the box with it."""
+        if len(self.walls):
+            self.walls[:, 1:1 + dim] -= delta
+            segments = self.walls[:, 0] == SEGMENT
+            self.walls[segments, 4:4 + dim] -= delta
+        if self.boundary != OPEN:
+            self.box[:, :dim] -= delta
+
+    # ------------------------------------------------------------ the table
+    def giants(self, radius):
+        """(rows of the giants, grid cell). With the default cell: the largest bodies above
+        the widest gap (at least 2x in radius) among the 65 largest, at most 64 of them, are
+        giants, tested against every body; the cell is the largest diameter of the rest.
+        A cell set by the user puts every body in the grid."""
+        r = radius
+        if self.cell is not None:
+            return np.zeros(0, np.int64), self.cell
+        if r.size == 0:
+            return np.zeros(0, np.int64), 1.0
+        top = min(r.size, 65)
+        rows = np.argpartition(-r, top - 1)[:top] if top < r.size else np.arange(r.size)
+        rows = rows[np.argsort(-r[rows], kind="stable")]
+        ordered = r[rows]
+        giants = 0
+        if ordered.size > 1:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                # a body with a radius above points: an infinite gap; between points: none
+                gaps = np.where(ordered[1:] > 0, ordered[:-1] / ordered[1:],
+                                np.where(ordered[:-1] > 0, np.inf, 1.0))
+            k = int(np.argmax(gaps))
+            if gaps[k] >= 2.0 and k < 64:
+                giants = k + 1
+        biggest = ordered[giants] if giants < ordered.size else 0.0
+        return np.sort(rows[:giants]).astype(np.int64), 2.0 * biggest if biggest > 0 else 1.0
+
+    def table(self, kind, radius, category, mask, fixed, owner, dim, scratch):
+        """The collision pass's Rules for the bodies (n,) columns given (shared), or None
+        when nothing can collide. owner : (n,) int64 launcher rows of unarmed missiles;
+        scratch : name -> (n, ...) arrays for collide.SCRATCH."""
+        if not self.enabled():
+            return None
+        n = kind.shape[0]
+        giants, cell = self.giants(radius)
+        # a kind needs the grid if it can meet a kind with bodies besides giants (itself: two)
+        gridded = np.ones(n, np.bool_)
+        gridded[giants] = False
+        K = self.response.shape[0]
+        counts = np.bincount(kind[gridded], minlength=K)
+        meets = (self.response != IGNORE) & (counts[None, :] > np.eye(K, dtype=np.int64))
+        gridded &= meets.any(axis=1)[kind]
+        return collide.make(kind, radius, category, mask, fixed, self.response,
+                            self.restitution, self.walls, self.boundary, self.box,
+                            self.box_restitution, cell, dim, owner, giants, gridded, scratch)
+
+    # ------------------------------------------------------------ state
+    def state(self):
+        return {"response": self.response.copy(), "restitution": self.restitution.copy(),
+                "walls": self.walls.copy(), "boundary": int(self.boundary),
+                "box": self.box.copy(), "box_restitution": float(self.box_restitution),
+                "cell": -1.0 if self.cell is None else float(self.cell)}
+
+    @classmethod
+    def from_state(cls, s):
+        r = cls.__new__(cls)
+        r.response = np.array(s["response"], np.int64)
+        r.restitution = np.array(s["restitution"], np.float64)
+        r.walls = np.array(s["walls"], np.float64).reshape(-1, 8)
+        r.boundary = int(s["boundary"])
+        r.box = np.array(s["box"], np.float64)
+        r.box_restitution = float(s["box_restitution"])
+        r.cell = None if float(s["cell"]) < 0 else float(s["cell"])
+        return r

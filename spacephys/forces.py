@@ -1,0 +1,190 @@
+"""The World's forces, one component: the gravity model and its parameters, drag toward a
+wind, held per-body forces and accelerations, and user forces (numba functions).
+
+It validates every setting, keeps them, and builds the kernels' force table
+(kernels/forces.Forces) that every integrator family reads. Adding a gravity model touches
+this file (its settings), kernels/forces.py (its accelerations) and kernels/diagnostics.py (its
+potential energy).
+"""
+import importlib
+
+import numba
+import numpy as np
+from numba.core.registry import CPUDispatcher
+
+from . import _validate as check
+from .kernels import forces as kforces
+from .kernels.codes import CENTRAL, GRAVITY_MODELS, UNIFORM
+
+# the per-body column of held forces and accelerations: [F (3,), a (3,)]
+HELD = "held"
+
+
+class ForceField:
+    """Gravity, drag and the forces a game or a user adds (see the module).
+
+    dim : 2 or 3; G : gravitational constant; gravity : a name of GRAVITY_MODELS; g : (dim,)
+    the uniform field; central_mass, central_pos : the fixed body of gravity="central";
+    softening : Plummer length; drag : rate k [1/time]; wind : (dim,) [length/time].
+    """
+
+    def __init__(self, dim, *, G, gravity, g=None, central_mass=None, central_pos=None,
+                 softening=0.0, drag=0.0, wind=None):
+        self.dim = dim
+        self.G = G
+        if not isinstance(gravity, str) or gravity not in GRAVITY_MODELS:
+            raise ValueError(f"gravity={gravity!r} is not known; valid: "
+                             f"{', '.join(GRAVITY_MODELS)}")
+        field = np.zeros(3)
+        field_mass = 0.0
+        if gravity == "uniform":
+            if g is None:
+                raise ValueError("gravity='uniform' needs g, the field vector, e.g. g=(0, -9.81)")
+            field[:dim] = check.floats("g", g, (dim,))
+        elif g is not None:
+            raise ValueError(f"g = {g!r} is only used with gravity='uniform' (gravity={gravity!r})")
+        if gravity == "central":
+            if central_mass is None:
+                raise ValueError("gravity='central' needs central_mass, the fixed body's mass")
+            field_mass = check.scalar("central_mass", central_mass, minimum=0.0)
+            if central_pos is not None:
+                field[:dim] = check.floats("central_pos", central_pos, (dim,))
+        elif central_mass is not None or central_pos is not None:
+            raise ValueError(f"central_mass/central_pos are only used with gravity='central' "
+                             f"(gravity={gravity!r})")
+        self.gravity = gravity
+        self.model = GRAVITY_MODELS[gravity]
+        self.field = field                    # (3,): g, or the central body's position
+        self.field_mass = field_mass
+        self.softening = check.scalar("softening", softening, minimum=0.0)
+        self.drag = np.zeros(4)               # [k, wind (3,)]: shared with the kernels' table
+        self.drag[0] = check.scalar("drag", drag, minimum=0.0)
+        if wind is not None:
+            self.drag[1:1 + dim] = check.floats("wind", wind, (dim,))
+        self.user = []                        # [(fn, params (p,) float64)]
+        self._typed = None                    # the kernels' typed lists of them, made on demand
+
+    # ------------------------------------------------------------ user forces
+    @staticmethod
+    def _checked_function(fn):
+        """fn compiled for kernels.forces.USER_FORCE, or ValueError naming what is wrong."""
+        if not isinstance(fn, CPUDispatcher):
+            raise ValueError(f"fn = {fn!r}: a user force must be a numba function "
+                             f"(@numba.njit), called inside the step kernels")
+        try:
+            fn.compile(kforces.USER_FORCE.args)
+        except Exception as e:          # numba's typing errors have many classes
+            first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+            raise ValueError(f"fn = {fn.__name__}: does not compile as a user force "
+                             f"fn(t, pos, vel, mass, ids, params, out) -> None with t float, "
+                             f"pos/vel/out (n, 3) float64, mass (n,) float64, ids (n,) int64, "
+                             f"params (p,) float64: {first}") from None
+        result = fn.overloads[kforces.USER_FORCE.args].signature.return_type
+        if result != numba.types.none:
+            raise ValueError(f"fn = {fn.__name__}: returns {result}; a user force adds into "
+                             f"out and returns nothing")
+        return fn
+
+    @staticmethod
+    def _checked_params(params):
+        arr = check.floats("params", params, (None,))
+        return np.ascontiguousarray(arr)
+
+    def add(self, fn, params):
+        """Append a user force; returns its index. Checks everything before changing."""
+        fn = self._checked_function(fn)
+        params = self._checked_params(params)
+        self.user.append((fn, params))
+        self._typed = None
+        return len(self.user) - 1
+
+    def _index(self, k):
+        k = check.count("k", k)
+        if k >= len(self.user):
+            raise ValueError(f"k = {k}: there are {len(self.user)} user forces")
+        return k
+
+    def set_params(self, k, params):
+        k = self._index(k)
+        params = self._checked_params(params)
+        self.user[k] = (self.user[k][0], params)
+        self._typed = None
+
+    def remove(self, k):
+        del self.user[self._index(k)]
+        self._typed = None
+
+    def typed_user(self):
+        """(functions, params): the typed lists the kernels' table holds."""
+        if self._typed is None:
+            fns, params = kforces.no_user_forces()
+            for fn, p in self.user:
+                fns.append(fn)
+                params.append(p)
+            self._typed = (fns, params)
+        return self._typed
+
+    # ------------------------------------------------------------ the table
+    def table(self, mass, ids, src, passive, still, held):
+        """The kernels' Forces for the bodies mass, ids (n,); src, passive, still: int64 rows;
+        held : (n, 6) or None."""
+        fns, params = self.typed_user() if self.user else (None, None)
+        return kforces.make(mass, ids, model=self.model, G=self.G,
+                            eps2=self.softening ** 2, field=self.field,
+                            field_mass=self.field_mass, src=src, passive=passive, still=still,
+                            drag=self.drag, held=held, user=fns, params=params)
+
+    def shift(self, delta):
+        """The origin moved by delta (3,): a central body's position with it."""
+        if self.model == CENTRAL:
+            self.field -= delta
+
+    @property
+    def potential_has_zero(self):
+        """False for a uniform field, whose potential has no natural zero."""
+        return self.model != UNIFORM
+
+    # ------------------------------------------------------------ state
+    def state(self):
+        """The named fields a checkpoint keeps (see docs/runlog.md)."""
+        return {"gravity": self.gravity, "G": self.G, "softening": self.softening,
+                "field": self.field.copy(), "field_mass": self.field_mass,
+                "drag": self.drag.copy(),
+                "user_functions": [f"{fn.py_func.__module__}:{fn.py_func.__qualname__}"
+                                   for fn, _ in self.user],
+                "user_params": [p.copy() for _, p in self.user]}
+
+    @classmethod
+    def from_state(cls, dim, s):
+        f = cls.__new__(cls)
+        f.dim = dim
+        f.G = float(s["G"])
+        f.gravity = str(s["gravity"])
+        f.model = GRAVITY_MODELS[f.gravity]
+        f.field = np.array(s["field"], np.float64)
+        f.field_mass = float(s["field_mass"])
+        f.softening = float(s["softening"])
+        f.drag = np.array(s["drag"], np.float64)
+        f.user = [(importable(name), np.array(p, np.float64))
+                  for name, p in zip(s["user_functions"], s["user_params"])]
+        f._typed = None
+        return f
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        state["_typed"] = None                # typed lists neither copy nor pickle
+        return state
+
+
+def importable(name):
+    """The function saved as "module:qualname" (user forces are saved by name)."""
+    module, _, qualname = name.partition(":")
+    try:
+        obj = importlib.import_module(module)
+        for part in qualname.split("."):
+            obj = getattr(obj, part)
+    except (ImportError, AttributeError) as e:
+        raise ValueError(f"user force {name!r} cannot be imported ({e}): a World with user "
+                         f"forces is saved, replayed and loaded by their module and name, so "
+                         f"define them at the top level of an importable module") from None
+    return obj

@@ -1,0 +1,74 @@
+"""The journal: every call that changes a World, recorded by its run log and fed back by
+replay. World wraps its changing methods with `journaled` and its settable properties with
+`journaled_setter`; a call's arguments are encoded as JSON (floats exact: json writes repr).
+"""
+import dataclasses
+import functools
+
+import numpy as np
+from numba.core.registry import CPUDispatcher
+
+from .entities import ExplosionSpec, MissileSpec, ShipSpec
+
+_SPECS = {"ShipSpec": ShipSpec, "MissileSpec": MissileSpec, "ExplosionSpec": ExplosionSpec}
+
+
+def encode(value):
+    """A call argument as JSON-able data."""
+    if isinstance(value, np.ndarray):
+        return {"__array__": value.tolist(), "dtype": value.dtype.str}
+    if isinstance(value, np.generic):
+        return value.item()
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {"__spec__": type(value).__name__,
+                "fields": {f.name: encode(getattr(value, f.name))
+                           for f in dataclasses.fields(value)}}
+    if isinstance(value, CPUDispatcher):          # a user force: by module and name
+        return {"__function__": f"{value.py_func.__module__}:{value.py_func.__qualname__}"}
+    if isinstance(value, (list, tuple)):
+        return [encode(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): encode(v) for k, v in value.items()}
+    return value
+
+
+def decode(value):
+    if isinstance(value, list):
+        return [decode(v) for v in value]
+    if isinstance(value, dict):
+        if "__array__" in value:
+            return np.array(value["__array__"], dtype=np.dtype(value["dtype"]))
+        if "__spec__" in value:
+            return _SPECS[value["__spec__"]](**{k: decode(v)
+                                               for k, v in value["fields"].items()})
+        if "__function__" in value:
+            from .forces import importable
+            return importable(value["__function__"])
+        return {k: decode(v) for k, v in value.items()}
+    return value
+
+
+def journaled(method):
+    """Wrap a public World method that changes the World: a run log attached to the World
+    records the call (the outermost one only: advance() calling step() is one input)."""
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        log = self._log
+        if log is None or log.depth:
+            return method(self, *args, **kwargs)
+        return log.call(self, method.__name__, method, args, kwargs)
+    return wrapper
+
+
+def journaled_setter(name):
+    """Wrap a property setter: an assignment (w.dt = 0.01) is journaled as the call
+    "setattr" with the arguments [name, value]."""
+    def wrap(fset):
+        @functools.wraps(fset)
+        def setter(self, value):
+            log = self._log
+            if log is None or log.depth:
+                return fset(self, value)
+            return log.call(self, "setattr", lambda w, _, v: fset(w, v), (name, value), {})
+        return setter
+    return wrap

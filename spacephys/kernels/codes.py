@@ -1,0 +1,49 @@
+"""Every integer code the kernels and the Python side share, each defined once with its name.
+
+No meaning is carried by numeric order: code that asks "does this response remove a body"
+asks it of a set (REMOVING), not of a range.
+"""
+
+# gravity models (kernels/forces.py)
+NONE, DIRECT, UNIFORM, CENTRAL = 0, 1, 2, 3
+GRAVITY_MODELS = {"none": NONE, "direct": DIRECT, "uniform": UNIFORM, "central": CENTRAL}
+
+# collision responses, the kind x kind matrix (kernels/collide.py)
+IGNORE, SENSOR, ELASTIC, BOUNCE, MERGE = 0, 1, 2, 3, 4
+DESTROY_A, DESTROY_B, DESTROY_BOTH = 5, 6, 7
+BREAK_A, BREAK_B = 8, 9          # a bounce, then the first (second) body is destroyed
+RESPONSES = {"ignore": IGNORE, "sensor": SENSOR, "elastic": ELASTIC, "bounce": BOUNCE,
+             "merge": MERGE, "destroy_a": DESTROY_A, "destroy_b": DESTROY_B,
+             "destroy_both": DESTROY_BOTH, "break_a": BREAK_A, "break_b": BREAK_B}
+# (a, b) -> (b, a): what a response set for kinds (A, B) means for the pair seen as (B, A)
+MIRRORED = {DESTROY_A: DESTROY_B, DESTROY_B: DESTROY_A, BREAK_A: BREAK_B, BREAK_B: BREAK_A}
+# responses that end a body at first touch: bodies already overlapping meet at once
+TOUCH_ENDS = (MERGE, DESTROY_A, DESTROY_B, DESTROY_BOTH)
+# responses that reflect velocities
+REFLECTING = (ELASTIC, BOUNCE, BREAK_A, BREAK_B)
+
+# world boundaries
+OPEN, REFLECT, PERIODIC = 0, 1, 2
+BOUNDARIES = {"open": OPEN, "reflect": REFLECT, "periodic": PERIODIC}
+
+# wall rows: [type, x0, y0, z0, x1, y1, z1, restitution]; a plane through (x0, y0, z0) with unit
+# normal (x1, y1, z1) toward the side bodies live on, or a segment from point 0 to point 1
+PLANE, SEGMENT = 0, 1
+
+# event kinds (the `kind` field of spacephys.EVENT_DTYPE)
+EV_BOUNCE, EV_MERGE, EV_DESTROY, EV_SENSOR, EV_WALL = 1, 2, 3, 4, 5
+EV_LAUNCH, EV_BURNOUT, EV_FUEL_EMPTY, EV_DETONATION, EV_EXPIRY = 6, 7, 8, 9, 10
+EVENT_KINDS = {EV_BOUNCE: "bounce", EV_MERGE: "merge", EV_DESTROY: "destroy",
+               EV_SENSOR: "sensor", EV_WALL: "wall", EV_LAUNCH: "launch",
+               EV_BURNOUT: "burnout", EV_FUEL_EMPTY: "fuel_empty",
+               EV_DETONATION: "detonation", EV_EXPIRY: "expiry"}
+
+# missile guidance laws (kernels/control.py)
+NO_GUIDANCE, PURSUIT, PROPORTIONAL = 0, 1, 2
+GUIDANCE = {"none": NO_GUIDANCE, "pursuit": PURSUIT, "pn": PROPORTIONAL}
+
+# what a step kernel's call reports, as bits of its status
+REMOVED = 1        # bodies were destroyed or merged: the call stopped so World can catch up
+NONFINITE = 2      # a position or velocity is NaN or infinite after the call
+FAILED = 4         # the integrator gave up (a Kepler solve, a Gauss-Radau step below the
+                   # clock's resolution): the state is that after the steps it reports done

@@ -1,0 +1,263 @@
+"""The one force contract: every acceleration a body feels besides thrust, from one table.
+
+`Forces` (a numba structref, built once per set of bodies by spacephys/forces.py) holds the
+gravity model and its parameters, drag toward a wind, the held per-body forces and
+accelerations (World.apply_force, apply_acceleration) and the user's jitted forces
+(World.add_force). Every integrator family asks `accelerations` for the accelerations of the
+bodies it moves, at the positions (and velocities) of its stage; nothing else computes forces.
+
+Gravity models (`model`, spacephys.kernels.codes):
+  NONE     no gravity;
+  DIRECT   direct summation F = G m1 m2 / D^2: the bodies listed in `src` (active, massive) pull
+           every body; the bodies in `passive` (test particles, ships, debris) feel but never pull;
+  UNIFORM  a constant field `field` (the seed's `y += gravity` near a planet's surface);
+  CENTRAL  a fixed body of mass `field_mass` at `field` pulls every body; bodies ignore each other.
+Softening is Plummer's: a = G m d / (|d|^2 + eps2)^(3/2). Two bodies at exactly the same point
+(|d|^2 + eps2 == 0) exert no force on each other: the direction is undefined, and a zero keeps
+the state finite instead of NaN.
+
+Drag: a = -k (v - wind), drag = [k, wind (3,)]. The splitting methods and Wisdom-Holman apply
+it exactly inside their kicks (drag_kick); Runge-Kutta and Gauss-Radau add it at their stages
+(`with_drag`). User forces: fn(t, pos, vel, mass, ids, params, out) adds accelerations of every
+body to out (n, 3); see USER_FORCE.
+"""
+import math
+
+import numba
+import numpy as np
+from numba import types, typed
+from numba.experimental import structref
+
+from .._jit import PARALLEL_MIN_PAIRS, kernel
+from .codes import CENTRAL, DIRECT, UNIFORM
+
+# the signature of a user force: (t [time], pos (n, 3), vel (n, 3), mass (n,), ids (n,) int64,
+# params (p,) float64, out (n, 3) accelerations to add to) -> None
+USER_FORCE = types.void(types.float64, types.float64[:, ::1], types.float64[:, ::1],
+                        types.float64[::1], types.int64[::1], types.float64[::1],
+                        types.float64[:, ::1])
+USER_FORCE_TYPE = types.FunctionType(USER_FORCE)
+
+
+@structref.register
+class ForcesType(types.StructRef):
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(t)) for name, t in fields)
+
+
+class Forces(structref.StructRefProxy):
+    """The force table (see the module); made by `make`, read only by the kernels."""
+
+
+FIELDS = (
+    "model",       # int: NONE | DIRECT | UNIFORM | CENTRAL
+    "G",           # float [length^3 / (mass time^2)]
+    "eps2",        # float: Plummer softening squared [length^2]
+    "field",       # (3,): the uniform acceleration (UNIFORM) or the fixed body's position (CENTRAL)
+    "field_mass",  # float: the fixed body's mass (CENTRAL)
+    "mass",        # (n,) [mass]
+    "ids",         # (n,) int64 body ids, for user forces
+    "src",         # (ns,) int64 rows of the bodies that pull (DIRECT)
+    "passive",     # (np,) int64 rows of the others
+    "still",       # (k,) int64 rows of immovable bodies: their acceleration is zero
+    "everyone",    # (n,) int64 rows 0..n-1
+    "drag",        # (4,) [k [1/time], wind (3,) [length/time]]
+    "held",        # (n, 6) [force (3,) [mass length/time^2], acceleration (3,)], or (0, 6)
+    "scratch",     # (4, ns) DIRECT, (4, 1) CENTRAL: the sources' x, y, z, m
+    "user",        # typed List of USER_FORCE_TYPE
+    "params",      # typed List of (p,) float64, one per user force
+    "user_out",    # (n, 3) scratch the user forces add into
+)
+structref.define_proxy(Forces, ForcesType, list(FIELDS))
+
+
+@kernel
+def _make(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone, drag,
+          held, scratch, user, params, user_out):
+    return Forces(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone,
+                  drag, held, scratch, user, params, user_out)
+
+
+def no_user_forces():
+    """(user, params): empty typed lists of the user-force types."""
+    return typed.List.empty_list(USER_FORCE_TYPE), typed.List.empty_list(types.float64[::1])
+
+
+def make(mass, ids, *, model, G, eps2, field, field_mass, src, passive, still, drag, held=None,
+         user=None, params=None):
+    """A Forces table for the bodies mass, ids (n,); arrays are shared, not copied (a change
+    to drag or field between steps needs no new table). held : (n, 6) or None; user,
+    params : typed lists (no_user_forces) or None."""
+    n = mass.shape[0]
+    if user is None:
+        user, params = no_user_forces()
+    scratch = np.empty((4, src.size if model == DIRECT else 1))
+    return _make(int(model), float(G), float(eps2), field, float(field_mass), mass, ids, src,
+                 passive, still, np.arange(n, dtype=np.int64), drag,
+                 np.zeros((0, 6)) if held is None else held, scratch, user, params,
+                 np.zeros((n if len(user) else 0, 3)))
+
+
+# ----------------------------------------------------------------------------- gravity
+
+@kernel(fast=True)
+def _pull(x, y, z, s, eps2):
+    """Acceleration / G at (x, y, z) from point masses s[3] at (s[0], s[1], s[2]), s a (4, ns)
+    array: three floats."""
+    ax = 0.0
+    ay = 0.0
+    az = 0.0
+    for j in range(s.shape[1]):
+        dx = s[0, j] - x
+        dy = s[1, j] - y
+        dz = s[2, j] - z
+        r2 = dx * dx + dy * dy + dz * dz + eps2
+        d3 = r2 * np.sqrt(r2)
+        # a select, not a branch, so the loop still vectorises; d3 == 0 is the coincident case
+        w = s[3, j] / d3 if d3 > 0.0 else 0.0
+        ax += w * dx
+        ay += w * dy
+        az += w * dz
+    return ax, ay, az
+
+
+@kernel(fast=True, parallel=True, inline=True)
+def _pull_all(targets, pos, s, G, eps2, out):
+    """out[k] = G * pull of the sources on pos[k] for every k in targets; threads when it pays.
+
+    Each target's sum runs in a fixed order on one thread, so the result does not depend on
+    the thread count.
+    """
+    if targets.size * s.shape[1] >= PARALLEL_MIN_PAIRS:
+        for a in numba.prange(targets.size):
+            k = targets[a]
+            ax, ay, az = _pull(pos[k, 0], pos[k, 1], pos[k, 2], s, eps2)
+            out[k, 0] = G * ax
+            out[k, 1] = G * ay
+            out[k, 2] = G * az
+    else:
+        for a in range(targets.size):
+            k = targets[a]
+            ax, ay, az = _pull(pos[k, 0], pos[k, 1], pos[k, 2], s, eps2)
+            out[k, 0] = G * ax
+            out[k, 1] = G * ay
+            out[k, 2] = G * az
+
+
+@kernel
+def _gather_sources(src, pos, mass, scratch):
+    """The pulling bodies' x, y, z, m into scratch's rows (4, ns): separate contiguous rows,
+    so that the force loops load them unit-stride."""
+    for a in range(src.size):
+        k = src[a]
+        scratch[0, a] = pos[k, 0]
+        scratch[1, a] = pos[k, 1]
+        scratch[2, a] = pos[k, 2]
+        scratch[3, a] = mass[k]
+
+
+# ----------------------------------------------------------------------------- the contract
+
+@kernel(parallel=True, inline=True)
+def accelerations(f, t, pos, vel, out, targets, with_drag):
+    """out[k] = the acceleration of body k, for every k in targets (other rows untouched).
+
+    f : Forces; t : the time of the stage [time]; pos, vel : (n, 3) at the stage (vel is read
+    by drag and user forces only); out : (n, 3) [length / time^2]; targets : int64 rows
+    (f.everyone, f.src, f.passive or any subset); with_drag : add -k (v - wind) (the
+    splittings and Wisdom-Holman apply drag in their kicks instead, see drag_kick).
+    """
+    model = f.model
+    if model == DIRECT or model == CENTRAL:
+        scratch = f.scratch
+        if model == DIRECT:
+            _gather_sources(f.src, pos, f.mass, scratch)
+        else:
+            scratch[0, 0] = f.field[0]
+            scratch[1, 0] = f.field[1]
+            scratch[2, 0] = f.field[2]
+            scratch[3, 0] = f.field_mass
+        _pull_all(targets, pos, scratch, f.G, f.eps2, out)
+    else:
+        g0 = f.field[0] if model == UNIFORM else 0.0
+        g1 = f.field[1] if model == UNIFORM else 0.0
+        g2 = f.field[2] if model == UNIFORM else 0.0
+        for a in range(targets.size):
+            k = targets[a]
+            out[k, 0] = g0
+            out[k, 1] = g1
+            out[k, 2] = g2
+    _add_others(f, t, pos, vel, out, targets, with_drag)
+
+
+@kernel
+def _add_others(f, t, pos, vel, out, targets, with_drag):
+    """Held forces and accelerations, user forces, drag (with_drag); zero for immovable bodies."""
+    held = f.held
+    if held.shape[0]:
+        mass = f.mass
+        for a in range(targets.size):
+            k = targets[a]
+            m = mass[k]
+            for c in range(3):
+                # a held force on a body of mass 0 has no acceleration to give
+                out[k, c] += (held[k, c] / m if m > 0.0 else 0.0) + held[k, 3 + c]
+    if len(f.user):
+        extra = f.user_out
+        for i in range(extra.shape[0]):
+            extra[i, 0] = 0.0
+            extra[i, 1] = 0.0
+            extra[i, 2] = 0.0
+        for u in range(len(f.user)):
+            fn = f.user[u]
+            fn(t, pos, vel, f.mass, f.ids, f.params[u], extra)
+        for a in range(targets.size):
+            k = targets[a]
+            out[k, 0] += extra[k, 0]
+            out[k, 1] += extra[k, 1]
+            out[k, 2] += extra[k, 2]
+    drag = f.drag
+    if with_drag and drag[0] > 0.0:
+        for a in range(targets.size):
+            k = targets[a]
+            for c in range(3):
+                out[k, c] -= drag[0] * (vel[k, c] - drag[1 + c])
+    still = f.still
+    for a in range(still.size):
+        k = still[a]
+        out[k, 0] = 0.0
+        out[k, 1] = 0.0
+        out[k, 2] = 0.0
+
+
+@kernel
+def velocity_dependent(f):
+    """Whether the accelerations read velocities (drag or user forces)."""
+    return f.drag[0] > 0.0 or len(f.user) > 0
+
+
+@kernel
+def drag_kick(f, vel, acc, h, rows, wind):
+    """The kick with linear drag toward the wind, dv/dt = a - k (v - wind) with a held, for
+    the bodies in rows: exact, v <- v_t + (v - v_t) exp(-k h), v_t = wind + a / k the terminal
+    velocity. Without drag (k = 0) the plain kick v += h a. wind : (3,), f.drag[1:] in
+    inertial coordinates (0 for Wisdom-Holman's Jacobi velocities). Immovable bodies stay at
+    rest."""
+    k = f.drag[0]
+    if k > 0.0:
+        E = math.exp(-k * h)
+        for a in range(rows.size):
+            i = rows[a]
+            for c in range(3):
+                vt = wind[c] + acc[i, c] / k
+                vel[i, c] = vt + (vel[i, c] - vt) * E
+    else:
+        for a in range(rows.size):
+            i = rows[a]
+            vel[i, 0] += h * acc[i, 0]
+            vel[i, 1] += h * acc[i, 1]
+            vel[i, 2] += h * acc[i, 2]
+    still = f.still
+    for j in range(still.size):
+        for c in range(3):
+            vel[still[j], c] = 0.0

@@ -1,0 +1,308 @@
+"""Reading run logs (sp.open_run), resume and replay: what needs both the log format
+(runlog.py) and World.
+"""
+import json
+import os
+from collections import namedtuple
+
+import numpy as np
+
+from .events import EVENT_KINDS
+from .journal import decode
+from .runlog import (FORMAT, LAYOUT, RunLog, RunLogError, _Schedule, checkpoint_state,
+                     open_file)
+from .world import World
+
+Frame = namedtuple("Frame", "index step t ids pos vel mass radius kind")
+Frame.__doc__ = ("One frame: its index, step and time, and (k,) ids, (k, dim) pos and vel, "
+                 "(k,) mass, radius and kind codes of the bodies alive then.")
+Trajectory = namedtuple("Trajectory", "t pos vel alive")
+Trajectory.__doc__ = ("One body through the frames: (F,) times, (F, dim) pos and vel (NaN "
+                      "where it was not alive), (F,) alive.")
+ReplayResult = namedtuple("ReplayResult", "ok frames diverged_at max_difference world message")
+ReplayResult.__doc__ = ("ok: every frame and the final state equal, bit for bit; frames: "
+                        "frames compared; diverged_at: the first frame that differs (None); "
+                        "max_difference: its largest |difference|; world: the replayed World.")
+
+
+def _same(a, b):
+    """Bit-for-bit equal arrays; NaN equals NaN (a replayed breakdown is still the same)."""
+    return np.array_equal(a, b, equal_nan=a.dtype.kind == "f")
+
+
+def _world(f, path, index=-1):
+    """(World, attributes) of a checkpoint."""
+    state, attrs = checkpoint_state(f, path, index)
+    try:
+        return World.from_state(state), attrs
+    except (KeyError, ValueError, TypeError) as e:
+        raise RunLogError(f"{path!r}: checkpoint {index} is corrupt ({e})") from None
+
+
+class Run:
+    """A run log opened for reading (sp.open_run): lazy, nothing is loaded until asked for.
+
+    meta: the root attributes; times, steps: (F,) of the frames; frame(i), frame_at(t),
+    trajectory(id), events(kind=, id=), inputs(), checkpoints, world(k)."""
+
+    def __init__(self, path):
+        self.path = os.fspath(path)
+        self._f = open_file(self.path)
+        self.meta = {k: (v.item() if isinstance(v, np.generic) else v)
+                     for k, v in self._f.attrs.items()}
+        self.kinds = tuple(json.loads(self._f["frames"].attrs["kinds"]))
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self):
+        self._f.close()
+
+    def __len__(self):
+        return self._f["frames/step"].shape[0]
+
+    @property
+    def times(self):
+        return self._f["frames/t"][:]
+
+    @property
+    def steps(self):
+        return self._f["frames/step"][:]
+
+    def frame(self, index):
+        n = len(self)
+        if not -n <= index < n:
+            raise IndexError(f"frame {index}: the log holds {n} frames")
+        index %= n
+        fr, lay = self._f["frames"], self._f["layouts"]
+        first, count = int(fr["first"][index]), int(fr["count"][index])
+        k = int(fr["layout"][index])
+        lf = int(lay["first"][k])
+        who = [lay[name][lf:lf + count] for name in LAYOUT]
+        return Frame(index, int(fr["step"][index]), float(fr["t"][index]), who[0],
+                     fr["pos"][first:first + count], fr["vel"][first:first + count], *who[1:])
+
+    def frame_at(self, t):
+        """The last frame taken at or before time t."""
+        times = self.times
+        k = int(np.searchsorted(times, t + 1e-12 * max(abs(t), 1.0), side="right")) - 1
+        if k < 0:
+            raise IndexError(f"t = {t}: before the first frame (t = {times[0]})")
+        return self.frame(k)
+
+    def trajectory(self, body_id):
+        """Trajectory of one id through every frame (read in blocks: O(rows) time, O(block)
+        memory)."""
+        fr, lay = self._f["frames"], self._f["layouts"]
+        block = 1 << 20
+        # where the id sits in each layout (-1: absent)
+        lfirst = lay["first"][:]
+        where = np.full(lfirst.size, -1, np.int64)
+        ids = lay["ids"]
+        for start in range(0, ids.shape[0], block):
+            rows = start + np.flatnonzero(ids[start:start + block] == body_id)
+            layout = np.searchsorted(lfirst, rows, side="right") - 1
+            where[layout] = rows - lfirst[layout]
+        local = where[fr["layout"][:]]
+        alive = local >= 0
+        F, dim = alive.size, int(self.meta["dim"])
+        pos, vel = np.full((F, dim), np.nan), np.full((F, dim), np.nan)
+        rows = fr["first"][:] + local
+        # read the state in blocks of whole rows and pick the id's row in each frame
+        frames = np.flatnonzero(alive)
+        k = 0
+        while k < frames.size:
+            lo = rows[frames[k]]
+            end = int(np.searchsorted(rows[frames], lo + block, side="left"))
+            end = max(end, k + 1)
+            hi = rows[frames[end - 1]] + 1
+            pick = rows[frames[k:end]] - lo
+            pos[frames[k:end]] = fr["pos"][lo:hi][pick]
+            vel[frames[k:end]] = fr["vel"][lo:hi][pick]
+            k = end
+        return Trajectory(self.times, pos, vel, alive)
+
+    def events(self, kind=None, id=None):
+        """Events (LOG_EVENT_DTYPE: the step and EVENT_DTYPE's fields), optionally those of
+        one kind (name or code) or involving one id (as a or b)."""
+        ev = self._f["events"][:]
+        if kind is not None:
+            names = {v: k for k, v in EVENT_KINDS.items()}
+            code = names.get(kind, kind)
+            if code not in EVENT_KINDS:
+                raise ValueError(f"kind = {kind!r}: not an event kind; valid: "
+                                 f"{', '.join(EVENT_KINDS.values())}")
+            ev = ev[ev["kind"] == code]
+        if id is not None:
+            ev = ev[(ev["a"] == id) | (ev["b"] == id)]
+        return ev
+
+    def inputs(self):
+        """The recorded calls, in order: dicts with step, t, call, args, kwargs (and raised,
+        the exception it raised, if it did)."""
+        g = self._f["inputs"]
+        steps, times = g["step"][:], g["t"][:]
+        out = []
+        for s, t, text in zip(steps, times, g["call"].asstr()[:]):
+            entry = json.loads(text)
+            entry.update(step=int(s), t=float(t))
+            out.append(entry)
+        return out
+
+    @property
+    def checkpoints(self):
+        """(step, t) of each checkpoint."""
+        return [(int(g.attrs["step"]), float(g.attrs["t"]))
+                for _, g in sorted(self._f["checkpoints"].items())]
+
+    def world(self, checkpoint=-1):
+        """The World saved at a checkpoint (default: the last)."""
+        return _world(self._f, self.path, checkpoint)[0]
+
+
+def open_run(path):
+    """Open a run log for reading (see Run)."""
+    return Run(path)
+
+
+# ----------------------------------------------------------------------------- resume, replay
+
+def resume(path):
+    """Reopen a run log (closed, or left by a killed process) at its last checkpoint: the
+    World as it was then, recording again into the same file. Frames, events and inputs after
+    that checkpoint are dropped (the calls that made them are not known to this process).
+    Returns the World (its log: world.recording)."""
+    path = os.fspath(path)
+    f = open_file(path, "r+")
+    try:
+        if f.attrs["format"] != FORMAT:
+            raise RunLogError(f"{path!r}: a world file, not a run log: nothing to resume")
+        world, attrs = _world(f, path)
+        names = sorted(f["checkpoints"].keys())
+        counts = {"frames": int(attrs["frames"]), "rows": int(attrs["rows"]),
+                  "events": int(attrs["events"]), "inputs": int(attrs["inputs"]),
+                  "checkpoints": len(names)}
+        counts.update(layouts=int(attrs["layouts"]), layout_rows=int(attrs["layout_rows"]))
+        if attrs.get("extra_frame"):
+            # close()'s frame of the end state, off the schedule: the run goes on from here
+            counts["frames"] -= 1
+            counts["rows"] = int(f["frames/first"][counts["frames"]])
+        for name in ("step", "t", "first", "count", "layout"):
+            f["frames/" + name].resize(counts["frames"], axis=0)
+        for name in ("pos", "vel"):
+            f["frames/" + name].resize(counts["rows"], axis=0)
+        for name in ("first", "count"):
+            f["layouts/" + name].resize(counts["layouts"], axis=0)
+        for name in LAYOUT:
+            f["layouts/" + name].resize(counts["layout_rows"], axis=0)
+        f["events"].resize(counts["events"], axis=0)
+        for name in ("step", "t", "call"):
+            f["inputs/" + name].resize(counts["inputs"], axis=0)
+        f.attrs["closed"] = False
+        f.flush()
+    except Exception:
+        f.close()
+        raise
+    meta = f.attrs
+    world.recording = RunLog(world, path, every=int(meta["every"]) or None,
+                        every_time=float(meta["every_time"]) or None,
+                        checkpoint_every=int(meta["checkpoint_every"]) or None,
+                        checkpoint_seconds=float(meta["checkpoint_seconds"]),
+                        flush_seconds=float(meta["flush_seconds"]),
+                        _resume=(f, int(attrs["step"]), float(attrs["next_time"]), counts))
+    return world
+
+
+class _Replayer(_Schedule):
+    """Stands in for a RunLog while a log is replayed: the same frame schedule, but each
+    frame is compared with the recorded one instead of written."""
+
+    def __init__(self, run, start_steps, next_time):
+        meta = run.meta
+        self.run = run
+        self.every = int(meta["every"]) or None
+        self.every_time = float(meta["every_time"]) or None
+        self.steps = start_steps
+        self._next_time = next_time
+        self.frame_index = 0
+        self.depth = 0
+        self.diverged = None            # (frame, max difference)
+
+    def call(self, world, name, method, args, kwargs):
+        self.depth += 1
+        try:
+            return method(world, *args, **kwargs)
+        finally:
+            self.depth -= 1
+
+    def _add_frame(self, step, t, ids, pos, vel, mass, radius, kind, known=False,
+                   staged=False):
+        k = self.frame_index
+        self.frame_index += 1
+        if self.diverged is not None or k >= len(self.run):
+            return
+        fr = self.run.frame(k)
+        mine = (ids, pos, vel, mass, radius, kind)
+        theirs = (fr.ids, fr.pos, fr.vel, fr.mass, fr.radius, fr.kind)
+        same = fr.step == step and fr.t == t and all(
+            a.shape == r.shape and _same(a, r) for a, r in zip(mine, theirs))
+        if not same:
+            diff = np.inf
+            if pos.shape == fr.pos.shape and np.array_equal(ids, fr.ids):
+                diff = float(max(np.max(np.abs(pos - fr.pos), initial=0.0),
+                                 np.max(np.abs(vel - fr.vel), initial=0.0)))
+            self.diverged = (k, diff)
+
+    def record_events(self, events):
+        pass
+
+    @staticmethod
+    def frame_buffers(F, n):
+        return np.empty((F, n, 3)), np.empty((F, n, 3)), np.empty((F, n))
+
+
+def replay(path):
+    """Re-run a log from its first checkpoint and its recorded calls; compare every frame
+    and the final state (the last checkpoint of a closed log) bit for bit. Returns a
+    ReplayResult naming the first frame that differs, if one does."""
+    with Run(path) as run:
+        world, attrs = _world(run._f, run.path, 0)
+        # checkpoint 0 is taken just after frame 0, at the same step
+        rep = _Replayer(run, int(attrs["step"]), world.t)
+        rep._world_frame(world)
+        world.recording = rep
+        for entry in run.inputs():
+            method = getattr(type(world), entry["call"]) if entry["call"] != "setattr" else None
+            args, kwargs = decode(entry["args"]), decode(entry["kwargs"])
+            try:
+                if method is None:
+                    setattr(world, *args)
+                else:
+                    method(world, *args, **kwargs)
+            except Exception as e:
+                if type(e).__name__ != entry.get("raised"):
+                    raise
+        closed = bool(run.meta.get("closed"))
+        if closed and len(run) > rep.frame_index:
+            rep._world_frame(world)                          # close()'s last frame
+        frames = rep.frame_index
+        world.recording = None
+        if rep.diverged is not None:
+            k, diff = rep.diverged
+            return ReplayResult(False, frames, k, diff, world,
+                                f"frame {k} (t = {run.times[k]:g}) differs: largest "
+                                f"difference {diff:.3g}")
+        if frames != len(run):
+            return ReplayResult(False, frames, None, None, world,
+                                f"the replay made {frames} frames, the log holds {len(run)}")
+        if closed:
+            final = run.world(-1)
+            for name in ("ids", "pos", "vel", "mass", "radius", "kind"):
+                if not _same(getattr(final, name), getattr(world, name)) or final.t != world.t:
+                    return ReplayResult(False, frames, None, None, world,
+                                        f"the final state differs in {name}")
+        return ReplayResult(True, frames, None, None, world,
+                            f"{frames} frames and the final state equal, bit for bit")

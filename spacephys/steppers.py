@@ -1,0 +1,262 @@
+"""Steppers: one object per integrator family, holding what the family carries from call to
+call, what it can do, and how its kernel is called. World holds one and never asks which
+family it is.
+
+Every step kernel has the same arguments, (state, forces, rules, actors, frames, method, dt,
+nsteps, t0) -> (steps done, status) (kernels/step.py); a stepper supplies `method`, the
+family's own tables and carried state, checks that it can run the scene, and turns a failed
+call into an error that says why. Adding an integrator family: a kernel with those arguments
+and a Stepper subclass registered in STEPPERS (a method of an existing family is only a table
+in integrators.py).
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from .kernels import gauss_radau as kgr
+from .kernels import integrate
+from .kernels.wisdom_holman import wisdom_holman_steps
+
+
+@dataclass(frozen=True)
+class Capabilities:
+    """What a family can do. drag: linear drag toward a wind; models: the gravity models it
+    integrates; fixed_bodies: immovable bodies; pulling_actors: ships whose mass changes while
+    they pull; split_invariant: step(n) equals n calls of step(1) bit for bit."""
+    drag: bool = True
+    models: tuple = ("none", "direct", "uniform", "central")
+    fixed_bodies: bool = True
+    pulling_actors: bool = True
+    split_invariant: bool = True
+
+
+class Stepper:
+    """The base: a fixed-step family with nothing carried between calls."""
+    family = None
+    kernel = None
+    capabilities = Capabilities()
+
+    def __init__(self, spec):
+        self.spec = spec
+
+    def check(self, world, sources, actors):
+        """Raise ValueError (naming the setting) when this family cannot run the scene;
+        sources = (src, passive, still) rows, actors the actor rows. Nothing is changed."""
+        caps = self.capabilities
+        if world.gravity not in caps.models:
+            raise ValueError(f"integrator {self.spec.name!r} needs gravity in "
+                             f"{caps.models} (gravity={world.gravity!r})")
+
+    def method(self, world, sources):
+        """The kernel's `method` argument for the bodies now alive."""
+        raise NotImplementedError
+
+    def run(self, plan, frames, dt, nsteps, t0):
+        """Call the kernel: (steps done, status bits)."""
+        return plan.call(self.kernel, frames, dt, nsteps, t0)
+
+    def failed(self, world, done):
+        """The kernel reported FAILED after `done` steps: raise the error that says why."""
+        raise FloatingPointError(f"{self.spec.name}: the integration failed at t = {world.t:g}")
+
+    def reset(self, world):
+        """Forget what was carried from call to call (the scene jumped, or the integrator
+        was switched to this one)."""
+
+    def state(self):
+        """What a checkpoint keeps of the carried state (named arrays)."""
+        return {}
+
+    def load(self, state):
+        pass
+
+
+class Splitting(Stepper):
+    """Drift/kick compositions (symplectic Euler, leapfrog, Yoshida 4/6/8)."""
+    family = "splitting"
+    kernel = staticmethod(integrate.splitting_steps)
+
+    def method(self, world, sources):
+        return (self.spec.drift, self.spec.kick)
+
+
+class RungeKutta(Stepper):
+    """Explicit Runge-Kutta tableaux (Euler, RK4)."""
+    family = "rk"
+    kernel = staticmethod(integrate.rk_steps)
+
+    def method(self, world, sources):
+        return (self.spec.a, self.spec.b)
+
+
+# Gauss-Radau's per-body carried state: name -> trailing shape
+GR_COLUMNS = {"csx": (3,), "csv": (3,), "gr_b": (7, 3), "gr_e": (7, 3)}
+
+
+class GaussRadau(Stepper):
+    """Adaptive 15th-order Gauss-Radau. Carries the next step's proposal, the step its
+    polynomials are scaled to, whether a prediction exists, the counters, and per body
+    (columns of World's bodies, so they move with them) the Kahan compensations and the
+    polynomials."""
+    family = "gauss_radau"
+    kernel = staticmethod(kgr.gauss_radau_steps)
+
+    def __init__(self, spec):
+        super().__init__(spec)
+        # [tolerance, max_step, min_step] (World's settings, refreshed before each call),
+        # then [next step, step of the polynomials, have a prediction] (carried)
+        self.params = np.array([0.0, np.inf, 0.0, np.nan, np.nan, 0.0])
+        self.stats = np.zeros(6, np.int64)
+        self.before = self.stats.copy()
+
+    def method(self, world, sources):
+        src, passive, _ = sources
+        b = world._b
+        n = b.n
+        cols = [b.ensure_column(name, shape)[:n] for name, shape in GR_COLUMNS.items()]
+        if world.step_control_rows(src):
+            control, riders = src, passive
+        else:
+            control, riders = np.arange(n, dtype=np.int64), passive[:0]
+        spec = self.spec
+        return (*cols, control, riders, spec.nodes, spec.c_gb, spec.d_bg, self.params,
+                self.stats)
+
+    def run(self, plan, frames, dt, nsteps, t0):
+        world = plan.world
+        p = self.params
+        p[0], p[1], p[2] = world.tolerance, world.max_step or np.inf, world.min_step
+        if not p[3] == p[3]:                         # nothing carried yet: start at dt
+            p[3] = p[4] = min(dt, p[1])
+        self.before[:] = self.stats
+        result = plan.call(self.kernel, frames, dt, nsteps, t0)
+        held = self.stats[kgr.AT_MIN_STEP] - self.before[kgr.AT_MIN_STEP]
+        if held:
+            world.warn_later(f"gauss_radau: {held} substeps were held at min_step = "
+                             f"{p[2]:g}; the error is no longer controlled there")
+        return result
+
+    def failed(self, world, done):
+        from .world import InstabilityError
+        next_step = self.params[3]
+        self.reset(world)            # the failed step's tiny proposal and wild polynomial
+        pair = world.closest_pulling_pair()
+        met = (f"; the closest pulling bodies are {world.named(pair)}, which may have "
+               f"met (or the coordinates are too far from the origin to resolve the "
+               f"step: see shift_origin)" if pair.size else "")
+        raise InstabilityError(
+            f"gauss_radau: the step shrank below the resolution of time or became NaN "
+            f"after t = {world.t:g} (next step {next_step:.3g}){met}. The state "
+            f"is that at t = {world.t:g}. Set min_step, or soften gravity.",
+            world.ids[pair].copy(), world.t)
+
+    def reset(self, world):
+        self.params[3:] = (np.nan, np.nan, 0.0)
+        for name in GR_COLUMNS:
+            if name in world._b.columns:
+                getattr(world._b, name)[:] = 0.0
+
+    @property
+    def counters(self):
+        s = self.stats
+        return {"steps": int(s[kgr.STEPS]), "rejected": int(s[kgr.REJECTED]),
+                "at_min_step": int(s[kgr.AT_MIN_STEP]),
+                "not_converged": int(s[kgr.NOT_CONVERGED]),
+                "sweeps": int(s[kgr.SWEEPS]), "rider_substeps": int(s[kgr.RIDER_SUBSTEPS])}
+
+    def state(self):
+        return {"carried": self.params[3:].copy(), "stats": self.stats.copy()}
+
+    def load(self, state):
+        self.params[3:] = state["carried"]
+        self.stats[:] = state["stats"]
+
+
+class WisdomHolman(Stepper):
+    """Wisdom-Holman in Jacobi coordinates about the heaviest pulling body; carries nothing
+    but the Jacobi order, derived from the bodies."""
+    family = "wisdom_holman"
+    kernel = staticmethod(wisdom_holman_steps)
+    capabilities = Capabilities(models=("direct",), fixed_bodies=False, pulling_actors=False,
+                                split_invariant=False)
+
+    def check(self, world, sources, actors):
+        src, _, still = sources
+        if world.gravity != "direct":
+            raise ValueError(f"integrator {self.spec.name!r} needs gravity='direct' with a "
+                             f"dominant body among the bodies (gravity={world.gravity!r}: no "
+                             f"Kepler orbit to drift along exactly; use leapfrog or yoshida4)")
+        if still.size:
+            raise ValueError(f"integrator {self.spec.name!r} cannot hold bodies fixed "
+                             f"({still.size} are): use a fixed-step or the adaptive integrator")
+        pulling = actors[np.isin(actors, src)]
+        if pulling.size:
+            raise ValueError(f"integrator {self.spec.name!r}: ship or missile "
+                             f"{int(world.ids[pulling[0]])} pulls (active): its mass changes "
+                             f"as it burns, which the Jacobi frames cannot follow; make it "
+                             f"passive or use another integrator")
+
+    def method(self, world, sources):
+        """The bodies in Jacobi order and their Jacobi masses: the heaviest pulling body is
+        the centre, the other pulling bodies follow in their order of addition (add planets
+        inside out: each Jacobi orbit is about the bodies before it), then the passive ones,
+        which do not move the Jacobi frames (mass 0)."""
+        src, passive, _ = sources
+        b = world._b
+        if src.size == 0:
+            order = np.arange(b.n, dtype=np.int64)
+        else:
+            src = src[np.argsort(b.serial[src], kind="stable")]
+            central = src[np.argmax(b.mass[src])]
+            order = np.concatenate([[central], src[src != central], passive]).astype(np.int64)
+        m = np.zeros(b.n)
+        m[:src.size] = b.mass[order[:src.size]]
+        return (order, m, self.spec.corrector > 0)
+
+    def failed(self, world, done):
+        raise FloatingPointError(
+            f"{self.spec.name}: a Kepler drift did not converge: a body sits at the centre "
+            f"of mass of the bodies before it (its Jacobi orbit is singular), or the state "
+            f"is NaN. The state is that at t = {world.t:g}. Wisdom-Holman is for scenes "
+            f"with one dominant mass; use gauss_radau or yoshida6 otherwise.")
+
+
+class Plan:
+    """The kernels' tables for the bodies now alive (kernels/state.State, forces.Forces,
+    collide.Rules or None, control.Actors or None, the family's method) and the compiled entry
+    points that take them: a call goes straight to machine code, past numba's typing of the
+    arguments. Rebuilt by World whenever the set of bodies or a setting the tables hold
+    changes; arrays are shared with World, so values changed in place need no rebuild."""
+    __slots__ = ("world", "state", "forces", "rules", "actors", "method", "alive", "entries")
+
+    def __init__(self, world, state, forces, rules, actors, method, alive):
+        self.world, self.state, self.forces, self.rules = world, state, forces, rules
+        self.actors, self.method, self.alive = actors, method, alive
+        self.entries = {}
+
+    def call(self, kernel, frames, dt, nsteps, t0):
+        args = (self.state, self.forces, self.rules, self.actors, frames, self.method,
+                float(dt), int(nsteps), float(t0))
+        key = (kernel, frames is None)
+        entry = self.entries.get(key)
+        if entry is not None:
+            return entry(*args)
+        result = kernel(*args)                 # compiles or loads from the cache once
+        compiled = kernel.overloads.get(tuple(kernel.typeof_pyval(a) for a in args))
+        if compiled is not None:
+            self.entries[key] = compiled.entry_point
+        return result
+
+
+STEPPERS = {cls.family: cls for cls in (Splitting, RungeKutta, GaussRadau, WisdomHolman)}
+
+
+def stepper_for(spec):
+    """A new stepper for the integrator spec (an entry of spacephys.INTEGRATORS)."""
+    return STEPPERS[spec.family](spec)
+
+
+def capabilities(name):
+    """The Capabilities of the integrator registered under name."""
+    from .integrators import get_integrator
+    return STEPPERS[get_integrator(name).family].capabilities

@@ -1,0 +1,52 @@
+"""The one World -> REBOUND adapter of the study tools and tests: REBOUND (GPL-3.0) is used as
+an oracle and a benchmark peer only, through its public Python API."""
+import numpy as np
+
+
+def load():
+    """The rebound module; ValueError saying how to install it."""
+    try:
+        import rebound
+    except ImportError:
+        raise ValueError("the benchmarks compare with REBOUND: pip install 'spacephys[test]'") from None
+    return rebound
+
+
+def simulation(w, integrator="ias15", *, dt=None, n_active=None, gravity=None, **settings):
+    """A REBOUND Simulation with w's bodies (in row order), G, softening and dt; settings go
+    to sim.integrator's attributes (corrector=3, safe_mode=0, ...). n_active: only the first
+    that many bodies pull (the others as test particles that feel but do not pull, as in
+    spacephys); gravity: REBOUND's gravity routine ("basic": direct summation, as ours)."""
+    rebound = load()
+    sim = rebound.Simulation()
+    if gravity is not None:
+        sim.gravity = gravity
+    sim.G = w.G
+    sim.softening = w.softening
+    sim.integrator = integrator
+    sim.dt = w.dt if dt is None else dt
+    for key, value in settings.items():
+        setattr(sim.integrator, key, value)
+    pos = np.zeros((w.n, 3))
+    vel = np.zeros((w.n, 3))
+    pos[:, :w.dim], vel[:, :w.dim] = w.pos, w.vel
+    for m, p, v in zip(w.mass, pos, vel):
+        sim.add(m=float(m), x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
+    if n_active is not None:
+        sim.N_active = n_active
+        sim.testparticle_type = 0
+    return sim
+
+
+def positions(sim):
+    """(N, 3) positions of a REBOUND simulation."""
+    xyz = np.empty((sim.N, 3))
+    sim.serialize_particle_data(xyz=xyz)
+    return xyz
+
+
+def velocities(sim):
+    """(N, 3) velocities of a REBOUND simulation."""
+    v = np.empty((sim.N, 3))
+    sim.serialize_particle_data(vxvyvz=v)
+    return v
