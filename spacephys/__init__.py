@@ -1,24 +1,32 @@
 """spacephys: gravity, thrust, missiles, collisions and explosions for space games.
 
-The whole public API, re-exported by name.
+The whole public API, re-exported by name. The run logs, scenarios and study tools are
+imported on first use (they bring h5py, TOML and REBOUND's adapter): `import spacephys`
+stays cheap for a game.
 """
+import importlib
+
 from ._jit import get_threads, set_threads
 from .entities import GUIDANCE, ExplosionSpec, MissileSpec, ShipSpec
+from .errors import InstabilityError
 from .events import EVENT_DTYPE, EVENT_KINDS
 from .geometry import polygon_center_of_mass
 from .integrators import INTEGRATORS, Integrator, get_integrator
-from .runlog import RunLog, RunLogError
-from .runs import Run, open_run, replay, resume
-from .runner import RunResult, run_scenario
-from .study.recommend import Recommendation, recommend
-from .scenario import Scenario, ScenarioError, load_scenario
 from .orbits import elements_to_state, kepler_state, period, solve_kepler
-from .units import UNITS, UnitSystem, get_units
 from .steppers import STEPPERS, Capabilities, capabilities
-from .world import (BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, RESPONSES, Body,
-                    InstabilityError, World)
+from .units import UNITS, UnitSystem, get_units
+from .world import BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, RESPONSES, Body, World
 
 __version__ = "0.1.0"
+
+# name -> the module that defines it, imported on first use
+_LAZY = {
+    "RunLog": "runlog", "RunLogError": "runlog",
+    "Run": "runs", "open_run": "runs", "replay": "runs", "resume": "runs",
+    "RunResult": "runner", "run_scenario": "runner",
+    "Scenario": "scenario", "ScenarioError": "scenario", "load_scenario": "scenario",
+    "Recommendation": "study.recommend", "recommend": "study.recommend",
+}
 
 __all__ = [
     "World", "Body", "InstabilityError", "DEFAULT_KINDS", "GRAVITY_MODELS", "RESPONSES", "BOUNDARIES",
@@ -34,3 +42,12 @@ __all__ = [
     "set_threads", "get_threads",
     "__version__",
 ]
+
+
+def __getattr__(name):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'spacephys' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value

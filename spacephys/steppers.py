@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import InstabilityError
+from .integrators import get_integrator
 from .kernels import gauss_radau as kgr
 from .kernels import integrate
 from .kernels.wisdom_holman import wisdom_holman_steps
@@ -137,7 +139,6 @@ class GaussRadau(Stepper):
         return result
 
     def failed(self, world, done):
-        from .world import InstabilityError
         next_step = self.params[3]
         self.reset(world)            # the failed step's tiny proposal and wild polynomial
         pair = world.closest_pulling_pair()
@@ -258,5 +259,4 @@ def stepper_for(spec):
 
 def capabilities(name):
     """The Capabilities of the integrator registered under name."""
-    from .integrators import get_integrator
     return STEPPERS[get_integrator(name).family].capabilities

@@ -17,6 +17,7 @@ import numpy as np
 from . import _validate as check
 from .actors import Actors
 from .collisions import CollisionRules
+from .errors import InstabilityError
 from .events import EVENT_DTYPE
 from .forces import HELD, ForceField
 from .integrators import get_integrator
@@ -39,17 +40,6 @@ STATE_VERSION = 2          # the version of World.state(), and of the files that
 
 __all__ = ["World", "Body", "InstabilityError", "GRAVITY_MODELS", "RESPONSES", "BOUNDARIES",
            "DEFAULT_KINDS"]
-
-
-class InstabilityError(FloatingPointError):
-    """The integration broke down: a body's state became NaN or infinite, or the energy
-    error passed the limit set with World.watch_energy. ids: the bodies concerned, worst
-    first; t: the World's time when it was found."""
-
-    def __init__(self, message, ids, t):
-        super().__init__(message)
-        self.ids = ids
-        self.t = t
 
 
 Body = namedtuple("Body", "id pos vel mass radius kind active pulls")

@@ -26,7 +26,7 @@ import time
 import numpy as np
 
 from ..integrators import INTEGRATORS
-from ..world import InstabilityError
+from ..errors import InstabilityError
 
 # fixed-step candidates in the order they are tried (cheapest per step first); Euler and
 # symplectic Euler are left out: first order, never the cheapest in docs/tradeoff.md

@@ -1,0 +1,59 @@
+"""Ready-made user forces for World.add_force, and the pattern to write your own.
+
+A user force is a numba function fn(t, pos, vel, mass, ids, params, out) that adds every
+body's acceleration [length/time^2] into out (n, 3): t the time of the force evaluation, pos
+and vel (n, 3) the bodies' positions and velocities at that stage, mass (n,), ids (n,) int64
+body ids (find a body's row by its id: rows move when bodies are removed), params (p,) the
+float64 array given to add_force. It runs inside the step kernels, at every force evaluation
+of every integrator: no Python per step. Define it at the top level of a module (save, load
+and replay find it by module and name) and decorate it with @numba.njit(cache=True) so it is
+compiled once per machine.
+
+    w.add_force(spacephys.userforces.j2, [planet_id, J2 * G * M * R**2])
+"""
+import numba
+
+
+@numba.njit(cache=True)
+def j2(t, pos, vel, mass, ids, params, out):
+    """Oblateness of a planet spinning about z: the J2 term of its gravity field.
+
+    params = [planet id, J2 mu R^2] (mu = G M of the planet, R its equatorial radius). For
+    a body at d = (x, y, z) from the planet, r = |d|:
+        a = -3/2 J2 mu R^2 / r^5 (x (1 - 5 z^2/r^2), y (1 - 5 z^2/r^2), z (3 - 5 z^2/r^2))
+    (Montenbruck & Gill, Satellite Orbits, 2000, eq. 3.17 ff.); the planet takes the
+    reaction -m a / M of every body with mass, so momentum is conserved. Does nothing if the
+    planet is not alive.
+    """
+    target = int(params[0])
+    planet = -1
+    for i in range(ids.size):
+        if ids[i] == target:
+            planet = i
+            break
+    if planet < 0:
+        return
+    k = params[1]
+    m_planet = mass[planet]
+    for i in range(pos.shape[0]):
+        if i == planet:
+            continue
+        x = pos[i, 0] - pos[planet, 0]
+        y = pos[i, 1] - pos[planet, 1]
+        z = pos[i, 2] - pos[planet, 2]
+        r2 = x * x + y * y + z * z
+        if r2 == 0.0:
+            continue
+        s = 5.0 * z * z / r2
+        c = -1.5 * k / (r2 * r2 * r2 ** 0.5)
+        ax = c * x * (1.0 - s)
+        ay = c * y * (1.0 - s)
+        az = c * z * (3.0 - s)
+        out[i, 0] += ax
+        out[i, 1] += ay
+        out[i, 2] += az
+        if m_planet > 0.0 and mass[i] > 0.0:
+            w = mass[i] / m_planet
+            out[planet, 0] -= w * ax
+            out[planet, 1] -= w * ay
+            out[planet, 2] -= w * az
