@@ -1,10 +1,15 @@
 """The one decorator every numba kernel uses: caching, fastmath and parallel policy in one place."""
+import contextlib
 import hashlib
 import os
+import sys
+import threading
+import time
 import warnings
 from pathlib import Path
 
 import numba
+import numpy as np
 from numba.core.errors import NumbaPerformanceWarning
 
 # With prange-only parallelism (PRANGE_ONLY) numba's check for "a parallel transformation"
@@ -19,9 +24,12 @@ warnings.filterwarnings("ignore", message=r"\s*The keyword argument 'parallel=Tr
 # (compensated sums, Kepler solvers, the diagnostics' Neumaier sums).
 FAST = frozenset({"reassoc", "contract"})
 
-# Below this many pair evaluations a serial loop beats starting the thread pool (measured:
-# crossover between 64 and 128 bodies, i.e. 4e3..1.6e4 pairs, on a 2-core AMD EPYC).
+# Below this many pair evaluations a serial loop beats starting the thread pool on an idle
+# machine (measured: crossover between 64 and 128 bodies, i.e. 4e3..1.6e4 pairs, on a 2-core
+# AMD EPYC). Whether a loop above it runs on threads is ThreadChoice's call.
 PARALLEL_MIN_PAIRS = 10_000
+NEVER = np.iinfo(np.int64).max
+THREAD_MODES = ("auto", "always", "never")
 
 
 PRANGE_ONLY = {"prange": True, "comprehension": False, "reduction": False,
@@ -101,3 +109,96 @@ def set_threads(n):
 def get_threads():
     """The number of threads the force loops of large scenes use (see set_threads)."""
     return numba.get_num_threads()
+
+
+@contextlib.contextmanager
+def announced(what, after=0.5):
+    """Say on stderr when the block takes longer than `after` seconds: numba is compiling
+    `what`, once, and where the result is cached; then how long it took. Quiet when the
+    compiled code comes from the cache."""
+    done = threading.Event()
+    said = []
+    start = time.perf_counter()
+
+    def say():
+        if not done.wait(after):
+            where = numba.config.CACHE_DIR or str(Path(__file__).parent / "kernels" / "__pycache__")
+            print(f"spacephys: compiling {what} with numba; this happens once per machine and "
+                  f"version (the machine code is cached in {where})", file=sys.stderr,
+                  flush=True)
+            said.append(True)
+
+    thread = threading.Thread(target=say, daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        done.set()
+        thread.join()
+        if said:
+            print(f"spacephys: compiled in {time.perf_counter() - start:.1f} s", file=sys.stderr,
+                  flush=True)
+
+
+class ThreadChoice:
+    """Whether one World's force loops run on threads, chosen by the work and by what the
+    threads deliver. Results are the same bit for bit either way; only the time differs.
+
+    mode "always": every loop of PARALLEL_MIN_PAIRS pair evaluations or more runs on threads
+    (a machine whose cores are the simulation's); "never": none does; "auto" (default): only
+    loops that large may, and only while threads measure faster. Beside busy processes (a
+    game's render and audio threads) a threaded loop waits for a descheduled thread: measured
+    8 ms per step where one thread takes 0.03-0.5 ms. So each step() call is timed per step,
+    the other choice is tried now and then (after 1 s, then twice as long each time it loses,
+    up to a minute; at once when the current choice suddenly costs 4x more) and the faster
+    kept. A scene starts on one thread.
+    """
+
+    def __init__(self, mode="auto"):
+        self.min_pairs = np.array([NEVER], np.int64)    # read by the kernels' force loops
+        self.mode = "auto"
+        self.set(mode)
+
+    def set(self, mode):
+        if mode not in THREAD_MODES:
+            raise ValueError(f"threads={mode!r} is not known; valid: {', '.join(THREAD_MODES)}")
+        self.mode = mode
+        self.min_pairs[0] = PARALLEL_MIN_PAIRS if mode == "always" else NEVER
+        self.threaded = False
+        self.cost = {True: np.inf, False: np.inf}      # seconds per step, measured
+        self.work = 1.0                                # pair evaluations they were measured at
+        self.probe_at = 0.0
+        self.backoff = 1.0
+
+    def begin(self, work):
+        """Before a kernel call whose largest force loop makes `work` pair evaluations: set
+        the kernels' threshold; returns what end() needs (None: nothing to time)."""
+        if self.mode != "auto" or work < PARALLEL_MIN_PAIRS or numba.get_num_threads() < 2:
+            return None
+        if not 0.5 <= work / self.work <= 2.0:            # another scene: measure afresh
+            self.work = work
+            self.cost = {True: np.inf, False: np.inf}
+        now = time.perf_counter()
+        probe = now >= self.probe_at and self.cost[self.threaded] < np.inf
+        use = self.threaded != probe
+        self.min_pairs[0] = PARALLEL_MIN_PAIRS if use else NEVER
+        return use, probe, now
+
+    def end(self, token, steps):
+        """After the call: book its time per step, and choose."""
+        if token is None or steps <= 0:
+            return
+        use, probe, start = token
+        now = time.perf_counter()
+        per_step = (now - start) / steps
+        before = self.cost[use]
+        self.cost[use] = per_step
+        if probe:
+            if per_step < self.cost[not use]:
+                self.threaded = use
+                self.backoff = 1.0
+            else:
+                self.backoff = min(2.0 * self.backoff, 60.0)
+            self.probe_at = now + self.backoff
+        elif per_step > 4.0 * before:
+            self.probe_at = now                          # contention changed: look again

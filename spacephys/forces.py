@@ -14,7 +14,7 @@ from numba.core.registry import CPUDispatcher
 
 from . import _validate as check
 from .kernels import forces as kforces
-from .kernels.codes import CENTRAL, GRAVITY_MODELS, UNIFORM
+from .kernels.codes import CENTRAL, DIRECT, GRAVITY_MODELS, UNIFORM
 
 # the per-body column of held forces and accelerations: [F (3,), a (3,)]
 HELD = "held"
@@ -125,14 +125,22 @@ class ForceField:
         return self._typed
 
     # ------------------------------------------------------------ the table
-    def table(self, mass, ids, src, passive, still, held):
+    def table(self, mass, ids, src, passive, still, held, threads):
         """The kernels' Forces for the bodies mass, ids (n,); src, passive, still: int64 rows;
-        held : (n, 6) or None."""
+        held : (n, 6) or None; threads : (1,) int64 shared with World's ThreadChoice."""
         fns, params = self.typed_user() if self.user else (None, None)
         return kforces.make(mass, ids, model=self.model, G=self.G,
                             eps2=self.softening ** 2, field=self.field,
                             field_mass=self.field_mass, src=src, passive=passive, still=still,
-                            drag=self.drag, held=held, user=fns, params=params)
+                            drag=self.drag, held=held, user=fns, params=params,
+                            threads=threads)
+
+    def work(self, n, pulling):
+        """Pair evaluations of the largest force loop for n bodies, `pulling` of them pulling:
+        what decides whether threads can pay."""
+        if self.model == DIRECT:
+            return n * pulling
+        return n if self.model == CENTRAL else 0
 
     def shift(self, delta):
         """The origin moved by delta (3,): a central body's position with it."""

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._jit import announced
 from .errors import InstabilityError
 from .integrators import get_integrator
 from .kernels import gauss_radau as kgr
@@ -55,7 +56,7 @@ class Stepper:
 
     def run(self, plan, frames, dt, nsteps, t0):
         """Call the kernel: (steps done, status bits)."""
-        return plan.call(self.kernel, frames, dt, nsteps, t0)
+        return plan.call(self.kernel, frames, dt, nsteps, t0, f"the {self.spec.name} step")
 
     def failed(self, world, done):
         """The kernel reported FAILED after `done` steps: raise the error that says why."""
@@ -131,7 +132,7 @@ class GaussRadau(Stepper):
         if not p[3] == p[3]:                         # nothing carried yet: start at dt
             p[3] = p[4] = min(dt, p[1])
         self.before[:] = self.stats
-        result = plan.call(self.kernel, frames, dt, nsteps, t0)
+        result = plan.call(self.kernel, frames, dt, nsteps, t0, f"the {self.spec.name} step")
         held = self.stats[kgr.AT_MIN_STEP] - self.before[kgr.AT_MIN_STEP]
         if held:
             world.warn_later(f"gauss_radau: {held} substeps were held at min_step = "
@@ -228,25 +229,35 @@ class Plan:
     points that take them: a call goes straight to machine code, past numba's typing of the
     arguments. Rebuilt by World whenever the set of bodies or a setting the tables hold
     changes; arrays are shared with World, so values changed in place need no rebuild."""
-    __slots__ = ("world", "state", "forces", "rules", "actors", "method", "alive", "entries")
+    __slots__ = ("world", "state", "forces", "rules", "actors", "method", "alive", "work",
+                 "entries")
 
-    def __init__(self, world, state, forces, rules, actors, method, alive):
+    def __init__(self, world, state, forces, rules, actors, method, alive, work):
         self.world, self.state, self.forces, self.rules = world, state, forces, rules
-        self.actors, self.method, self.alive = actors, method, alive
+        self.actors, self.method, self.alive, self.work = actors, method, alive, work
         self.entries = {}
 
-    def call(self, kernel, frames, dt, nsteps, t0):
+    def call(self, kernel, frames, dt, nsteps, t0, label="the step"):
         args = (self.state, self.forces, self.rules, self.actors, frames, self.method,
                 float(dt), int(nsteps), float(t0))
         key = (kernel, frames is None)
         entry = self.entries.get(key)
-        if entry is not None:
-            return entry(*args)
-        result = kernel(*args)                 # compiles or loads from the cache once
-        compiled = kernel.overloads.get(tuple(kernel.typeof_pyval(a) for a in args))
-        if compiled is not None:
-            self.entries[key] = compiled.entry_point
-        return result
+        if entry is None:
+            sig = tuple(kernel.typeof_pyval(a) for a in args)
+            entry = _ENTRIES.get((kernel, sig))
+            if entry is None:                  # new in this process: compile or load once
+                with announced(f"{label} for this scene"):
+                    result = kernel(*args)
+                _ENTRIES[kernel, sig] = kernel.overloads[sig].entry_point
+                self.entries[key] = _ENTRIES[kernel, sig]
+                return result
+            self.entries[key] = entry
+        return entry(*args)
+
+
+# (kernel, argument types) -> the compiled entry point: plans rebuilt for new bodies find the
+# machine code here instead of asking numba to type their arguments again
+_ENTRIES = {}
 
 
 STEPPERS = {cls.family: cls for cls in (Splitting, RungeKutta, GaussRadau, WisdomHolman)}

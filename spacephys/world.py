@@ -15,6 +15,7 @@ from collections import namedtuple
 import numpy as np
 
 from . import _validate as check
+from ._jit import ThreadChoice, announced
 from .actors import Actors
 from .collisions import CollisionRules
 from .errors import InstabilityError
@@ -37,6 +38,7 @@ STEP_CONTROLS = ("auto", "pulling", "all")
 PASSIVE_KINDS = ("ship", "missile", "debris")
 DEFAULT_KINDS = ("body", "star", "planet", "moon", "asteroid", "ship", "missile", "debris")
 STATE_VERSION = 2          # the version of World.state(), and of the files that hold it
+_first_tables = True       # no World has built its kernel tables in this process yet
 
 __all__ = ["World", "Body", "InstabilityError", "GRAVITY_MODELS", "RESPONSES", "BOUNDARIES",
            "DEFAULT_KINDS"]
@@ -152,6 +154,7 @@ class World:
         self._plan = None               # the kernels' tables for the bodies now (Plan)
         self._scratch = None            # per-body scratch kept at the capacity
         self._warning = None            # a warning to give once a call is booked
+        self._threads = ThreadChoice()  # whether the force loops run on threads
 
     # ---------------------------------------------------------------- settings
     @property
@@ -220,6 +223,18 @@ class World:
     @journaled_setter("dropped_time")
     def dropped_time(self, value):
         self._dropped = check.scalar("dropped_time", value, minimum=0.0)
+
+    @property
+    def threads(self):
+        """Whether this World's force loops (those of 10^4 pair evaluations or more) run on
+        threads: "auto" (default: while they measure faster than one thread, see
+        _jit.ThreadChoice), "always" (a machine whose cores are the simulation's) or
+        "never". sp.set_threads sets how many. Results are the same bit for bit."""
+        return self._threads.mode
+
+    @threads.setter
+    def threads(self, mode):
+        self._threads.set(mode)
 
     @property
     def integrator(self):
@@ -762,7 +777,7 @@ class World:
                       "steps": self._steps, "accumulator": self._accumulator,
                       "dropped_time": self._dropped, "max_substeps": self._max_substeps,
                       "origin": self._origin.copy(), "adaptive": self._adaptive.copy(),
-                      "step_control": self._step_control,
+                      "step_control": self._step_control, "threads": self._threads.mode,
                       "events": self._events[:self._event_count[0]].copy()},
             "bodies": self._b.state(),
             "forces": self._forces.state(),
@@ -814,6 +829,7 @@ class World:
         w._plan = None
         w._scratch = None
         w._warning = None
+        w._threads = ThreadChoice(str(ws["threads"]))
         return w
 
     # ---------------------------------------------------------------- collisions
@@ -1028,6 +1044,11 @@ class World:
         plan = self._plan
         if plan is not None:
             return plan
+        global _first_tables
+        if _first_tables:                     # the tables' builders: compiled or loaded once
+            _first_tables = False
+            with announced("the tables of this scene"):
+                return self.tables()
         b = self._b
         n = b.n
         sources = self._sources()
@@ -1040,12 +1061,14 @@ class World:
                             scratch["acc"], scratch["pos0"], scratch["vel0"], self._events,
                             self._event_count, self._dim)
         forces = self._forces.table(b.mass[:n], b.ids[:n], *sources,
-                                    b.held[:n] if HELD in b.columns else None)
+                                    b.held[:n] if HELD in b.columns else None,
+                                    self._threads.min_pairs)
         rules = self._collisions.table(b.kind[:n].astype(np.int64), b.radius[:n],
                                        b.category[:n], b.mask[:n], b.fixed[:n],
                                        self._actors.owners(), self._dim, scratch)
         plan = Plan(self, state, forces, rules, self._actors.table(),
-                    self._stepper.method(self, sources), alive)
+                    self._stepper.method(self, sources), alive,
+                    self._forces.work(n, sources[0].size))
         self._plan = plan
         return plan
 
@@ -1109,7 +1132,9 @@ class World:
             plan = self.tables()
             first = int(self._event_count[0])
             frames = None if frame_at is None else self._frame_buffers(frame_at, consumed)
+            timing = self._threads.begin(plan.work)
             done, status = self._stepper.run(plan, frames, self._dt, nsteps, self.t)
+            self._threads.end(timing, done)
             if self._event_count[0] > self._events.shape[0]:
                 self._events = kstate.events_of(plan.state)        # the kernel grew it
                 self._plan = None
@@ -1323,7 +1348,8 @@ class World:
         if plan is not None:
             return plan.forces
         b = self._b
-        return self._forces.table(b.mass[:b.n], b.ids[:b.n], *self._sources(), None)
+        return self._forces.table(b.mass[:b.n], b.ids[:b.n], *self._sources(), None,
+                                  self._threads.min_pairs)
 
     def kinetic_energy(self, pulling_only=False):
         b = self._b

@@ -153,6 +153,7 @@ def test_thread_count_changes_nothing_but_time():
             assert sp.set_threads(n) >= 1 and sp.get_threads() == n
             w = scenes.uniform_sphere(300, seed=2, softening=0.01, integrator="leapfrog",
                                       dt=1e-3)
+            w.threads = "always"
             w.step(20)
             results.append(w.pos.copy())
     finally:
@@ -163,3 +164,53 @@ def test_thread_count_changes_nothing_but_time():
     with pytest.raises(ValueError, match="at most"):
         sp.set_threads(numba.config.NUMBA_NUM_THREADS + 1)
     assert sp.get_threads() == previous
+
+
+class _Clock:
+    """A perf_counter that advances by what each call is made to cost."""
+
+    def __init__(self):
+        self.now = 0.0
+
+    def __call__(self):
+        return self.now
+
+
+def _call(choice, clock, threaded_cost, serial_cost, work=90_000):
+    token = choice.begin(work)
+    used = choice.min_pairs[0] == PARALLEL_MIN_PAIRS
+    clock.now += threaded_cost if used else serial_cost
+    choice.end(token, 1)
+    return used
+
+
+def test_thread_choice_keeps_what_measures_faster(monkeypatch):
+    """"auto": a scene starts on one thread, tries threads, keeps the faster; beside busy
+    processes (threads 8 ms per step, one thread 0.3 ms) it tries threads again only after
+    1, 2, 4... s; on an idle machine (threads faster) it keeps them and checks one thread
+    after 1 s; a sudden 4x slowdown makes it look again at once."""
+    from spacephys import _jit
+    clock = _Clock()
+    monkeypatch.setattr(_jit.time, "perf_counter", clock)
+    monkeypatch.setattr(_jit.numba, "get_num_threads", lambda: 2)   # whatever the machine
+    busy = _jit.ThreadChoice()
+    used = [_call(busy, clock, 8e-3, 3e-4) for _ in range(4)]
+    assert used == [False, True, False, False] and not busy.threaded
+    clock.now += 1.0                              # the probe after a loss: 2 s later
+    assert not _call(busy, clock, 8e-3, 3e-4)
+    clock.now += 1.0
+    assert _call(busy, clock, 8e-3, 3e-4) and not busy.threaded
+    idle = _jit.ThreadChoice()
+    used = [_call(idle, clock, 1e-4, 2e-4) for _ in range(4)]
+    assert used == [False, True, True, True] and idle.threaded
+    clock.now += 1.0
+    assert not _call(idle, clock, 1e-4, 2e-4) and idle.threaded     # checked, kept
+    assert _call(idle, clock, 9e-3, 2e-4)                          # contention came...
+    assert not _call(idle, clock, 9e-3, 2e-4) and not idle.threaded  # ...looked at once
+    small = _jit.ThreadChoice()
+    assert small.begin(PARALLEL_MIN_PAIRS - 1) is None            # never worth it
+    for mode, want in (("always", PARALLEL_MIN_PAIRS), ("never", _jit.NEVER)):
+        small.set(mode)
+        assert small.begin(90_000) is None and small.min_pairs[0] == want
+    with pytest.raises(ValueError, match="threads='sometimes'"):
+        small.set("sometimes")

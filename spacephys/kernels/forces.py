@@ -67,25 +67,27 @@ FIELDS = (
     "user",        # typed List of USER_FORCE_TYPE
     "params",      # typed List of (p,) float64, one per user force
     "user_out",    # (n, 3) scratch the user forces add into
+    "threads",     # (1,) int64: the fewest pair evaluations a force loop runs on threads
+                   # (World's ThreadChoice sets it between calls: huge = never)
 )
 structref.define_proxy(Forces, ForcesType, list(FIELDS))
 
 
 @kernel
 def _make(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone, drag,
-          held, scratch, user, params, user_out):
+          held, scratch, user, params, user_out, threads):
     return Forces(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone,
-                  drag, held, scratch, user, params, user_out)
+                  drag, held, scratch, user, params, user_out, threads)
 
 
 @kernel
 def _make_plain(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone,
-                drag, held, scratch, user_out):
+                drag, held, scratch, user_out, threads):
     """_make without user forces: the empty lists made here, so that a process that never
     adds a user force never pays for typed lists in Python (0.4 s of compilation)."""
     return Forces(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone,
                   drag, held, scratch, typed.List.empty_list(USER_FORCE_TYPE),
-                  typed.List.empty_list(types.float64[::1]), user_out)
+                  typed.List.empty_list(types.float64[::1]), user_out, threads)
 
 
 def no_user_forces():
@@ -94,18 +96,21 @@ def no_user_forces():
 
 
 def make(mass, ids, *, model, G, eps2, field, field_mass, src, passive, still, drag, held=None,
-         user=None, params=None):
+         user=None, params=None, threads=None):
     """A Forces table for the bodies mass, ids (n,); arrays are shared, not copied (a change
     to drag or field between steps needs no new table). held : (n, 6) or None; user,
-    params : typed lists (no_user_forces) or None."""
+    params : typed lists (no_user_forces) or None; threads : (1,) int64, the fewest pair
+    evaluations a force loop runs on threads (default _jit.PARALLEL_MIN_PAIRS)."""
     n = mass.shape[0]
     scratch = np.empty((4, src.size if model == DIRECT else 1))
     args = (int(model), float(G), float(eps2), field, float(field_mass), mass, ids, src,
             passive, still, np.arange(n, dtype=np.int64), drag,
             np.zeros((0, 6)) if held is None else held, scratch)
+    if threads is None:
+        threads = np.array([PARALLEL_MIN_PAIRS], np.int64)
     if user is None:
-        return _make_plain(*args, np.zeros((0, 3)))
-    return _make(*args, user, params, np.zeros((n, 3)))
+        return _make_plain(*args, np.zeros((0, 3)), threads)
+    return _make(*args, user, params, np.zeros((n, 3)), threads)
 
 
 # ----------------------------------------------------------------------------- gravity
@@ -132,13 +137,14 @@ def _pull(x, y, z, s, eps2):
 
 
 @kernel(fast=True, parallel=True, inline=True)
-def _pull_all(targets, pos, s, G, eps2, out):
-    """out[k] = G * pull of the sources on pos[k] for every k in targets; threads when it pays.
+def _pull_all(targets, pos, s, G, eps2, out, min_pairs):
+    """out[k] = G * pull of the sources on pos[k] for every k in targets; on threads from
+    min_pairs pair evaluations on.
 
     Each target's sum runs in a fixed order on one thread, so the result does not depend on
     the thread count.
     """
-    if targets.size * s.shape[1] >= PARALLEL_MIN_PAIRS:
+    if targets.size * s.shape[1] >= min_pairs:
         for a in numba.prange(targets.size):
             k = targets[a]
             ax, ay, az = _pull(pos[k, 0], pos[k, 1], pos[k, 2], s, eps2)
@@ -187,7 +193,7 @@ def accelerations(f, t, pos, vel, out, targets, with_drag):
             scratch[1, 0] = f.field[1]
             scratch[2, 0] = f.field[2]
             scratch[3, 0] = f.field_mass
-        _pull_all(targets, pos, scratch, f.G, f.eps2, out)
+        _pull_all(targets, pos, scratch, f.G, f.eps2, out, f.threads[0])
     else:
         g0 = f.field[0] if model == UNIFORM else 0.0
         g1 = f.field[1] if model == UNIFORM else 0.0
