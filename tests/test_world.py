@@ -90,8 +90,8 @@ def test_two_dimensional_world_stays_in_its_plane():
 def test_step_runs_the_loop_in_one_kernel_call(monkeypatch):
     calls = []
     real = steppers.Plan.call
-    monkeypatch.setattr(steppers.Plan, "call", lambda self, kernel, frames, dt, n, t0:
-                        calls.append(n) or real(self, kernel, frames, dt, n, t0))
+    monkeypatch.setattr(steppers.Plan, "call", lambda self, kernel, frames, dt, n, *rest:
+                        calls.append(n) or real(self, kernel, frames, dt, n, *rest))
     w = kepler(0.5, integrator="leapfrog", dt=1e-3)
     before = w.pos.copy()
     w.step(1000)
