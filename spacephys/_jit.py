@@ -167,6 +167,7 @@ class ThreadChoice:
         self.threaded = False
         self.cost = {True: np.inf, False: np.inf}      # seconds per step, measured
         self.work = 1.0                                # pair evaluations they were measured at
+        self.settle = 0
         self.probe_at = 0.0
         self.backoff = 1.0
 
@@ -178,6 +179,7 @@ class ThreadChoice:
         if not 0.5 <= work / self.work <= 2.0:            # another scene: measure afresh
             self.work = work
             self.cost = {True: np.inf, False: np.inf}
+            self.settle = 2            # its first calls load kernels and build tables: untimed
         now = time.perf_counter()
         probe = now >= self.probe_at and self.cost[self.threaded] < np.inf
         use = self.threaded != probe
@@ -187,6 +189,9 @@ class ThreadChoice:
     def end(self, token, steps):
         """After the call: book its time per step, and choose."""
         if token is None or steps <= 0:
+            return
+        if self.settle:
+            self.settle -= 1
             return
         use, probe, start = token
         now = time.perf_counter()

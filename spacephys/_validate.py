@@ -1,4 +1,5 @@
 """Input checks shared by the public API: each error names the field and the offending value."""
+import math
 import numbers
 
 import numpy as np
@@ -50,6 +51,9 @@ def floats(name, value, shape=None, *, minimum=None, positive=False):
 
 def scalar(name, value, *, minimum=None, positive=False):
     """A finite float (see floats)."""
+    if type(value) is float and math.isfinite(value) and \
+            (minimum is None or value >= minimum) and (not positive or value > 0.0):
+        return value                 # the common case, without numpy
     if isinstance(value, np.ndarray) and value.ndim == 0:
         value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.floating,

@@ -82,10 +82,13 @@ def _heading(dim, heading):
 
 
 def _rotate(q, v):
-    w, x, y, z = q
-    u = np.array([x, y, z])
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
+    """R(q) v for a unit quaternion q (w, x, y, z): v + w t + u x t, t = 2 u x v, in plain
+    floats (numpy's cross on 3-vectors costs more than the arithmetic)."""
+    w, x, y, z = (float(c) for c in q)
+    vx, vy, vz = (float(c) for c in v)
+    tx, ty, tz = 2.0 * (y * vz - z * vy), 2.0 * (z * vx - x * vz), 2.0 * (x * vy - y * vx)
+    return np.array([vx + w * tx + (y * tz - z * ty), vy + w * ty + (z * tx - x * tz),
+                     vz + w * tz + (x * ty - y * tx)])
 
 
 class Actors:
@@ -117,7 +120,7 @@ class Actors:
     def _actor_row(self, body, field="id"):
         i = self.w.index_of(body, field)
         b = self.b
-        if "actor" not in b.columns or not b.actor[i]:
+        if "actor" not in b.columns or not b.actor.item(i):
             raise ValueError(f"{field} = {body}: body is a {self.w.kinds[self.b.kind[i]]!r}, "
                              f"not a ship or missile")
         return i

@@ -123,9 +123,9 @@ class Bodies:
         numpy, for the per-call paths (control, get)."""
         slot = body_id & _SLOT_MASK
         if body_id < 0 or slot >= self.slots_used or \
-                int(self.generation[slot]) != body_id >> _SLOT_BITS:
+                self.generation.item(slot) != body_id >> _SLOT_BITS:
             return -1
-        return int(self.index[slot])
+        return self.index.item(slot)
 
     def remove(self, rows):
         """Delete the bodies at the given (validated, distinct) rows: the last live rows move

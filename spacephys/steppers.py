@@ -243,20 +243,23 @@ class Plan:
         key = (kernel, frames is None)
         entry = self.entries.get(key)
         if entry is None:
-            sig = tuple(kernel.typeof_pyval(a) for a in args)
-            entry = _ENTRIES.get((kernel, sig))
+            # the tables' types say which machine code takes them (the method's arrays are
+            # of one type per family): a plan rebuilt for new bodies finds it here
+            kinds = (kernel, frames is None) + tuple(
+                getattr(a, "_numba_type_", None) for a in args[:4])
+            entry = _ENTRIES.get(kinds)
             if entry is None:                  # new in this process: compile or load once
                 with announced(f"{label} for this scene"):
                     result = kernel(*args)
-                _ENTRIES[kernel, sig] = kernel.overloads[sig].entry_point
-                self.entries[key] = _ENTRIES[kernel, sig]
+                sig = tuple(kernel.typeof_pyval(a) for a in args)
+                _ENTRIES[kinds] = self.entries[key] = kernel.overloads[sig].entry_point
                 return result
             self.entries[key] = entry
         return entry(*args)
 
 
-# (kernel, argument types) -> the compiled entry point: plans rebuilt for new bodies find the
-# machine code here instead of asking numba to type their arguments again
+# (kernel, frames or not, the tables' types) -> the compiled entry point: plans rebuilt for
+# new bodies find the machine code here instead of asking numba to type their arguments again
 _ENTRIES = {}
 
 

@@ -611,6 +611,8 @@ class World:
         return int(rows[0]) if scalar else rows
 
     def __contains__(self, body_id):
+        if type(body_id) is int:
+            return self._b.row(body_id) >= 0
         if isinstance(body_id, bool) or not isinstance(body_id, (int, np.integer)):
             return False
         if not 0 <= body_id <= np.iinfo(np.int64).max:
@@ -1079,22 +1081,23 @@ class World:
         holds what happened during these steps."""
         if type(n) is not int or n < 0:
             n = check.count("n", n)
-        t0 = self.t
-        self._begin_events()
+        t0 = self._t_base + self._steps * self._dt
+        self._event_count[0] = 0
+        if self._actors.queued:
+            self._begin_events()
+        log = self._log
         status = 0
         if n:
-            status = self._run_framed(n)
-        if self._log is not None:
-            self._log.record_events(self.events)
-        if n:
+            status = self._run(n) if log is None and self._b.n else self._run_framed(n)
+        if log is not None:
+            log.record_events(self.events)
+        if n and (status & NONFINITE or self._watch is not None):
             self._check_health(t0, status)
-        return self.t
+        return self._t_base + self._steps * self._dt
 
     def _begin_events(self):
-        """This step's events start empty, but for launches made since the last one."""
-        self._event_count[0] = 0
-        if self._actors.queued and not self._actors.write_queued(self._events,
-                                                                 self._event_count):
+        """This step's events open with the launches made since the last one."""
+        if not self._actors.write_queued(self._events, self._event_count):
             self._events = np.zeros(2 * len(self._actors.queued), dtype=EVENT_DTYPE)
             self._plan = None
             self._actors.write_queued(self._events, self._event_count)
@@ -1129,24 +1132,25 @@ class World:
         consumed = 0
         status = 0
         while nsteps:
-            plan = self.tables()
-            first = int(self._event_count[0])
+            plan = self._plan or self.tables()
+            first = self._event_count[0]
             frames = None if frame_at is None else self._frame_buffers(frame_at, consumed)
             timing = self._threads.begin(plan.work)
-            done, status = self._stepper.run(plan, frames, self._dt, nsteps, self.t)
-            self._threads.end(timing, done)
+            done, status = self._stepper.run(plan, frames, self._dt, nsteps,
+                                             self._t_base + self._steps * self._dt)
+            if timing is not None:
+                self._threads.end(timing, done)
             if self._event_count[0] > self._events.shape[0]:
                 self._events = kstate.events_of(plan.state)        # the kernel grew it
                 self._plan = None
-            events = self._events[first:self._event_count[0]]
-            if status & REMOVED:
-                self._actors.merged(events)
             if frames is not None:
                 self._log.captured(self, *frames, done)
             self._steps += done
             if status & REMOVED:
                 # bodies destroyed or merged away leave, at the end of the step they died in;
                 # the destroyed ones with an explosion throw out their debris, born then
+                events = self._events[first:self._event_count[0]]
+                self._actors.merged(events)
                 dead = np.flatnonzero(~plan.alive)
                 blasts = self._actors.explode_dead(dead, events)
                 self._b.remove(dead)

@@ -80,6 +80,11 @@ def test_readme_ships_example_runs_as_pasted():
     assert lines[-1].startswith("debris: 50 ")       # the prey's explosion
 
 
+def test_readme_spacewar_loop_runs_as_pasted():
+    lines = _readme_example("spacewar")
+    assert re.match(r"1200 frames: [\d.]+ ms per frame, \d+ bodies now; score ", lines[-1])
+
+
 def test_readme_runlog_example_runs_as_pasted():
     lines = _readme_example("runlog")
     # 300 steps / 5 + 100 / 5 + the first = 81 frames; 1 fuel at 1/3 per time: empty at 3

@@ -185,7 +185,8 @@ def _call(choice, clock, threaded_cost, serial_cost, work=90_000):
 
 
 def test_thread_choice_keeps_what_measures_faster(monkeypatch):
-    """"auto": a scene starts on one thread, tries threads, keeps the faster; beside busy
+    """"auto": a scene starts on one thread (its first two calls, which load kernels and
+    build tables, untimed), tries threads, keeps the faster; beside busy
     processes (threads 8 ms per step, one thread 0.3 ms) it tries threads again only after
     1, 2, 4... s; on an idle machine (threads faster) it keeps them and checks one thread
     after 1 s; a sudden 4x slowdown makes it look again at once."""
@@ -194,15 +195,15 @@ def test_thread_choice_keeps_what_measures_faster(monkeypatch):
     monkeypatch.setattr(_jit.time, "perf_counter", clock)
     monkeypatch.setattr(_jit.numba, "get_num_threads", lambda: 2)   # whatever the machine
     busy = _jit.ThreadChoice()
-    used = [_call(busy, clock, 8e-3, 3e-4) for _ in range(4)]
-    assert used == [False, True, False, False] and not busy.threaded
+    used = [_call(busy, clock, 8e-3, 3e-4) for _ in range(6)]
+    assert used == [False, False, False, True, False, False] and not busy.threaded
     clock.now += 1.0                              # the probe after a loss: 2 s later
     assert not _call(busy, clock, 8e-3, 3e-4)
     clock.now += 1.0
     assert _call(busy, clock, 8e-3, 3e-4) and not busy.threaded
     idle = _jit.ThreadChoice()
-    used = [_call(idle, clock, 1e-4, 2e-4) for _ in range(4)]
-    assert used == [False, True, True, True] and idle.threaded
+    used = [_call(idle, clock, 1e-4, 2e-4) for _ in range(6)]
+    assert used == [False, False, False, True, True, True] and idle.threaded
     clock.now += 1.0
     assert not _call(idle, clock, 1e-4, 2e-4) and idle.threaded     # checked, kept
     assert _call(idle, clock, 9e-3, 2e-4)                          # contention came...

@@ -750,3 +750,31 @@ def test_a_copy_of_a_recording_world_is_not_recording(tmp_path):
         assert len(run) == 6
         assert [e["call"] for e in run.inputs()] == ["step", "step"]
     assert c.t == pytest.approx(0.54) and c.n == 3
+
+
+def test_version_1_files_read_their_frames_and_refuse_their_checkpoints(tmp_path):
+    """A log of format 1 (checkpoints of World's old attribute tree): frames, events and
+    inputs still read; a checkpoint is refused naming the file and the version."""
+    path = tmp_path / "old.h5"
+    w = sp.World(dim=2, dt=0.1)
+    w.add_body(1.0, (0.0, 0.0))
+    w.add_body(0.0, (1.0, 0.0), (0.0, 1.0))
+    with w.record(path, every=2):
+        w.step(10)
+    with h5py.File(path, "r+") as f:
+        f.attrs["format_version"] = 1
+    with sp.open_run(path) as run:
+        assert len(run) == 6 and run.frame(-1).step == 10
+        assert [e["call"] for e in run.inputs()] == ["step"]
+        with pytest.raises(sp.RunLogError, match="old.h5.*format version 1"):
+            run.world(0)
+    for load in (lambda: sp.World.load(path), lambda: sp.resume(path),
+                 lambda: sp.replay(path)):
+        with pytest.raises(sp.RunLogError, match="old.h5.*format version 1"):
+            load()
+    saved = tmp_path / "world.h5"
+    w.save(saved)
+    with h5py.File(saved, "r+") as f:
+        f.attrs["format_version"] = 1
+    with pytest.raises(sp.RunLogError, match="world.h5.*format version 1"):
+        sp.World.load(saved)

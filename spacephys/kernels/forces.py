@@ -160,7 +160,7 @@ def _pull_all(targets, pos, s, G, eps2, out, min_pairs):
             out[k, 2] = G * az
 
 
-@kernel
+@kernel(inline=True)
 def _gather_sources(src, pos, mass, scratch):
     """The pulling bodies' x, y, z, m into scratch's rows (4, ns): separate contiguous rows,
     so that the force loops load them unit-stride."""
@@ -206,7 +206,7 @@ def accelerations(f, t, pos, vel, out, targets, with_drag):
     _add_others(f, t, pos, vel, out, targets, with_drag)
 
 
-@kernel
+@kernel(inline=True)
 def _add_others(f, t, pos, vel, out, targets, with_drag):
     """Held forces and accelerations, user forces, drag (with_drag); zero for immovable bodies."""
     held = f.held
@@ -218,7 +218,7 @@ def _add_others(f, t, pos, vel, out, targets, with_drag):
             for c in range(3):
                 # a held force on a body of mass 0 has no acceleration to give
                 out[k, c] += (held[k, c] / m if m > 0.0 else 0.0) + held[k, 3 + c]
-    if len(f.user):
+    if f.user_out.shape[0]:               # made only with user forces (see make)
         extra = f.user_out
         for i in range(extra.shape[0]):
             extra[i, 0] = 0.0
@@ -249,10 +249,10 @@ def _add_others(f, t, pos, vel, out, targets, with_drag):
 @kernel
 def velocity_dependent(f):
     """Whether the accelerations read velocities (drag or user forces)."""
-    return f.drag[0] > 0.0 or len(f.user) > 0
+    return f.drag[0] > 0.0 or f.user_out.shape[0] > 0
 
 
-@kernel
+@kernel(inline=True)
 def drag_kick(f, vel, acc, h, rows, wind):
     """The kick with linear drag toward the wind, dv/dt = a - k (v - wind) with a held, for
     the bodies in rows: exact, v <- v_t + (v - v_t) exp(-k h), v_t = wind + a / k the terminal

@@ -33,7 +33,7 @@ def periods(rules):
     return _periods(rules)
 
 
-@kernel
+@kernel(inline=True)
 def begin(state, rules, actors, t0, dt, keep, last):
     """Before a step's integration (see the module). keep: save the start state even without
     collisions or actors (the family may undo the step); last: the call's last step."""
@@ -46,7 +46,7 @@ def begin(state, rules, actors, t0, dt, keep, last):
         begin_step(actors, rules, state, t0, dt, periods(rules))
 
 
-@kernel
+@kernel(inline=True)
 def end(state, rules, actors, t0, dt):
     """After a step's integration: fuel, collisions, fuses and lifetimes. True when bodies
     died or merged away (state.alive): the kernel returns so that World can catch up."""
@@ -60,7 +60,7 @@ def end(state, rules, actors, t0, dt):
     return removed
 
 
-@kernel
+@kernel(inline=True)
 def capture(frames, k, done, state):
     """When frames[0][k] == done (steps done in this call), copy the state into frame k.
     Returns the index of the next frame to take."""

@@ -1,3 +1,18 @@
 """The study tools: benchmarks beside REBOUND (bench), the work-precision study (tradeoff),
 the reference problems (validate) and sp.recommend. They use the World's public API and one
 World -> REBOUND adapter (rebound.py)."""
+
+import os
+import platform
+
+
+def header(name, quick, rebound=None):
+    """What every benchmark's results start with: its name, the machine, the versions."""
+    import numba
+    import numpy as np
+    versions = {"numba": numba.__version__, "numpy": np.__version__}
+    if rebound is not None:
+        versions["rebound"] = rebound.__version__
+    return {"benchmark": name, "quick": quick,
+            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
+            "numba_threads": numba.get_num_threads(), "versions": versions}

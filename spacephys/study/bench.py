@@ -5,7 +5,6 @@ minimum is the least disturbed run of each code). Each case also checks that bot
 the same work: the positions after a few identical steps must agree to round-off.
 """
 import os
-import platform
 import subprocess
 import sys
 import tempfile
@@ -14,18 +13,8 @@ import time
 import numpy as np
 
 from ..scenes import uniform_sphere
+from . import header
 from . import rebound as peer
-
-
-def _header(name, quick, rebound=None):
-    """What every benchmark's results start with: its name, the machine, the versions."""
-    import numba
-    versions = {"numba": numba.__version__, "numpy": np.__version__}
-    if rebound is not None:
-        versions["rebound"] = rebound.__version__
-    return {"benchmark": name, "quick": quick,
-            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
-            "numba_threads": numba.get_num_threads(), "versions": versions}
 
 
 def _alternating(ours, theirs, steps, repeats):
@@ -131,7 +120,7 @@ def gravity(quick=False):
     w.add_bodies(0.0, p / np.linalg.norm(p, axis=1)[:, None] * rng.random((t, 1)) ** (1 / 3))
     cases.append(_case(f"{m} massive + {t} test particles", w, repeats=max(1, repeats - 2),
                        budget=budget, n_active=m, check_steps=2))
-    return {**_header("gravity", quick, rebound),
+    return {**header("gravity", quick, rebound),
             "cases": cases, "compile": _compile_times()}
 
 
@@ -190,7 +179,7 @@ def integrators(quick=False):
              _gauss_radau_case(256 if quick else 1024, 0.01 if quick else 0.05, 1)]
     for corrector in (0, 3):
         cases.append(_wisdom_holman_case(corrector, 10_000 if quick else 33_333, repeats))
-    return {**_header("integrators", quick, rebound),
+    return {**header("integrators", quick, rebound),
             "cases": cases}
 
 
@@ -306,7 +295,7 @@ def collisions(quick=False):
     t_grid, pairs_grid, _ = min(_detection_pass(small) for _ in range(3))
     merge = _merging_cluster(2000 if quick else 10_000, 5 if quick else 10,
                              0.01 if quick else 0.004, 1 if quick else 2)
-    return {**_header("collisions", quick, rebound),
+    return {**header("collisions", quick, rebound),
             "detection": passes, "scaling": passes[sizes[1]]["seconds"] / passes[sizes[0]]["seconds"],
             "brute_vs_grid": {"bodies": small.n, "brute_seconds": t_brute,
                               "grid_seconds": t_grid, "pairs_brute": pairs_brute,
@@ -403,7 +392,7 @@ def fleet(quick=False):
     reps = 3 if quick else 5
     ours_ms = 1e3 * _per_step(plain.step, 10, reps)
     rebound_ms = 1e3 * _per_step(sim.steps, 10, reps)
-    return {**_header("fleet", quick, rebound),
+    return {**header("fleet", quick, rebound),
             "bodies_start": bodies, "bodies_end": w.n, "massive": int(massive.size),
             "steps": steps, "first_step_s": first,
             "median_ms": float(np.median(times)), "p95_ms": float(np.percentile(times, 95)),
@@ -486,7 +475,7 @@ def log(quick=False):
     for name in os.listdir(folder):
         os.unlink(os.path.join(folder, name))
     os.rmdir(folder)
-    return {**_header("log", quick, rebound),
+    return {**header("log", quick, rebound),
             "bodies": n, "steps": steps, "base_seconds": base,
             "base_us_per_step": base / steps * 1e6, "cases": rows,
             "rebound_us_per_step": rb_base / (steps // 4) * 1e6, "rebound": rebound_rows}
@@ -534,7 +523,7 @@ def memory(quick=False):
     peak, held = memory_used(n)
     seconds = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-    return {**_header("memory", quick), "bodies": n,
+    return {**header("memory", quick), "bodies": n,
             "bytes_per_body": per_body,
             "held_bytes": held, "peak_bytes": peak, "maxrss_growth_bytes": after - before,
             "seconds": seconds}
@@ -626,7 +615,7 @@ def models(quick=False):
         for r in rows:
             r["us_per_body_step"] = r["spacephys_s_per_step"] / r["bodies"] * 1e6
         cases += rows
-    return {**_header("models", quick, rebound),
+    return {**header("models", quick, rebound),
             "orbits": {"dt": dt, "steps": steps, "time": dt * steps, "softening": eps,
                        "body_mass": 1e-9, "star_mass": 1.0, "radii": [1.0, 3.0]},
             "surface": {"g": 9.81, "planet_radius": _R, "max_height": _H, "half_width": _X,
@@ -635,6 +624,9 @@ def models(quick=False):
 
 
 def format_table(results):
+    if results["benchmark"] == "overhead":
+        from .overhead import format_overhead
+        return format_overhead(results)
     lines = [f"{results['benchmark']} benchmark on {results['machine']} "
              f"({results['numba_threads']} numba threads; {results['versions']})",
              f"{'case':40s} {'spacephys':>14s} {'REBOUND':>14s} {'speed-up':>9s} "
@@ -754,5 +746,11 @@ def format_table(results):
     return "\n".join(lines)
 
 
+def _overhead(quick=False):
+    from .overhead import overhead
+    return overhead(quick)
+
+
 BENCHMARKS = {"gravity": gravity, "integrators": integrators, "collisions": collisions,
-              "fleet": fleet, "log": log, "memory": memory, "models": models}
+              "fleet": fleet, "log": log, "memory": memory, "models": models,
+              "overhead": _overhead}

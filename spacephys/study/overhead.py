@@ -1,0 +1,359 @@
+"""`spacephys bench overhead`: what a game pays per call, beside REBOUND in the same run.
+
+Per-call costs (best of alternating repeats of many calls): step(1) and advance(1/60) on two
+bodies against REBOUND's sim.steps(1); a duel (a fixed star, two ships with held controls,
+collisions on): step(1) and control(); leapfrog batched in one call on 2 to 5 bodies; the
+README's Spacewar! loop, run as pasted; threads beside two busy processes; a jitted user force
+against REBOUND's Python callback; and the cold and warm start in fresh processes.
+"""
+import math
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import header
+from . import rebound as peer
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _per_call(calls, repeats, count):
+    """Best seconds per call of each function in calls (a dict), run in turn, `count` calls a
+    repeat: a disturbance of the machine hits every one alike."""
+    best = {name: math.inf for name in calls}
+    for _ in range(repeats):
+        for name, call in calls.items():
+            start = time.perf_counter()
+            for _ in range(count):
+                call()
+            best[name] = min(best[name], (time.perf_counter() - start) / count)
+    return best
+
+
+def _two_bodies(dt):
+    from ..world import World
+    w = World(dim=2, dt=dt)
+    w.add_body(1.0, (0.0, 0.0), kind="star")
+    w.add_body(1e-3, (1.0, 0.0), (0.0, 1.0), kind="planet")
+    return w
+
+
+def _duel():
+    """A fixed star, two ships with held controls, collisions on (2D, 120 Hz)."""
+    from ..entities import ShipSpec
+    from ..world import World
+    w = World(dim=2, dt=1 / 120)
+    w.add_body(1e4, (0.0, 0.0), radius=10.0, kind="star", fixed=True)
+    hull = ShipSpec(dry_mass=1.0, fuel_mass=1e6, max_thrust=1.0, exhaust_speed=1e9,
+                    turn_rate=2.0, radius=2.0)
+    v = math.sqrt(1e4 / 100.0)
+    a = w.add_ship(hull, (100.0, 0.0), (0.0, v), heading=math.pi / 2)
+    b = w.add_ship(hull, (-100.0, 0.0), (0.0, -v), heading=-math.pi / 2)
+    w.control(a, throttle=0.5, turn=0.1)
+    w.control(b, throttle=0.3, turn=-0.1)
+    w.set_collision("ship", "star", "destroy_a")
+    w.set_collision("ship", "ship", "bounce", restitution=0.5)
+    return w, a
+
+
+def _calls(quick):
+    """step(1), advance(1/60), the duel's step(1) and control(), against sim.steps(1)."""
+    repeats, count = (3, 2000) if quick else (7, 10_000)
+    w = _two_bodies(1e-3)
+    sim = peer.simulation(w, "leapfrog", gravity="basic")
+    frame = _two_bodies(1 / 60)
+    frame_sim = peer.simulation(frame, "leapfrog", gravity="basic")
+    duel, ship = _duel()
+    duel_sim = peer.simulation(duel, "leapfrog", gravity="basic")
+    duel_sim.collision = "line"
+    for call in (w.step, sim.steps, duel.step, frame_sim.steps):
+        call(1)
+    frame.advance(1 / 60)
+    best = _per_call({
+        "step(1), 2 bodies": lambda: w.step(1),
+        "REBOUND sim.steps(1), 2 bodies": lambda: sim.steps(1),
+        "advance(1/60), one step of 2 bodies": lambda: frame.advance(1 / 60),
+        "REBOUND sim.steps(1), 2 bodies, dt = 1/60": lambda: frame_sim.steps(1),
+        "duel step(1)": lambda: duel.step(1),
+        "REBOUND sim.steps(1), 3 bodies, collisions line": lambda: duel_sim.steps(1),
+        "duel control()": lambda: duel.control(ship, throttle=0.5, turn=0.1),
+    }, repeats, count)
+    rows = []
+    for ours, theirs, target in (
+            ("step(1), 2 bodies", "REBOUND sim.steps(1), 2 bodies", 5e-6),
+            ("advance(1/60), one step of 2 bodies", "REBOUND sim.steps(1), 2 bodies, dt = 1/60",
+             8e-6),
+            ("duel step(1)", "REBOUND sim.steps(1), 3 bodies, collisions line", 10e-6),
+            ("duel control()", None, 2e-6)):
+        row = {"case": ours, "spacephys_s": best[ours], "target_s": target}
+        if theirs:
+            row.update(rebound_case=theirs, rebound_s=best[theirs],
+                       ratio=best[ours] / best[theirs])
+        rows.append(row)
+    return rows
+
+
+def _batched(quick):
+    """Leapfrog on N = 2..5 bodies, many steps in one call, against sim.steps(k)."""
+    from ..scenes import uniform_sphere
+    steps, repeats = (2000, 3) if quick else (20_000, 5)
+    rows = []
+    for n in (2, 3, 4, 5):
+        w = uniform_sphere(n, seed=3, dt=1e-4)
+        sim = peer.simulation(w, "leapfrog", gravity="basic")
+        w.step(1)
+        sim.steps(1)
+        best = _per_call({"ours": lambda: w.step(steps), "theirs": lambda: sim.steps(steps)},
+                         repeats, 1)
+        rows.append({"bodies": n, "spacephys_s_per_step": best["ours"] / steps,
+                     "rebound_s_per_step": best["theirs"] / steps,
+                     "ratio": best["ours"] / best["theirs"]})
+    return rows
+
+
+def _readme_block(tag):
+    """The README's python block marked <!-- tag --> (None if the README is not there)."""
+    readme = ROOT / "README.md"
+    if not readme.exists():
+        return None
+    found = re.search(rf"<!-- {tag} -->\s*```python\n(.*?)```", readme.read_text(), re.S)
+    return found.group(1) if found else None
+
+
+def _spacewar():
+    """The README's Spacewar! loop, run as pasted in a fresh process: its frame time."""
+    block = _readme_block("spacewar")
+    if block is None:
+        return {"skipped": "README.md not found beside the package"}
+    runs = []
+    for _ in range(3):
+        res = subprocess.run([sys.executable, "-c", block], capture_output=True, text=True,
+                             cwd=ROOT, check=True)
+        found = re.search(r"([\d.]+) ms per frame, (\d+) bodies", res.stdout)
+        runs.append((float(found.group(1)), int(found.group(2))))
+    return {"ms_per_frame": min(r[0] for r in runs), "runs_ms": [r[0] for r in runs],
+            "bodies_at_end": runs[0][1]}
+
+
+_BUSY = "while True: pass"
+
+
+def _threads(quick):
+    """Per-step time of scenes big enough to thread, on an idle machine and beside two busy
+    processes: the default choice ("auto"), always threads (the old default), one thread."""
+    import numba
+    from ..scenes import star_system, uniform_sphere
+    scenes = {"star_system (2 007 bodies, 6 pulling)":
+              lambda: star_system(integrator="yoshida4", dt=0.002),
+              "cluster of 128": lambda: uniform_sphere(128, dt=1e-4),
+              "cluster of 512": lambda: uniform_sphere(512, dt=1e-4)}
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        return {"skipped": "one core: nothing to choose"}
+    rows = []
+    for busy in (False, True):
+        procs = [subprocess.Popen([sys.executable, "-c", _BUSY]) for _ in range(2)] if busy \
+            else []
+        try:
+            time.sleep(0.3)
+            for name, make in scenes.items():
+                row = {"scene": name, "busy": busy}
+                for mode in ("auto", "always", "never"):
+                    w = make()
+                    w.threads = mode
+                    w.step(1)
+                    # step(1) calls, as a game makes them, for long enough that "auto" tries
+                    # both choices (it looks again after 1, 2, 4... s): the median call
+                    times = []
+                    until = time.perf_counter() + (1.5 if quick else 5.0)
+                    while time.perf_counter() < until:
+                        start = time.perf_counter()
+                        w.step(1)
+                        times.append(time.perf_counter() - start)
+                    row[mode + "_ms"] = 1e3 * float(np.median(times))
+                rows.append(row)
+        finally:
+            for p in procs:
+                p.kill()
+    return rows
+
+
+def _user_force(quick):
+    """A planet with J2 and 200 moons: Gauss-Radau with the jitted J2 against IAS15 with the
+    same force as a Python additional_forces callback; time per step of each."""
+    from ..userforces import j2
+    from ..world import World
+    rng = np.random.default_rng(4)
+    n = 50 if quick else 200
+    k = 0.05 * 0.1 ** 2
+    T = 2.0 if quick else 5.0
+
+    def scene():
+        w = World(dim=3, integrator="gauss_radau", dt=T)
+        planet = w.add_body(1.0, (0.0, 0.0, 0.0), kind="planet")
+        r = rng.uniform(0.4, 1.0, n)
+        th = rng.uniform(0, 2 * np.pi, n)
+        pos = np.c_[r * np.cos(th), r * np.sin(th), rng.normal(scale=0.05, size=n)]
+        vel = np.c_[-np.sin(th), np.cos(th), rng.normal(scale=0.05, size=n)] / np.sqrt(r)[:, None]
+        w.add_bodies(0.0, pos, vel, kind="asteroid")
+        return w, planet
+
+    w, planet = scene()
+    w.add_force(j2, [planet, k])
+    sim = peer.simulation(w, "ias15")
+    ps = sim.particles
+
+    def force(reb_sim):
+        p = ps[0]
+        for i in range(1, sim.N):
+            q = ps[i]
+            x, y, z = q.x - p.x, q.y - p.y, q.z - p.z
+            r2 = x * x + y * y + z * z
+            s = 5.0 * z * z / r2
+            c = -1.5 * k / (r2 * r2 * r2 ** 0.5)
+            q.ax += c * x * (1 - s)
+            q.ay += c * y * (1 - s)
+            q.az += c * z * (3 - s)
+
+    sim.additional_forces = force
+    sim.force_is_velocity_dependent = 0
+    w.copy().step(1)                                     # compile or load, not timed
+    start = time.perf_counter()
+    w.step(1)
+    ours = time.perf_counter() - start
+    start = time.perf_counter()
+    sim.integrate(T)
+    theirs = time.perf_counter() - start
+    steps, rsteps = w.integrator_stats["steps"], int(sim.steps_done)
+    diff = float(np.abs(w.pos - peer.positions(sim)).max())
+    return {"bodies": n + 1, "time": T, "steps": steps, "rebound_steps": rsteps,
+            "spacephys_s_per_step": ours / steps, "rebound_s_per_step": theirs / rsteps,
+            "ratio": (theirs / rsteps) / (ours / steps), "max_position_difference": diff}
+
+
+_START_PROBE = """
+import time
+start = time.perf_counter()
+import spacephys as sp
+from spacephys.scenes import star_system
+imported = time.perf_counter()
+w = star_system(integrator="yoshida4", dt=0.002)
+w.step(1)
+first = time.perf_counter()
+print(imported - start, first - start)
+"""
+
+_ALL_PROBE = """
+import time
+start = time.perf_counter()
+import spacephys as sp
+from spacephys.scenes import uniform_sphere
+for name in sp.INTEGRATORS:
+    w = uniform_sphere(64, dt=1e-3)
+    w.integrator = name
+    w.step(1)
+w.energy()
+gravity = time.perf_counter()
+for name in sp.INTEGRATORS:
+    w = uniform_sphere(16, dt=1e-3, softening=0.05)
+    w.integrator = name
+    w.set_collision("*", "*", "merge")
+    w.add_ship(sp.ShipSpec(fuel_mass=1.0, max_thrust=1.0, exhaust_speed=10.0), (5.0, 0.0, 0.0))
+    w.step(1)
+print(gravity - start, time.perf_counter() - start)
+"""
+
+# the floor: any numba program's start, importing numpy and numba and calling one cached kernel
+_FLOOR_MODULE = "import numba\n\n@numba.njit(cache=True)\ndef total(a):\n    return a.sum()\n"
+_FLOOR_PROBE = """
+import time
+start = time.perf_counter()
+import numpy as np
+import floor_probe
+floor_probe.total(np.ones(3))
+print(time.perf_counter() - start)
+"""
+
+
+def _start_times():
+    """Seconds in fresh processes: with an empty numba cache (import and the default scene's
+    first step; every integrator's kernels, gravity only and with collisions and ships), then
+    with the cache warm; and the floor: import numpy and numba and call one cached kernel."""
+    with tempfile.TemporaryDirectory() as cache:
+        Path(cache, "floor_probe.py").write_text(_FLOOR_MODULE)
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache,
+                   PYTHONPATH=os.pathsep.join([cache, os.environ.get("PYTHONPATH", "")]))
+        run = lambda probe: [float(x) for x in subprocess.run(
+            [sys.executable, "-c", probe], env=env, check=True, capture_output=True,
+            text=True).stdout.split()]
+        cold_import, cold_first = run(_START_PROBE)
+        cold_gravity, cold_all = run(_ALL_PROBE)
+        warm = [run(_START_PROBE) for _ in range(3)]
+        floor = [run(_FLOOR_PROBE)[0] for _ in range(4)][1:]       # the first compiles
+    return {"cold_first_step_s": cold_first, "cold_import_s": cold_import,
+            "cold_all_gravity_kernels_s": cold_gravity, "cold_all_kernels_s": cold_all,
+            "warm_import_s": min(w[0] for w in warm),
+            "warm_import_and_first_step_s": min(w[1] for w in warm),
+            "floor_numba_first_call_s": min(floor)}
+
+
+def overhead(quick=False):
+    """The per-call benchmark (see the module)."""
+    rebound = peer.load()
+    return {**header("overhead", quick, rebound),
+            "calls": _calls(quick), "batched": _batched(quick), "spacewar": _spacewar(),
+            "threads": _threads(quick), "user_force": _user_force(quick),
+            "start": _start_times()}
+
+
+def format_overhead(r):
+    us = lambda s: f"{s * 1e6:.2f} us"
+    lines = [f"overhead benchmark on {r['machine']} ({r['numba_threads']} numba threads; "
+             f"{r['versions']})", "", "| call | spacephys | REBOUND | ours / theirs | target |",
+             "|---|---|---|---|---|"]
+    for c in r["calls"]:
+        theirs = f"{us(c['rebound_s'])} ({c['rebound_case']})" if "rebound_s" in c else "-"
+        ratio = f"{c['ratio']:.2f}x" if "ratio" in c else "-"
+        lines.append(f"| {c['case']} | {us(c['spacephys_s'])} | {theirs} | {ratio} | "
+                     f"<= {us(c['target_s'])} |")
+    lines += ["", "| leapfrog, batched | spacephys per step | REBOUND per step | ours / theirs |",
+              "|---|---|---|---|"]
+    for b in r["batched"]:
+        lines.append(f"| N = {b['bodies']} | {us(b['spacephys_s_per_step'])} | "
+                     f"{us(b['rebound_s_per_step'])} | {b['ratio']:.2f}x |")
+    sw = r["spacewar"]
+    lines.append("")
+    lines.append("README Spacewar! loop: " + (sw["skipped"] if "skipped" in sw else
+                 f"{sw['ms_per_frame']:.3f} ms per frame (runs: "
+                 f"{', '.join(f'{x:.3f}' for x in sw['runs_ms'])}), {sw['bodies_at_end']} "
+                 f"bodies at the end"))
+    th = r["threads"]
+    if isinstance(th, dict):
+        lines.append(f"threads: {th['skipped']}")
+    else:
+        lines += ["", "| scene | machine | auto (default) | always threads | one thread |",
+                  "|---|---|---|---|---|"]
+        for t in th:
+            lines.append(f"| {t['scene']} | {'two busy processes' if t['busy'] else 'idle'} | "
+                         f"{t['auto_ms']:.3f} ms | {t['always_ms']:.3f} ms | "
+                         f"{t['never_ms']:.3f} ms |")
+    u = r["user_force"]
+    lines += ["", f"J2 user force, planet + {u['bodies'] - 1} moons over {u['time']:g}: "
+              f"spacephys gauss_radau with the jitted force {us(u['spacephys_s_per_step'])} per "
+              f"step ({u['steps']} steps), REBOUND IAS15 with a Python callback "
+              f"{us(u['rebound_s_per_step'])} per step ({u['rebound_steps']} steps): "
+              f"{u['ratio']:.1f}x; positions agree to {u['max_position_difference']:.1e}"]
+    s = r["start"]
+    lines += ["", f"cold numba cache: import {s['cold_import_s']:.2f} s, import + first step of "
+              f"the default scene {s['cold_first_step_s']:.2f} s; every integrator's kernels "
+              f"{s['cold_all_gravity_kernels_s']:.2f} s (gravity only), "
+              f"{s['cold_all_kernels_s']:.2f} s (with collisions and ships too)",
+              f"warm numba cache: import {s['warm_import_s']:.2f} s, import + first step "
+              f"{s['warm_import_and_first_step_s']:.2f} s; the floor (import numpy and numba, "
+              f"call one cached kernel) {s['floor_numba_first_call_s']:.2f} s"]
+    return "\n".join(lines)
