@@ -41,9 +41,10 @@ def kernel(fn=None, *, fast=False, parallel=False, inline=False):
     """Compile `fn` with numba: cached, numpy error model (x/0 gives inf, no exception check).
 
     fast : allow reassociation and FMA (see FAST); parallel : compile prange loops to threads.
-    inline : inline into callers at numba-IR level. Every function holding a prange is inlined
-    this way, and every kernel that calls one is itself parallel: a cached serial kernel that
-    calls a separate parallel one segfaults when loaded from the cache (numba issue #8578).
+    inline : inline into callers at numba-IR level (per call site: it costs compile time, it
+    saves the call; used for the small per-step and per-force helpers). A function that holds
+    a prange, or calls one that does, is itself parallel: a cached serial kernel that calls a
+    parallel one segfaults when loaded from the cache (numba issue #8578).
     """
     # only explicit prange loops become threaded: numba would also turn array expressions and
     # numpy calls (np.zeros, np.cumsum) into parallel regions, which wake the thread pool on

@@ -14,7 +14,7 @@ from numba.core.registry import CPUDispatcher
 
 from . import _validate as check
 from .kernels import forces as kforces
-from .kernels.codes import CENTRAL, DIRECT, GRAVITY_MODELS, UNIFORM
+from .kernels.forces import CENTRAL, DIRECT, GRAVITY_MODELS, UNIFORM
 
 # the per-body column of held forces and accelerations: [F (3,), a (3,)]
 HELD = "held"

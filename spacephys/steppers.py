@@ -25,12 +25,16 @@ from .kernels.wisdom_holman import wisdom_holman_steps
 class Capabilities:
     """What a family can do. drag: linear drag toward a wind; models: the gravity models it
     integrates; fixed_bodies: immovable bodies; pulling_actors: ships whose mass changes while
-    they pull; split_invariant: step(n) equals n calls of step(1) bit for bit."""
+    they pull; split_invariant: step(n) equals n calls of step(1) bit for bit; frames: a
+    recording's frames taken inside the kernel; dominant_mass: it is made for scenes with one
+    dominant mass (its Kepler drifts are about it)."""
     drag: bool = True
     models: tuple = ("none", "direct", "uniform", "central")
     fixed_bodies: bool = True
     pulling_actors: bool = True
     split_invariant: bool = True
+    frames: bool = True
+    dominant_mass: bool = False
 
 
 class Stepper:
@@ -180,7 +184,7 @@ class WisdomHolman(Stepper):
     family = "wisdom_holman"
     kernel = staticmethod(wisdom_holman_steps)
     capabilities = Capabilities(models=("direct",), fixed_bodies=False, pulling_actors=False,
-                                split_invariant=False)
+                                split_invariant=False, dominant_mass=True)
 
     def check(self, world, sources, actors):
         src, _, still = sources

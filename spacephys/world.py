@@ -24,10 +24,11 @@ from .forces import HELD, ForceField
 from .integrators import get_integrator
 from .journal import journaled, journaled_setter
 from .kernels import diagnostics
+from .kernels import forces as kforces
 from .kernels import state as kstate
-from .kernels.codes import (BOUNDARIES, DIRECT, FAILED, GRAVITY_MODELS, NONFINITE, REMOVED,
-                            RESPONSES)
+from .kernels.codes import BOUNDARIES, FAILED, NONFINITE, REMOVED, RESPONSES
 from .kernels.collide import SCRATCH
+from .kernels.forces import DIRECT, GRAVITY_MODELS
 from .state import Bodies
 from .steppers import Plan, stepper_for
 from .units import get_units
@@ -1284,7 +1285,7 @@ class World:
     def _body_energies(self):
         b = self._b
         out = np.empty(b.n)
-        diagnostics.body_energies(self._force_table(), b.pos[:b.n], b.vel[:b.n],
+        kforces.body_energies(self._force_table(), b.pos[:b.n], b.vel[:b.n],
                                   self._masses(True), out)
         return out
 
@@ -1364,7 +1365,7 @@ class World:
         f = self._force_table()
         b = self._b
         passive = self._sources()[1]
-        return diagnostics.potential_energy(f, b.pos[:b.n], self._masses(pulling_only),
+        return kforces.potential_energy(f, b.pos[:b.n], self._masses(pulling_only),
                                             passive[:0] if pulling_only else passive)
 
     def energy(self, pulling_only=False):

@@ -8,7 +8,7 @@ from reference import direct_accelerations, direct_potential
 
 from spacephys._jit import PARALLEL_MIN_PAIRS
 from spacephys.kernels import diagnostics, forces
-from spacephys.kernels.codes import CENTRAL, DIRECT, NONE, UNIFORM
+from spacephys.kernels.forces import CENTRAL, DIRECT, NONE, UNIFORM
 
 
 def _scene(rng, n, frac_pulling):
@@ -31,7 +31,7 @@ def _run(pos, mass, pulls, model, G=1.7, eps2=0.0, field=np.zeros(3), field_mass
                     drag=np.zeros(4))
     forces.accelerations(f, 0.0, pos, np.zeros_like(pos), out, np.arange(n, dtype=np.int64),
                          False)
-    energy = diagnostics.potential_energy(f, pos, mass, passive)
+    energy = forces.potential_energy(f, pos, mass, passive)
     return out, energy
 
 

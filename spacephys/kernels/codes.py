@@ -4,9 +4,7 @@ No meaning is carried by numeric order: code that asks "does this response remov
 asks it of a set (REMOVING), not of a range.
 """
 
-# gravity models (kernels/forces.py)
-NONE, DIRECT, UNIFORM, CENTRAL = 0, 1, 2, 3
-GRAVITY_MODELS = {"none": NONE, "direct": DIRECT, "uniform": UNIFORM, "central": CENTRAL}
+# (the gravity models' codes live with their accelerations and potentials, in forces.py)
 
 # collision responses, the kind x kind matrix (kernels/collide.py)
 IGNORE, SENSOR, ELASTIC, BOUNCE, MERGE = 0, 1, 2, 3, 4

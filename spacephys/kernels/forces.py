@@ -29,7 +29,12 @@ from numba import types, typed
 from numba.experimental import structref
 
 from .._jit import PARALLEL_MIN_PAIRS, kernel
-from .codes import CENTRAL, DIRECT, UNIFORM
+from .diagnostics import add
+
+# gravity models: a code and a name each, their accelerations (accelerations) and potential
+# (potential_energy, body_energies) below
+NONE, DIRECT, UNIFORM, CENTRAL = 0, 1, 2, 3
+GRAVITY_MODELS = {"none": NONE, "direct": DIRECT, "uniform": UNIFORM, "central": CENTRAL}
 
 # the signature of a user force: (t [time], pos (n, 3), vel (n, 3), mass (n,), ids (n,) int64,
 # params (p,) float64, out (n, 3) accelerations to add to) -> None
@@ -152,12 +157,18 @@ def _pull_all(targets, pos, s, G, eps2, out, min_pairs):
             out[k, 1] = G * ay
             out[k, 2] = G * az
     else:
-        for a in range(targets.size):
-            k = targets[a]
-            ax, ay, az = _pull(pos[k, 0], pos[k, 1], pos[k, 2], s, eps2)
-            out[k, 0] = G * ax
-            out[k, 1] = G * ay
-            out[k, 2] = G * az
+        _pull_rows(targets, pos, s, G, eps2, out)
+
+
+@kernel(fast=True, inline=True)
+def _pull_rows(targets, pos, s, G, eps2, out):
+    """_pull_all on the calling thread."""
+    for a in range(targets.size):
+        k = targets[a]
+        ax, ay, az = _pull(pos[k, 0], pos[k, 1], pos[k, 2], s, eps2)
+        out[k, 0] = G * ax
+        out[k, 1] = G * ay
+        out[k, 2] = G * az
 
 
 @kernel(inline=True)
@@ -174,36 +185,64 @@ def _gather_sources(src, pos, mass, scratch):
 
 # ----------------------------------------------------------------------------- the contract
 
-@kernel(parallel=True, inline=True)
+@kernel(parallel=True)
 def accelerations(f, t, pos, vel, out, targets, with_drag):
     """out[k] = the acceleration of body k, for every k in targets (other rows untouched).
 
     f : Forces; t : the time of the stage [time]; pos, vel : (n, 3) at the stage (vel is read
     by drag and user forces only); out : (n, 3) [length / time^2]; targets : int64 rows
     (f.everyone, f.src, f.passive or any subset); with_drag : add -k (v - wind) (the
-    splittings and Wisdom-Holman apply drag in their kicks instead, see drag_kick).
+    splittings and Wisdom-Holman apply drag in their kicks instead, see drag_kick). The force
+    loop runs on threads from f.threads[0] pair evaluations on.
     """
-    model = f.model
-    if model == DIRECT or model == CENTRAL:
-        scratch = f.scratch
-        if model == DIRECT:
-            _gather_sources(f.src, pos, f.mass, scratch)
-        else:
-            scratch[0, 0] = f.field[0]
-            scratch[1, 0] = f.field[1]
-            scratch[2, 0] = f.field[2]
-            scratch[3, 0] = f.field_mass
-        _pull_all(targets, pos, scratch, f.G, f.eps2, out, f.threads[0])
+    if _sources(f, pos):
+        _pull_all(targets, pos, f.scratch, f.G, f.eps2, out, f.threads[0])
     else:
-        g0 = f.field[0] if model == UNIFORM else 0.0
-        g1 = f.field[1] if model == UNIFORM else 0.0
-        g2 = f.field[2] if model == UNIFORM else 0.0
-        for a in range(targets.size):
-            k = targets[a]
-            out[k, 0] = g0
-            out[k, 1] = g1
-            out[k, 2] = g2
+        _field(f, out, targets)
     _add_others(f, t, pos, vel, out, targets, with_drag)
+
+
+@kernel
+def accelerations_serial(f, t, pos, vel, out, targets, with_drag):
+    """accelerations on the calling thread, bit for bit the same: for a few bodies at a time
+    (Gauss-Radau's riders), where a threaded loop would only cost compile time."""
+    if _sources(f, pos):
+        _pull_rows(targets, pos, f.scratch, f.G, f.eps2, out)
+    else:
+        _field(f, out, targets)
+    _add_others(f, t, pos, vel, out, targets, with_drag)
+
+
+@kernel(inline=True)
+def _sources(f, pos):
+    """Gather the pulling bodies (DIRECT) or the fixed body (CENTRAL) into f.scratch; False
+    for the models without sources."""
+    model = f.model
+    if model == DIRECT:
+        _gather_sources(f.src, pos, f.mass, f.scratch)
+        return True
+    if model == CENTRAL:
+        scratch = f.scratch
+        scratch[0, 0] = f.field[0]
+        scratch[1, 0] = f.field[1]
+        scratch[2, 0] = f.field[2]
+        scratch[3, 0] = f.field_mass
+        return True
+    return False
+
+
+@kernel(inline=True)
+def _field(f, out, targets):
+    """The uniform field (or nothing) into out's target rows."""
+    uniform = f.model == UNIFORM
+    g0 = f.field[0] if uniform else 0.0
+    g1 = f.field[1] if uniform else 0.0
+    g2 = f.field[2] if uniform else 0.0
+    for a in range(targets.size):
+        k = targets[a]
+        out[k, 0] = g0
+        out[k, 1] = g1
+        out[k, 2] = g2
 
 
 @kernel(inline=True)
@@ -277,3 +316,87 @@ def drag_kick(f, vel, acc, h, rows, wind):
     for j in range(still.size):
         for c in range(3):
             vel[still[j], c] = 0.0
+
+
+# ----------------------------------------------------------------------------- potentials
+
+@kernel
+def _pair_potential(xi, yi, zi, mi, xj, yj, zj, mj, eps2):
+    dx = xj - xi
+    dy = yj - yi
+    dz = zj - zi
+    r2 = dx * dx + dy * dy + dz * dz + eps2
+    # coincident points exert no force (gravity.py), so they hold no pair energy either
+    return -mi * mj / np.sqrt(r2) if r2 > 0.0 else 0.0
+
+
+@kernel
+def potential_energy(f, pos, mass, passive):
+    """Potential energy of the state pos (n, 3) under the gravity model of the Forces table f,
+    with the masses mass (n,) (f.mass, or those of the pulling bodies only).
+
+    DIRECT: -G m_i m_j / sqrt(r^2 + eps2) over pairs of sources (f.src), and over (passive,
+    source) pairs for the rows `passive`: a passive body sits in the sources' field. CENTRAL:
+    each body in the fixed body's field. UNIFORM: -m g.x. NONE: 0. The immovable bodies'
+    potential counts.
+    """
+    model, src, G, eps2 = f.model, f.src, f.G, f.eps2
+    field, field_mass = f.field, f.field_mass
+    s = 0.0
+    c = 0.0
+    if model == DIRECT:
+        for a in range(src.size):
+            i = src[a]
+            for b in range(a + 1, src.size):
+                j = src[b]
+                s, c = add(s, c, _pair_potential(pos[i, 0], pos[i, 1], pos[i, 2], mass[i],
+                                                  pos[j, 0], pos[j, 1], pos[j, 2], mass[j], eps2))
+        for a in range(passive.size):
+            i = passive[a]
+            if mass[i] == 0.0:
+                continue
+            for b in range(src.size):
+                j = src[b]
+                s, c = add(s, c, _pair_potential(pos[i, 0], pos[i, 1], pos[i, 2], mass[i],
+                                                  pos[j, 0], pos[j, 1], pos[j, 2], mass[j], eps2))
+        return G * (s + c)
+    if model == CENTRAL:
+        for i in range(mass.size):
+            s, c = add(s, c, _pair_potential(pos[i, 0], pos[i, 1], pos[i, 2], mass[i],
+                                              field[0], field[1], field[2], field_mass, eps2))
+        return G * (s + c)
+    if model == UNIFORM:
+        for i in range(mass.size):
+            g_dot_x = field[0] * pos[i, 0] + field[1] * pos[i, 1] + field[2] * pos[i, 2]
+            s, c = add(s, c, -mass[i] * g_dot_x)
+        return s + c
+    return 0.0
+
+
+@kernel
+def body_energies(f, pos, vel, mass, out):
+    """Each body's share of the energy into out (n,): 1/2 m |v|^2 plus, under DIRECT, half
+    of each pair potential among the sources src (other bodies get their kinetic energy
+    only: give them mass 0 to leave them out); under CENTRAL and UNIFORM, its potential in
+    the field. Sums to the total energy, to rounding: used to name the bodies whose energy
+    changed when the total went wrong. f : the Forces table (its model and sources)."""
+    model, src, G, eps2 = f.model, f.src, f.G, f.eps2
+    field, field_mass = f.field, f.field_mass
+    for i in range(mass.size):
+        v2 = vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1] + vel[i, 2] * vel[i, 2]
+        out[i] = 0.5 * mass[i] * v2
+        if model == CENTRAL:
+            out[i] += G * _pair_potential(pos[i, 0], pos[i, 1], pos[i, 2], mass[i],
+                                          field[0], field[1], field[2], field_mass, eps2)
+        elif model == UNIFORM:
+            out[i] -= mass[i] * (field[0] * pos[i, 0] + field[1] * pos[i, 1]
+                                 + field[2] * pos[i, 2])
+    if model == DIRECT:
+        for a in range(src.size):
+            i = src[a]
+            for b in range(a + 1, src.size):
+                j = src[b]
+                half = 0.5 * G * _pair_potential(pos[i, 0], pos[i, 1], pos[i, 2], mass[i],
+                                                 pos[j, 0], pos[j, 1], pos[j, 2], mass[j], eps2)
+                out[i] += half
+                out[j] += half

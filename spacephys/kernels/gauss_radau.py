@@ -20,7 +20,7 @@ from .._jit import kernel
 from .arrays import copy_into
 from .codes import FAILED
 from .control import add_thrust, next_stop, snap_stops
-from .forces import accelerations, velocity_dependent
+from .forces import accelerations, accelerations_serial, velocity_dependent
 from .step import begin, capture, end, status, undo
 
 _PC_TOLERANCE = 1e-16      # corrector converged: the sweep changed b7 by < this fraction of |a|
@@ -215,7 +215,7 @@ def _predict(b, e, q, have_predictor):
                 b[i, k - 1, c] = new + correction
 
 
-@kernel(parallel=True, inline=True)
+@kernel(parallel=True)
 def _sweep(rows, targets, first, f, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7, h, nodes,
            c_gb, thrust):
     """One predictor-corrector sweep over the seven nodes, updating the bodies in rows (whose
@@ -262,7 +262,7 @@ def _sweep(rows, targets, first, f, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7
     return max_db7 / max_a if max_a > 0.0 else max_db7
 
 
-@kernel(parallel=True, inline=True)
+@kernel(parallel=True)
 def _converge(rows, targets, with_a0, f, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7, h,
               nodes, c_gb, thrust):
     """Sweep until b7 stops changing: below _PC_TOLERANCE, or stalled at round-off. Returns
@@ -297,7 +297,7 @@ def _needy_riders(riders, b, a0, h, dt_scale, mask, converged):
     return needy
 
 
-@kernel(parallel=True, inline=True)
+@kernel
 def _substep_riders(needy, h, dt_scale, reject_above, control, f, t, nodes, c_gb, d_bg, pos,
                     csx, vel, csv, a0, b, g, x, v, a, b7, stats, actors, burn, t_off,
                     needy_mask):
@@ -308,8 +308,8 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, f, t, nodes, c_gb
     them where they are and never change them. Each substep is a Gauss-Radau step of the
     riders alone, iterated to convergence, its length from the riders' dynamical time, redone
     when its truncation error says it was too long; at most _MAX_RIDER_SUBSTEPS of them.
-    Forces come from forces.accelerations for the needy riders only (f : Forces; t : the time
-    of the step's start). Thrusting riders (in needy_mask) add their thrust, the step
+    Forces come from forces.accelerations_serial for the needy riders only, on this thread
+    (f : Forces; t : the time of the step's start). Thrusting riders (in needy_mask) add their thrust, the step
     starting t_off after the interval's."""
     moving = velocity_dependent(f)
     hs = np.inf
@@ -335,7 +335,7 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, f, t, nodes, c_gb
             for c in range(3):
                 x[r, c] = pos[r, c] - csx[r, c]
                 v[r, c] = vel[r, c] - csv[r, c]
-        accelerations(f, t + elapsed, x, v, a0, needy, True)
+        accelerations_serial(f, t + elapsed, x, v, a0, needy, True)
         if burn.shape[0]:
             add_thrust(actors, burn, a0, t_off + elapsed, needy_mask, 1)
         for q in range(needy.size):
@@ -352,7 +352,7 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, f, t, nodes, c_gb
                 if moving:
                     _velocity_at(control, vel, csv, a0, b, at, h, v)
                     _velocity_at(needy, vel, csv, a0, b, nodes[node], hs, v)
-                accelerations(f, t + elapsed + nodes[node] * hs, x, v, a, needy, True)
+                accelerations_serial(f, t + elapsed + nodes[node] * hs, x, v, a, needy, True)
                 if burn.shape[0]:
                     add_thrust(actors, burn, a, t_off + elapsed + nodes[node] * hs,
                                needy_mask, 1)

@@ -26,13 +26,18 @@ import time
 import numpy as np
 
 from ..integrators import INTEGRATORS
+from ..steppers import capabilities
 from ..errors import InstabilityError
 
-# fixed-step candidates in the order they are tried (cheapest per step first); Euler and
-# symplectic Euler are left out: first order, never the cheapest in docs/tradeoff.md
-FIXED = ("leapfrog", "yoshida4", "rk4", "yoshida6", "yoshida8")
-WISDOM_HOLMAN = ("wisdom_holman", "wisdom_holman_corrected")
-TOLERANCES = (1e-4, 1e-6, 1e-9)       # Gauss-Radau's candidates
+# the candidates, from the registry: the fixed-step methods of order 2 or more in the order
+# they are tried (cheapest per step first; first-order ones are never the cheapest in
+# docs/tradeoff.md), the ones that need one dominant mass (Wisdom-Holman), the adaptive one
+FIXED = tuple(s.name for s in sorted(INTEGRATORS.values(), key=lambda s: s.evaluations)
+              if not s.adaptive and s.order >= 2 and not capabilities(s.name).dominant_mass)
+WISDOM_HOLMAN = tuple(s.name for s in INTEGRATORS.values()
+                      if capabilities(s.name).dominant_mass)
+ADAPTIVE = next(s.name for s in INTEGRATORS.values() if s.adaptive)
+TOLERANCES = (1e-4, 1e-6, 1e-9)       # the adaptive method's candidates
 SAMPLES = 20                          # energy samples over the horizon
 MAX_STEPS = 2_000_000                 # the most steps one trial run may take
 SAFETY = 0.5                          # aim the step at half the target error
@@ -410,18 +415,17 @@ class _Trials:
 
     def reference(self):
         """The converged run the trials are judged against: Gauss-Radau at 1e-12, its
-        substeps at most tau/20 so that no collision is stepped over; a Yoshida 8 at tau/50 instead where Gauss-Radau has no drag, or where
-        ships steer (their controls act per step of a fixed-step method)."""
+        substeps at most tau/20 so that no collision is stepped over; a Yoshida 8 at tau/50
+        instead where ships steer (their controls act per step of a fixed-step method)."""
         w = self.w
         s = self.scene
         ref = w.copy()
-        self.fine = w.drag > 0 or self.steering
+        self.fine = self.steering
         if self.fine:
             ref.integrator = "yoshida8"
             ref.dt = s.horizon / (SAMPLES * math.ceil(s.horizon / (s.timescale / 50) / SAMPLES))
             chunks = [round(s.horizon / ref.dt)]
-            self.ref_name = ("Yoshida 8 at tau/50 (" + ("drag" if w.drag > 0 else
-                                                         "steering ships") + ")")
+            self.ref_name = "Yoshida 8 at tau/50 (steering ships)"
         else:
             # its output interval need not be the World's (nothing steers): only where it
             # ends matters, and its substeps are kept short enough for every contact
@@ -456,9 +460,7 @@ class _Trials:
 
     def choose(self):
         s = self.scene
-        w = self.w
         self.reference()
-        drag = w.drag > 0
         best = None
 
         def consider(row):
@@ -466,21 +468,20 @@ class _Trials:
             if self.ok(row) and (best is None or row["cost"] < best["cost"]):
                 best = row
 
-        if not drag:
-            for tol in TOLERANCES[::-1]:             # 1e-9 first: it shows chaos
-                row = self.measure("gauss_radau", tolerance=tol)
-                floor = row["position_error"]
-                if tol == TOLERANCES[-1] and not self.fine and \
-                        self.target < 10 * floor < math.inf:
-                    # two converged runs already differ: the scene amplifies differences
-                    s.chaotic = True
-                    self.position_target = 10 * floor
-                    self.reasons.append(
-                        f"chaotic over the horizon: Gauss-Radau at 1e-9 and 1e-12 already "
-                        f"end {floor:.2g} apart (relative), so positions are held to "
-                        f"{self.position_target:.2g}, energy to {self.target:g}")
-                    row["error"] = self.error(row)
-                consider(row)
+        for tol in TOLERANCES[::-1]:             # 1e-9 first: it shows chaos
+            row = self.measure(ADAPTIVE, tolerance=tol)
+            floor = row["position_error"]
+            if tol == TOLERANCES[-1] and not self.fine and \
+                    self.target < 10 * floor < math.inf:
+                # two converged runs already differ: the scene amplifies differences
+                s.chaotic = True
+                self.position_target = 10 * floor
+                self.reasons.append(
+                    f"chaotic over the horizon: Gauss-Radau at 1e-9 and 1e-12 already "
+                    f"end {floor:.2g} apart (relative), so positions are held to "
+                    f"{self.position_target:.2g}, energy to {self.target:g}")
+                row["error"] = self.error(row)
+            consider(row)
         fixed = list(FIXED)
         if self._wisdom_holman_applies():
             fixed = list(WISDOM_HOLMAN) + fixed
@@ -501,8 +502,6 @@ class _Trials:
             why = "there is no dominant pulling body"
         elif s.mass_ratio > 0.01:
             why = f"the other pulling bodies hold {s.mass_ratio:.2g} of the dominant mass"
-        elif w.drag > 0:
-            why = "it has no drag"
         if why:
             self.reasons.append(f"Wisdom-Holman not tried: {why}")
         return why is None
