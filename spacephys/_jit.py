@@ -88,14 +88,11 @@ _purge_stale_cache()
 
 
 def set_threads(n):
-    """Use n threads (1 .. the machine's cores) for the force loops of large scenes (above
-    PARALLEL_MIN_PAIRS pair evaluations); returns the previous count. Results do not depend
-    on it. Threads help on an idle machine (about 2x on 2 cores) and hurt badly when other
-    busy threads share the cores, as a game's render and audio threads do: each threaded loop
-    then waits for a descheduled thread (measured 0.2 ms per step on 1 thread, 0.3 to 12 ms
-    on 2, for a 2 007-body scene beside two busy processes). A game should call
-    set_threads(1) unless it leaves cores free. The count is per Python thread (numba's):
-    call it in the thread that steps the World."""
+    """Use up to n threads (1 .. the machine's cores) for the force loops of large scenes;
+    returns the previous count. Results do not depend on it. Whether a World's loops use
+    them at all is World.threads ("auto" by default: while they measure faster, see
+    ThreadChoice). The count is per Python thread (numba's): call it in the thread that steps
+    the World."""
     from . import _validate as check
     limit = numba.config.NUMBA_NUM_THREADS
     n = check.count("n", n, minimum=1)
@@ -148,11 +145,13 @@ class ThreadChoice:
     mode "always": every loop of PARALLEL_MIN_PAIRS pair evaluations or more runs on threads
     (a machine whose cores are the simulation's); "never": none does; "auto" (default): only
     loops that large may, and only while threads measure faster. Beside busy processes (a
-    game's render and audio threads) a threaded loop waits for a descheduled thread: measured
-    8 ms per step where one thread takes 0.03-0.5 ms. So each step() call is timed per step,
-    the other choice is tried now and then (after 1 s, then twice as long each time it loses,
-    up to a minute; at once when the current choice suddenly costs 4x more) and the faster
-    kept. A scene starts on one thread.
+    game's render and audio threads) a threaded loop can wait for a descheduled thread
+    (measured here: 8 ms per step where one thread took 0.03-0.5 ms, on some runs of this
+    virtual machine). So each step() call is timed per step, the other choice is tried now
+    and then (after 1 s, then twice as long each time it loses, up to a minute; at once when
+    the current choice suddenly costs 4x more) and the faster kept. A scene starts on threads
+    (a long run in one call keeps them); its first two calls, which load kernels and build
+    tables, are not timed.
     """
 
     def __init__(self, mode="auto"):
@@ -164,8 +163,8 @@ class ThreadChoice:
         if mode not in THREAD_MODES:
             raise ValueError(f"threads={mode!r} is not known; valid: {', '.join(THREAD_MODES)}")
         self.mode = mode
-        self.min_pairs[0] = PARALLEL_MIN_PAIRS if mode == "always" else NEVER
-        self.threaded = False
+        self.min_pairs[0] = PARALLEL_MIN_PAIRS if mode != "never" else NEVER
+        self.threaded = True
         self.cost = {True: np.inf, False: np.inf}      # seconds per step, measured
         self.work = 1.0                                # pair evaluations they were measured at
         self.settle = 0

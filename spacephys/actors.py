@@ -151,11 +151,7 @@ class Actors:
 
     # ------------------------------------------------------------ ships
     def add_ship(self, spec, pos, vel=None, heading=None):
-        """Add a ship; returns its id.
-
-        spec : ShipSpec; pos, vel : (dim,); heading : the direction the main engine pushes,
-        an angle [rad] from +x (2D) or a vector (2D or 3D); default +x. It starts with full fuel, throttle
-        0 and no turning."""
+        """World.add_ship (the docstring is there)."""
         if not isinstance(spec, ShipSpec):
             raise ValueError(f"spec = {spec!r}: must be a ShipSpec")
         _, q = _heading(self.w.dim, heading)
@@ -194,13 +190,7 @@ class Actors:
         return body
 
     def control(self, body, throttle=None, turn=None, strafe=None):
-        """Set a ship's (or missile's) controls, held until changed.
-
-        throttle in [0, 1] of max_thrust; turn in [-1, 1]: 2D a number (+ counter-clockwise),
-        3D (roll, pitch, yaw) about the body axes (x forward, y left, z up), fractions of
-        turn_rate (arcade) or of torque (physical rotation); strafe in [-1, 1]: 2D a number
-        (+ to the left of the heading), 3D (left, up), fractions of side_thrust. Guided
-        missiles steer themselves and ignore turn."""
+        """World.control (the docstring is there)."""
         i = self._actor_row(body, "body")
         # checked first, written after: all or nothing. Plain floats in range (a game's
         # every-frame call) skip numpy
@@ -242,36 +232,33 @@ class Actors:
         return row
 
     def heading(self, body):
-        """Where the main engine points: an angle [rad] in (-pi, pi] in 2D, a unit (3,)
-        vector in 3D."""
+        """World.heading (the docstring is there)."""
         q = self.b.quat[self._actor_row(body, "body")]
         h = _rotate(q, np.array([1.0, 0.0, 0.0]))
         return float(math.atan2(h[1], h[0])) if self.w.dim == 2 else h
 
     def orientation(self, body):
-        """The unit quaternion (w, x, y, z) turning body axes (x forward, y left, z up) into
-        world axes."""
+        """World.orientation (the docstring is there)."""
         return self.b.quat[self._actor_row(body, "body")].copy()
 
     def set_heading(self, body, heading):
-        """Point an actor: an angle [rad] (2D) or a vector; stops physical rotation."""
+        """World.set_heading (the docstring is there)."""
         i = self._actor_row(body, "body")
         _, q = _heading(self.w.dim, heading)
         self.b.quat[i] = q
         self.b.omega[i] = 0.0
 
     def angular_velocity(self, body):
-        """Body-frame angular velocity [rad/time]: the z rate in 2D, (3,) in 3D (physical
-        rotation; arcade turning has none between steps)."""
+        """World.angular_velocity (the docstring is there)."""
         w = self.b.omega[self._actor_row(body, "body")]
         return float(w[2]) if self.w.dim == 2 else w.copy()
 
     def fuel(self, body):
-        """Fuel left [mass]."""
+        """World.fuel (the docstring is there)."""
         return float(self.b.fuel[self._actor_row(body, "body")])
 
     def set_fuel(self, body, fuel):
-        """Refuel (or drain) an actor; its mass becomes dry + fuel."""
+        """World.set_fuel (the docstring is there)."""
         i = self._actor_row(body, "body")
         fuel = check.scalar("fuel", fuel, minimum=0.0)
         b = self.b
@@ -281,21 +268,14 @@ class Actors:
         self.w._invalidate()
 
     def delta_v(self, body):
-        """Speed change the fuel left can still give, ve ln((dry + fuel) / dry)
-        (Tsiolkovsky) [length/time]."""
+        """World.delta_v (the docstring is there)."""
         i = self._actor_row(body, "body")
         b = self.b
         return float(b.exhaust[i] * math.log1p(b.fuel[i] / b.dry[i]))
 
     # ------------------------------------------------------------ missiles
     def launch(self, parent, spec, target=None, heading=None):
-        """Launch a missile from any live body; returns its id.
-
-        It appears just outside the parent (centres r_parent + r_missile apart) along the
-        heading (default: the parent's own, if it is a ship), with the parent's velocity plus
-        spec.launch_speed along the heading; with spec.recoil the parent gives up the
-        missile's mass and takes the opposite momentum. target : an id to guide toward and
-        fuse against. A launch event is reported with the next step's events."""
+        """World.launch (the docstring is there)."""
         if not isinstance(spec, MissileSpec):
             raise ValueError(f"spec = {spec!r}: must be a MissileSpec")
         p = self.w.index_of(parent, "parent")
@@ -366,8 +346,7 @@ class Actors:
         self.b.expires[rows] = self.w.t + lifetime
 
     def intensity(self):
-        """(n,) float in [0, 1] for renderers: (1 - age/lifetime)^fade for bodies with a
-        lifetime (debris fade out), 1 for the others."""
+        """World.intensity (the docstring is there)."""
         b = self.b
         if "expires" not in b.columns:
             return np.ones(b.n)
@@ -377,8 +356,7 @@ class Actors:
         return np.clip(left, 0.0, 1.0) ** b.fade[:b.n]
 
     def explode(self, body, spec=None):
-        """Remove a body and throw out its debris: spec, or the ExplosionSpec it was made
-        with. Returns the (count,) ids of the debris."""
+        """World.explode (the docstring is there)."""
         i = self.w.index_of(body, "body")
         if spec is None:
             k = self.b.explosion[i] if "explosion" in self.b.columns else -1

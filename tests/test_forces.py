@@ -179,36 +179,9 @@ def _moons(j2_on, integrator="gauss_radau", **kw):
     return w
 
 
-def _rebound_j2(w, k):
-    """REBOUND's IAS15 on w's bodies with the same J2 force as a Python callback."""
-    sim = peer.simulation(w, "ias15")
-    ps = sim.particles
-
-    def force(reb_sim):
-        p = ps[0]
-        for i in range(1, sim.N):
-            q = ps[i]
-            x, y, z = q.x - p.x, q.y - p.y, q.z - p.z
-            r2 = x * x + y * y + z * z
-            s = 5.0 * z * z / r2
-            c = -1.5 * k / (r2 * r2 * r2 ** 0.5)
-            ax, ay, az = c * x * (1 - s), c * y * (1 - s), c * z * (3 - s)
-            q.ax += ax
-            q.ay += ay
-            q.az += az
-            if q.m > 0:
-                p.ax -= q.m / p.m * ax
-                p.ay -= q.m / p.m * ay
-                p.az -= q.m / p.m * az
-
-    sim.additional_forces = force
-    sim.force_is_velocity_dependent = 0
-    return sim
-
-
 def test_j2_matches_rebound_ias15_with_the_same_force_as_a_callback():
     w = _moons(True)
-    sim = _rebound_j2(w, 0.05 * 0.1 ** 2)
+    sim = peer.add_j2(peer.simulation(w, "ias15"), 0.05 * 0.1 ** 2)
     assert rebound.__version__.startswith("5.2")
     P0 = w.momentum()
     w.step(1)

@@ -185,26 +185,30 @@ def _call(choice, clock, threaded_cost, serial_cost, work=90_000):
 
 
 def test_thread_choice_keeps_what_measures_faster(monkeypatch):
-    """"auto": a scene starts on one thread (its first two calls, which load kernels and
-    build tables, untimed), tries threads, keeps the faster; beside busy
-    processes (threads 8 ms per step, one thread 0.3 ms) it tries threads again only after
-    1, 2, 4... s; on an idle machine (threads faster) it keeps them and checks one thread
-    after 1 s; a sudden 4x slowdown makes it look again at once."""
+    """"auto": a scene starts on threads (its first two calls, which load kernels and build
+    tables, untimed), tries one thread, keeps the faster; beside busy processes (threads
+    8 ms per step, one thread 0.3 ms) it goes to one thread and tries threads again only
+    after 1, 2, 4... s; on an idle machine (threads faster) it keeps them and checks one
+    thread after 1, 2... s; a sudden 4x slowdown makes it look again at once."""
     from spacephys import _jit
     clock = _Clock()
     monkeypatch.setattr(_jit.time, "perf_counter", clock)
     monkeypatch.setattr(_jit.numba, "get_num_threads", lambda: 2)   # whatever the machine
     busy = _jit.ThreadChoice()
     used = [_call(busy, clock, 8e-3, 3e-4) for _ in range(6)]
-    assert used == [False, False, False, True, False, False] and not busy.threaded
-    clock.now += 1.0                              # the probe after a loss: 2 s later
-    assert not _call(busy, clock, 8e-3, 3e-4)
+    assert used == [True, True, True, False, False, False] and not busy.threaded
+    clock.now += 0.5
+    assert not _call(busy, clock, 8e-3, 3e-4)             # not yet: 1 s after the switch
+    clock.now += 0.6
+    assert _call(busy, clock, 8e-3, 3e-4) and not busy.threaded      # tried, lost
     clock.now += 1.0
+    assert not _call(busy, clock, 8e-3, 3e-4)             # now 2 s between tries
+    clock.now += 1.1
     assert _call(busy, clock, 8e-3, 3e-4) and not busy.threaded
     idle = _jit.ThreadChoice()
     used = [_call(idle, clock, 1e-4, 2e-4) for _ in range(6)]
-    assert used == [False, False, False, True, True, True] and idle.threaded
-    clock.now += 1.0
+    assert used == [True, True, True, False, True, True] and idle.threaded
+    clock.now += 2.1
     assert not _call(idle, clock, 1e-4, 2e-4) and idle.threaded     # checked, kept
     assert _call(idle, clock, 9e-3, 2e-4)                          # contention came...
     assert not _call(idle, clock, 9e-3, 2e-4) and not idle.threaded  # ...looked at once

@@ -5,9 +5,6 @@ minimum is the least disturbed run of each code). Each case also checks that bot
 the same work: the positions after a few identical steps must agree to round-off.
 """
 import os
-import subprocess
-import sys
-import tempfile
 import time
 
 import numpy as np
@@ -69,41 +66,9 @@ def _case(name, w, *, repeats, budget, n_active=None, check_steps=5):
             "rebound_pairs_per_s": pairs / t_theirs, "max_relative_difference": agreement}
 
 
-_COMPILE_PROBE = """
-import time
-start = time.perf_counter()
-import numpy as np
-import spacephys as sp
-from spacephys.scenes import uniform_sphere
-imported = time.perf_counter()
-w = uniform_sphere(64, dt=1e-3)
-w.step(1)
-first = time.perf_counter()
-for name in sp.INTEGRATORS:
-    w.integrator = name
-    w.step(1)
-w.energy()
-every = time.perf_counter()
-print(imported - start, first - start, every - start)
-"""
-
-
-def _compile_times():
-    """Seconds for import, import + first leapfrog step, and every kernel: cold, then warm."""
-    with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
-        out = {}
-        for label in ("cold", "warm"):
-            res = subprocess.run([sys.executable, "-c", _COMPILE_PROBE], env=env, check=True,
-                                 capture_output=True, text=True)
-            imp, first, every = map(float, res.stdout.split())
-            out[label] = {"import_s": imp, "import_and_first_step_s": first,
-                          "all_kernels_s": every}
-        return out
-
-
 def gravity(quick=False):
-    """The gravity benchmark of the Core issue: direct summation, leapfrog, G = 1, eps = 1e-3."""
+    """The gravity benchmark of the Core issue: direct summation, leapfrog, G = 1, eps = 1e-3.
+    (Compile and start times: `spacephys bench overhead`.)"""
     rebound = peer.load()
     repeats, budget = (2, 0.1) if quick else (5, 0.3)
     sizes = (256, 1024) if quick else (1024, 4096)
@@ -121,7 +86,7 @@ def gravity(quick=False):
     cases.append(_case(f"{m} massive + {t} test particles", w, repeats=max(1, repeats - 2),
                        budget=budget, n_active=m, check_steps=2))
     return {**header("gravity", quick, rebound),
-            "cases": cases, "compile": _compile_times()}
+            "cases": cases}
 
 
 def _gauss_radau_case(n, duration, repeats):
@@ -134,15 +99,9 @@ def _gauss_radau_case(n, duration, repeats):
     for _ in range(repeats):
         w = make()
         sim = peer.simulation(w, "ias15")
-        start = time.perf_counter()
-        w.step(1)
-        ours = time.perf_counter() - start
-        start = time.perf_counter()
-        sim.integrate(duration)
-        theirs = time.perf_counter() - start
-        steps, rsteps = w.integrator_stats["steps"], int(sim.steps_done)
-        best_ours = min(best_ours, ours / steps)
-        best_theirs = min(best_theirs, theirs / rsteps)
+        ours, theirs, steps, rsteps = peer.adaptive_per_step(w, sim, duration)
+        best_ours = min(best_ours, ours)
+        best_theirs = min(best_theirs, theirs)
     diff = float(np.max(np.abs(w.pos - peer.positions(sim))) / np.max(np.abs(w.pos)))
     return {"case": f"gauss_radau vs IAS15, N={n}, t={duration:g}", "bodies": n,
             "steps": steps, "rebound_steps": rsteps,
@@ -738,11 +697,6 @@ def format_table(results):
         lines.append(f"{c['case']:40s} {c['spacephys_s_per_step'] * 1e6:11.2f} us "
                      f"{c['rebound_s_per_step'] * 1e6:11.2f} us {c['ratio']:8.1f}x "
                      f"{c['spacephys_pairs_per_s']:15.3g} {c['max_relative_difference']:14.1e}")
-    cold, warm = results["compile"]["cold"], results["compile"]["warm"]
-    lines.append(f"cold numba cache: import + first leapfrog step {cold['import_and_first_step_s']:.2f} s, "
-                 f"every integrator and the energy {cold['all_kernels_s']:.2f} s")
-    lines.append(f"warm numba cache: import {warm['import_s']:.2f} s, import + first step "
-                 f"{warm['import_and_first_step_s']:.2f} s, every kernel {warm['all_kernels_s']:.2f} s")
     return "\n".join(lines)
 
 

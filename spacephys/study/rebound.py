@@ -50,3 +50,45 @@ def velocities(sim):
     v = np.empty((sim.N, 3))
     sim.serialize_particle_data(vxvyvz=v)
     return v
+
+
+def add_j2(sim, k):
+    """Give sim (its particle 0 the planet) the J2 force of spacephys.userforces.j2 as a
+    Python additional_forces callback: k = J2 mu R^2; the planet takes the reaction of every
+    body with mass."""
+    ps = sim.particles
+
+    def force(reb_sim):
+        p = ps[0]
+        for i in range(1, sim.N):
+            q = ps[i]
+            x, y, z = q.x - p.x, q.y - p.y, q.z - p.z
+            r2 = x * x + y * y + z * z
+            s = 5.0 * z * z / r2
+            c = -1.5 * k / (r2 * r2 * r2 ** 0.5)
+            ax, ay, az = c * x * (1 - s), c * y * (1 - s), c * z * (3 - s)
+            q.ax += ax
+            q.ay += ay
+            q.az += az
+            if q.m > 0:
+                p.ax -= q.m / p.m * ax
+                p.ay -= q.m / p.m * ay
+                p.az -= q.m / p.m * az
+
+    sim.additional_forces = force
+    sim.force_is_velocity_dependent = 0
+    return sim
+
+
+def adaptive_per_step(w, sim, duration):
+    """Seconds per step of w.step(1) (an adaptive World whose dt is the duration) and of
+    sim.integrate(duration), timed one after the other, and the steps each took."""
+    import time
+    start = time.perf_counter()
+    w.step(1)
+    ours = time.perf_counter() - start
+    start = time.perf_counter()
+    sim.integrate(duration)
+    theirs = time.perf_counter() - start
+    steps, rsteps = w.integrator_stats["steps"], int(sim.steps_done)
+    return ours / steps, theirs / rsteps, steps, rsteps
