@@ -30,6 +30,7 @@ FAST = frozenset({"reassoc", "contract"})
 PARALLEL_MIN_PAIRS = 10_000
 NEVER = np.iinfo(np.int64).max
 THREAD_MODES = ("auto", "always", "never")
+PROBE_MAX = 0.01           # seconds: the longest call ThreadChoice tries the other choice on
 
 
 PRANGE_ONLY = {"prange": True, "comprehension": False, "reduction": False,
@@ -171,9 +172,11 @@ class ThreadChoice:
         self.probe_at = 0.0
         self.backoff = 1.0
 
-    def begin(self, work):
-        """Before a kernel call whose largest force loop makes `work` pair evaluations: set
-        the kernels' threshold; returns what end() needs (None: nothing to time)."""
+    def begin(self, work, steps):
+        """Before a kernel call of `steps` steps whose largest force loop makes `work` pair
+        evaluations: set the kernels' threshold; returns what end() needs (None: nothing to
+        time). The other choice is tried only on a call expected to take under PROBE_MAX
+        seconds: a game's frame, not a long run in one call, pays for a trial."""
         if self.mode != "auto" or work < PARALLEL_MIN_PAIRS or numba.get_num_threads() < 2:
             return None
         if not 0.5 <= work / self.work <= 2.0:            # another scene: measure afresh
@@ -181,7 +184,7 @@ class ThreadChoice:
             self.cost = {True: np.inf, False: np.inf}
             self.settle = 2            # its first calls load kernels and build tables: untimed
         now = time.perf_counter()
-        probe = now >= self.probe_at and self.cost[self.threaded] < np.inf
+        probe = now >= self.probe_at and self.cost[self.threaded] * steps < PROBE_MAX
         use = self.threaded != probe
         self.min_pairs[0] = PARALLEL_MIN_PAIRS if use else NEVER
         return use, probe, now

@@ -1136,7 +1136,7 @@ class World:
             plan = self._plan or self.tables()
             first = self._event_count[0]
             frames = None if frame_at is None else self._frame_buffers(frame_at, consumed)
-            timing = self._threads.begin(plan.work)
+            timing = self._threads.begin(plan.work, nsteps)
             done, status = self._stepper.run(plan, frames, self._dt, nsteps,
                                              self._t_base + self._steps * self._dt)
             if timing is not None:

@@ -176,11 +176,11 @@ class _Clock:
         return self.now
 
 
-def _call(choice, clock, threaded_cost, serial_cost, work=90_000):
-    token = choice.begin(work)
+def _call(choice, clock, threaded_cost, serial_cost, work=90_000, steps=1):
+    token = choice.begin(work, steps)
     used = choice.min_pairs[0] == PARALLEL_MIN_PAIRS
-    clock.now += threaded_cost if used else serial_cost
-    choice.end(token, 1)
+    clock.now += (threaded_cost if used else serial_cost) * steps
+    choice.end(token, steps)
     return used
 
 
@@ -212,10 +212,14 @@ def test_thread_choice_keeps_what_measures_faster(monkeypatch):
     assert not _call(idle, clock, 1e-4, 2e-4) and idle.threaded     # checked, kept
     assert _call(idle, clock, 9e-3, 2e-4)                          # contention came...
     assert not _call(idle, clock, 9e-3, 2e-4) and not idle.threaded  # ...looked at once
+    # a long run in one call is never the trial: 1000 steps of 0.1 ms is 0.1 s
+    batch = _jit.ThreadChoice()
+    used = [_call(batch, clock, 1e-4, 2e-4, steps=1000) for _ in range(5)]
+    assert used == [True] * 5
     small = _jit.ThreadChoice()
-    assert small.begin(PARALLEL_MIN_PAIRS - 1) is None            # never worth it
+    assert small.begin(PARALLEL_MIN_PAIRS - 1, 1) is None         # never worth it
     for mode, want in (("always", PARALLEL_MIN_PAIRS), ("never", _jit.NEVER)):
         small.set(mode)
-        assert small.begin(90_000) is None and small.min_pairs[0] == want
+        assert small.begin(90_000, 1) is None and small.min_pairs[0] == want
     with pytest.raises(ValueError, match="threads='sometimes'"):
         small.set("sometimes")
