@@ -31,6 +31,7 @@ PARALLEL_MIN_PAIRS = 10_000
 NEVER = np.iinfo(np.int64).max
 THREAD_MODES = ("auto", "always", "never")
 PROBE_MAX = 0.01           # seconds: the longest call ThreadChoice tries the other choice on
+TRIAL_CALLS = 3            # calls one trial of the other choice lasts
 
 
 PRANGE_ONLY = {"prange": True, "comprehension": False, "reduction": False,
@@ -150,9 +151,12 @@ class ThreadChoice:
     (measured here: 8 ms per step where one thread took 0.03-0.5 ms, on some runs of this
     virtual machine). So each step() call is timed per step, the other choice is tried now
     and then (after 1 s, then twice as long each time it loses, up to a minute; at once when
-    the current choice suddenly costs 4x more) and the faster kept. A scene starts on threads
-    (a long run in one call keeps them); its first two calls, which load kernels and build
-    tables, are not timed.
+    the current choice's last calls all cost 4x more: one descheduled call does not count)
+    and the faster kept. A trial is TRIAL_CALLS
+    calls and counts the fastest of them, compared with the fastest of the current choice's
+    last TRIAL_CALLS: the first call after a switch pays for waking or parking the pool. A
+    scene starts on threads (a long run in one call keeps them); its first two calls, which
+    load kernels and build tables, are not timed.
     """
 
     def __init__(self, mode="auto"):
@@ -166,25 +170,33 @@ class ThreadChoice:
         self.mode = mode
         self.min_pairs[0] = PARALLEL_MIN_PAIRS if mode != "never" else NEVER
         self.threaded = True
-        self.cost = {True: np.inf, False: np.inf}      # seconds per step, measured
         self.work = 1.0                                # pair evaluations they were measured at
+        self._measure_afresh()
         self.settle = 0
+
+    def _measure_afresh(self):
+        self.cost = {True: np.inf, False: np.inf}      # seconds per step, measured
+        self.recent = []                               # the current choice's last calls
+        self.trial = 0                                 # calls of the trial still to make
         self.probe_at = 0.0
         self.backoff = 1.0
 
     def begin(self, work, steps):
         """Before a kernel call of `steps` steps whose largest force loop makes `work` pair
         evaluations: set the kernels' threshold; returns what end() needs (None: nothing to
-        time). The other choice is tried only on a call expected to take under PROBE_MAX
-        seconds: a game's frame, not a long run in one call, pays for a trial."""
+        time). The other choice is tried only on calls expected to take under PROBE_MAX
+        seconds: a game's frames, not a long run in one call, pay for a trial."""
         if self.mode != "auto" or work < PARALLEL_MIN_PAIRS or numba.get_num_threads() < 2:
             return None
         if not 0.5 <= work / self.work <= 2.0:            # another scene: measure afresh
             self.work = work
-            self.cost = {True: np.inf, False: np.inf}
+            self._measure_afresh()
             self.settle = 2            # its first calls load kernels and build tables: untimed
         now = time.perf_counter()
-        probe = now >= self.probe_at and self.cost[self.threaded] * steps < PROBE_MAX
+        short = self.cost[self.threaded] * steps < PROBE_MAX
+        if short and not self.trial and now >= self.probe_at:
+            self.trial, self.trial_cost = TRIAL_CALLS, np.inf
+        probe = short and self.trial > 0
         use = self.threaded != probe
         self.min_pairs[0] = PARALLEL_MIN_PAIRS if use else NEVER
         return use, probe, now
@@ -199,14 +211,22 @@ class ThreadChoice:
         use, probe, start = token
         now = time.perf_counter()
         per_step = (now - start) / steps
-        before = self.cost[use]
-        self.cost[use] = per_step
         if probe:
-            if per_step < self.cost[not use]:
+            self.trial_cost = min(self.trial_cost, per_step)
+            self.trial -= 1
+            if self.trial:
+                return
+            self.cost[use] = self.trial_cost
+            if self.trial_cost < self.cost[not use]:
                 self.threaded = use
+                self.recent = [self.trial_cost]
                 self.backoff = 1.0
             else:
                 self.backoff = min(2.0 * self.backoff, 60.0)
             self.probe_at = now + self.backoff
-        elif per_step > 4.0 * before:
-            self.probe_at = now                          # contention changed: look again
+            return
+        before = self.cost[use]
+        self.recent = (self.recent + [per_step])[-TRIAL_CALLS:]
+        self.cost[use] = min(self.recent)
+        if self.cost[use] > 4.0 * before:     # its last calls all 4x slower: look again now
+            self.probe_at = now
