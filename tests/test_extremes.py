@@ -7,10 +7,10 @@ import math
 
 import numpy as np
 import pytest
-import rebound
 
 import spacephys as sp
 from spacephys import scenes
+from spacephys.study import rebound as peer
 
 P = 2 * math.pi          # the period of an a = 1 orbit about mu = 1
 
@@ -28,13 +28,9 @@ def _hierarchy(**kw):
 
 
 def _rebound_ias15(w, t):
-    sim = rebound.Simulation()
-    sim.G = w.G
-    for m, p, v in zip(w.mass, w.pos, w.vel):
-        sim.add(m=m, x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
-    sim.integrator = "ias15"
+    sim = peer.simulation(w, "ias15", dt=1e-3)          # REBOUND's own first step
     sim.integrate(t, exact_finish_time=1)
-    return np.array([[p.x, p.y, p.z] for p in sim.particles])
+    return peer.positions(sim)
 
 
 @pytest.mark.parametrize("integrator, dt, moon_bound", [("gauss_radau", P / 10, 1e-9),

@@ -2,23 +2,16 @@
 bodies set the step), compensated summation, and failure handling."""
 import numpy as np
 import pytest
-import rebound
 
 import spacephys as sp
 from spacephys.scenes import figure_eight, kepler, outer_solar_system, pythagorean
+from spacephys.study import rebound as peer
 
 
 def _rebound_ias15(w, T):
-    sim = rebound.Simulation()
-    sim.G = w.G
-    sim.integrator = "ias15"
-    for m, p, v in zip(w.mass, w.pos, w.vel):
-        p, v = list(p) + [0.0] * (3 - w.dim), list(v) + [0.0] * (3 - w.dim)
-        sim.add(m=float(m), x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
+    sim = peer.simulation(w, "ias15", dt=1e-3)          # REBOUND's own first step
     sim.integrate(T)
-    xyz = np.empty((sim.N, 3))
-    sim.serialize_particle_data(xyz=xyz)
-    return xyz[:, :w.dim], sim
+    return peer.positions(sim)[:, :w.dim], sim
 
 
 # ----------------------------------------------------------------------------- targets

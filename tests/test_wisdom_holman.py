@@ -2,11 +2,11 @@
 and agreement with REBOUND's WHFast on the same initial conditions."""
 import numpy as np
 import pytest
-import rebound
 
 import spacephys as sp
 from spacephys.kernels.wisdom_holman import kepler_drift
 from spacephys.scenes import solar_system
+from spacephys.study import rebound as peer
 
 
 def _elliptic_reference(e, f0, dt):
@@ -66,15 +66,7 @@ def test_two_bodies_are_exact_at_any_step():
 
 
 def _whfast(w, corrector):
-    sim = rebound.Simulation()
-    sim.G = w.G
-    sim.integrator = "whfast"
-    sim.dt = w.dt
-    sim.integrator.corrector = corrector
-    sim.integrator.safe_mode = 0
-    for m, p, v in zip(w.mass, w.pos, w.vel):
-        sim.add(m=float(m), x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
-    return sim
+    return peer.simulation(w, "whfast", corrector=corrector, safe_mode=0)
 
 
 @pytest.mark.parametrize("name,corrector,energy_bound",

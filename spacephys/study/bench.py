@@ -192,7 +192,6 @@ def _merging_cluster(n, steps, radius, repeats, seed=4):
     (seen: 11, 10, 10 merges for one set of initial conditions in one process); spacephys
     merges all of them, every time. Compare on scenes without such chains."""
     from ..world import World
-    rebound = peer.load()
     rng = np.random.default_rng(seed)
     p = rng.normal(size=(n, 3))
     p *= (rng.random(n) ** (1 / 3) / np.linalg.norm(p, axis=1))[:, None]
@@ -208,12 +207,8 @@ def _merging_cluster(n, steps, radius, repeats, seed=4):
     t_ours = t_theirs = float("inf")
     for _ in range(repeats):
         w = ours()
-        sim = rebound.Simulation()
-        sim.integrator, sim.gravity, sim.dt = "leapfrog", "basic", 1e-3
+        sim = peer.simulation(w, "leapfrog", gravity="basic")
         sim.collision, sim.collision_resolve = "line", "merge"
-        for i in range(n):
-            sim.add(m=1.0 / n, r=radius, x=p[i, 0], y=p[i, 1], z=p[i, 2], vx=v[i, 0],
-                    vy=v[i, 1], vz=v[i, 2])
         start = time.perf_counter()
         w.step(steps)
         t_ours = min(t_ours, (time.perf_counter() - start) / steps)
@@ -378,8 +373,7 @@ def log(quick=False):
     path = os.path.join(folder, "run.h5")
 
     def ours(every, **kw):
-        w = World(dim=3, dt=1e-3, softening=1e-3)
-        w.add_bodies(np.full(n, 1.0 / n), pos, vel)
+        w = scene()
         w.step(1)
         log = w.record(path, every=every, **kw) if every else None
         start = time.perf_counter()
@@ -393,11 +387,13 @@ def log(quick=False):
             size = os.path.getsize(path) / (steps // every + 2)
         return seconds, size
 
+    def scene():
+        w = World(dim=3, dt=1e-3, softening=1e-3)
+        w.add_bodies(np.full(n, 1.0 / n), pos, vel)
+        return w
+
     def theirs(every):
-        sim = rebound.Simulation()
-        sim.integrator, sim.gravity, sim.dt, sim.softening = "leapfrog", "basic", 1e-3, 1e-3
-        for p, v in zip(pos, vel):
-            sim.add(m=1.0 / n, x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
+        sim = peer.simulation(scene(), "leapfrog", gravity="basic")
         if every:
             sim.save_to_file(os.path.join(folder, "run.bin"), step=every, delete_file=True)
         start = time.perf_counter()

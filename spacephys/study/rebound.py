@@ -13,7 +13,8 @@ def load():
 
 
 def simulation(w, integrator="ias15", *, dt=None, n_active=None, gravity=None, **settings):
-    """A REBOUND Simulation with w's bodies (in row order), G, softening and dt; settings go
+    """A REBOUND Simulation with w's bodies (in row order: masses, radii, positions and
+    velocities), G, softening and dt; settings go
     to sim.integrator's attributes (corrector=3, safe_mode=0, ...). n_active: only the first
     that many bodies pull (the others as test particles that feel but do not pull, as in
     spacephys); gravity: REBOUND's gravity routine ("basic": direct summation, as ours)."""
@@ -30,8 +31,8 @@ def simulation(w, integrator="ias15", *, dt=None, n_active=None, gravity=None, *
     pos = np.zeros((w.n, 3))
     vel = np.zeros((w.n, 3))
     pos[:, :w.dim], vel[:, :w.dim] = w.pos, w.vel
-    for m, p, v in zip(w.mass, pos, vel):
-        sim.add(m=float(m), x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
+    for m, r, p, v in zip(w.mass, w.radius, pos, vel):
+        sim.add(m=float(m), r=float(r), x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
     if n_active is not None:
         sim.N_active = n_active
         sim.testparticle_type = 0
