@@ -215,7 +215,7 @@ def _predict(b, e, q, have_predictor):
                 b[i, k - 1, c] = new + correction
 
 
-@kernel(parallel=True)
+@kernel(parallel=True, inline=True)
 def _sweep(rows, targets, first, f, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7, h, nodes,
            c_gb, thrust):
     """One predictor-corrector sweep over the seven nodes, updating the bodies in rows (whose
@@ -262,7 +262,7 @@ def _sweep(rows, targets, first, f, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7
     return max_db7 / max_a if max_a > 0.0 else max_db7
 
 
-@kernel(parallel=True)
+@kernel(parallel=True, inline=True)
 def _converge(rows, targets, with_a0, f, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7, h,
               nodes, c_gb, thrust):
     """Sweep until b7 stops changing: below _PC_TOLERANCE, or stalled at round-off. Returns

@@ -274,7 +274,7 @@ def _drift_all(xj, vj, M, G, dt):
     return ok
 
 
-@kernel(parallel=True)
+@kernel(parallel=True, inline=True)
 def _kick(xj, vj, order, m, M, f, t, pos, vel, acc, dt, actors, thrust, dissipate):
     """v'_k += dt (J(a) + G M_k x'_k / r'^3): the interaction part of the acceleration of
     every body (forces.accelerations, drag aside), plus the thrust accelerations (A, 3) of the
