@@ -70,7 +70,8 @@ def _calls(quick):
     frame = _two_bodies(1 / 60)
     frame_sim = peer.simulation(frame, "leapfrog", gravity="basic")
     duel, ship = _duel()
-    duel_sim = peer.simulation(duel, "leapfrog", gravity="basic")
+    # the star pulls, the ships do not (as in spacephys, where actors are passive)
+    duel_sim = peer.simulation(duel, "leapfrog", gravity="basic", n_active=1)
     duel_sim.collision = "line"
     for call in (w.step, sim.steps, duel.step, frame_sim.steps):
         call(1)
