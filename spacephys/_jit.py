@@ -186,7 +186,8 @@ class ThreadChoice:
         evaluations: set the kernels' threshold; returns what end() needs (None: nothing to
         time). The other choice is tried only on calls expected to take under PROBE_MAX
         seconds: a game's frames, not a long run in one call, pay for a trial."""
-        if self.mode != "auto" or work < PARALLEL_MIN_PAIRS or numba.get_num_threads() < 2:
+        # the machine's thread limit, not numba.get_num_threads(): that call costs 1.2 us
+        if self.mode != "auto" or work < PARALLEL_MIN_PAIRS or numba.config.NUMBA_NUM_THREADS < 2:
             return None
         if not 0.5 <= work / self.work <= 2.0:            # another scene: measure afresh
             self.work = work

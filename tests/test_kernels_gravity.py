@@ -195,7 +195,7 @@ def test_thread_choice_keeps_what_measures_faster(monkeypatch):
     from spacephys import _jit
     clock = _Clock()
     monkeypatch.setattr(_jit.time, "perf_counter", clock)
-    monkeypatch.setattr(_jit.numba, "get_num_threads", lambda: 2)   # whatever the machine
+    monkeypatch.setattr(_jit.numba.config, "NUMBA_NUM_THREADS", 2)   # whatever the machine
     busy = _jit.ThreadChoice()
     used = [_call(busy, clock, 8e-3, 3e-4) for _ in range(6)]
     assert used == [True, True, True, False, False, False] and not busy.threaded
