@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numba
 import numpy as np
+from numba import types
 from numba.core.errors import NumbaPerformanceWarning
 
 # With prange-only parallelism (PRANGE_ONLY) numba's check for "a parallel transformation"
@@ -32,6 +33,15 @@ NEVER = np.iinfo(np.int64).max
 THREAD_MODES = ("auto", "always", "never")
 PROBE_MAX = 0.01           # seconds: the longest call ThreadChoice tries the other choice on
 TRIAL_CALLS = 3            # calls one trial of the other choice lasts
+
+
+class TableType(types.StructRef):
+    """The numba type of the kernels' tables (structrefs: State, Forces, Rules, Actors): its
+    fields typed by value, not as literals (dim = 2 is an int64, not Literal[int](2)), so
+    one compiled kernel serves every table of a kind."""
+
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(t)) for name, t in fields)
 
 
 PRANGE_ONLY = {"prange": True, "comprehension": False, "reduction": False,

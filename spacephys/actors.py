@@ -444,9 +444,16 @@ class Actors:
             owner[unarmed] = b.lookup(b.launcher[unarmed])
         return owner
 
-    def table(self):
+    def rows(self):
+        """(A,) int64 rows of the ships and missiles now alive."""
+        b = self.b
+        if "actor" not in b.columns:
+            return np.zeros(0, np.int64)
+        return np.flatnonzero(b.actor[:b.n]).astype(np.int64)
+
+    def table(self, actors):
         """The kernels' Actors table for the bodies now alive (columns shared), or None when
-        there are no actors and no lifetimes."""
+        there are no actors and no lifetimes; actors = rows()."""
         b = self.b
         n = b.n
         has_actors = "actor" in b.columns
@@ -454,12 +461,11 @@ class Actors:
         if not (has_actors or has_life):
             return None
         if has_actors:
-            actors = np.flatnonzero(b.actor[:n]).astype(np.int64)
             target = np.full(n, -1, np.int64)
             target[actors] = b.lookup(b.target[actors])
             cols = {name: getattr(b, name)[:n] for name in ACTOR_COLUMNS}
         else:
-            actors, target = np.zeros(0, np.int64), np.zeros(0, np.int64)
+            target = np.zeros(0, np.int64)             # actors is empty too
             cols = _EMPTY
         expires = b.expires[:n] if has_life else _EMPTY["expires"]
         return control.make(cols, actors, target, self.curves, expires, self.w.dim)

@@ -21,6 +21,12 @@ from .kernels import integrate
 from .kernels.wisdom_holman import wisdom_holman_steps
 
 
+# World.integrator_stats: name -> index in the adaptive kernel's stats array
+COUNTERS = {"steps": kgr.STEPS, "rejected": kgr.REJECTED, "at_min_step": kgr.AT_MIN_STEP,
+            "not_converged": kgr.NOT_CONVERGED, "sweeps": kgr.SWEEPS,
+            "rider_substeps": kgr.RIDER_SUBSTEPS}
+
+
 @dataclass(frozen=True)
 class Capabilities:
     """What a family can do. drag: linear drag toward a wind; models: the gravity models it
@@ -46,13 +52,27 @@ class Stepper:
     def __init__(self, spec):
         self.spec = spec
 
+    # why a family without pulling_actors cannot follow a pulling ship's mass change
+    moving_mass = None
+
     def check(self, world, sources, actors):
-        """Raise ValueError (naming the setting) when this family cannot run the scene;
-        sources = (src, passive, still) rows, actors the actor rows. Nothing is changed."""
+        """Raise ValueError (naming the setting) when this family cannot run the scene, as
+        its capabilities say; sources = (src, passive, still) rows, actors the actor rows.
+        Nothing is changed."""
         caps = self.capabilities
         if world.gravity not in caps.models:
             raise ValueError(f"integrator {self.spec.name!r} needs gravity in "
                              f"{caps.models} (gravity={world.gravity!r})")
+        src, _, still = sources
+        if still.size and not caps.fixed_bodies:
+            raise ValueError(f"integrator {self.spec.name!r} cannot hold bodies fixed "
+                             f"({still.size} are): use a fixed-step or the adaptive integrator")
+        pulling = actors[np.isin(actors, src)]
+        if pulling.size and not caps.pulling_actors:
+            raise ValueError(f"integrator {self.spec.name!r}: ship or missile "
+                             f"{int(world.ids[pulling[0]])} pulls (active): its mass changes "
+                             f"as it burns, which {self.moving_mass} cannot follow; make it "
+                             f"passive or use another integrator")
 
     def method(self, world, sources):
         """The kernel's `method` argument for the bodies now alive."""
@@ -76,6 +96,11 @@ class Stepper:
 
     def load(self, state):
         pass
+
+    @property
+    def counters(self):
+        """World.integrator_stats: the adaptive family's counters, zeros for the others."""
+        return dict.fromkeys(COUNTERS, 0)
 
 
 class Splitting(Stepper):
@@ -164,11 +189,7 @@ class GaussRadau(Stepper):
 
     @property
     def counters(self):
-        s = self.stats
-        return {"steps": int(s[kgr.STEPS]), "rejected": int(s[kgr.REJECTED]),
-                "at_min_step": int(s[kgr.AT_MIN_STEP]),
-                "not_converged": int(s[kgr.NOT_CONVERGED]),
-                "sweeps": int(s[kgr.SWEEPS]), "rider_substeps": int(s[kgr.RIDER_SUBSTEPS])}
+        return {name: int(self.stats[k]) for name, k in COUNTERS.items()}
 
     def state(self):
         return {"carried": self.params[3:].copy(), "stats": self.stats.copy()}
@@ -186,21 +207,14 @@ class WisdomHolman(Stepper):
     capabilities = Capabilities(models=("direct",), fixed_bodies=False, pulling_actors=False,
                                 split_invariant=False, dominant_mass=True)
 
+    moving_mass = "the Jacobi frames"
+
     def check(self, world, sources, actors):
-        src, _, still = sources
         if world.gravity != "direct":
             raise ValueError(f"integrator {self.spec.name!r} needs gravity='direct' with a "
                              f"dominant body among the bodies (gravity={world.gravity!r}: no "
                              f"Kepler orbit to drift along exactly; use leapfrog or yoshida4)")
-        if still.size:
-            raise ValueError(f"integrator {self.spec.name!r} cannot hold bodies fixed "
-                             f"({still.size} are): use a fixed-step or the adaptive integrator")
-        pulling = actors[np.isin(actors, src)]
-        if pulling.size:
-            raise ValueError(f"integrator {self.spec.name!r}: ship or missile "
-                             f"{int(world.ids[pulling[0]])} pulls (active): its mass changes "
-                             f"as it burns, which the Jacobi frames cannot follow; make it "
-                             f"passive or use another integrator")
+        super().check(world, sources, actors)
 
     def method(self, world, sources):
         """The bodies in Jacobi order and their Jacobi masses: the heaviest pulling body is

@@ -337,11 +337,7 @@ class World:
         min_step, steps whose corrector did not converge, corrector sweeps (each 7 force
         evaluations), and substeps of test particles that needed shorter steps than the
         bodies setting the step (zeros for the other integrators)."""
-        counters = getattr(self._stepper, "counters", None)
-        if counters is None:
-            return {"steps": 0, "rejected": 0, "at_min_step": 0, "not_converged": 0,
-                    "sweeps": 0, "rider_substeps": 0}
-        return counters
+        return self._stepper.counters
 
     @property
     def drag(self):
@@ -1055,7 +1051,7 @@ class World:
         b = self._b
         n = b.n
         sources = self._sources()
-        actors = np.flatnonzero(b.actor[:n]) if "actor" in b.columns else np.zeros(0, int)
+        actors = self._actors.rows()
         self._stepper.check(self, sources, actors)
         scratch = self._scratch_rows(n)
         alive = scratch["alive"]
@@ -1069,7 +1065,7 @@ class World:
         rules = self._collisions.table(b.kind[:n].astype(np.int64), b.radius[:n],
                                        b.category[:n], b.mask[:n], b.fixed[:n],
                                        self._actors.owners(), self._dim, scratch)
-        plan = Plan(self, state, forces, rules, self._actors.table(),
+        plan = Plan(self, state, forces, rules, self._actors.table(actors),
                     self._stepper.method(self, sources), alive,
                     self._forces.work(n, sources[0].size))
         self._plan = plan

@@ -124,3 +124,19 @@ def test_step_n_and_n_single_steps_agree_to_round_off():
         for _ in range(2000):
             b.step()
         assert np.max(np.abs(a.pos - b.pos)) < 3e-11
+
+
+def test_fixed_bodies_are_refused_as_its_capabilities_say():
+    """Wisdom-Holman cannot hold a body fixed (Capabilities.fixed_bodies is False): the step
+    is refused, naming how many, and nothing moves; a family that can (leapfrog) steps."""
+    assert not sp.capabilities("wisdom_holman").fixed_bodies
+    w = sp.World(dim=3, integrator="wisdom_holman", dt=0.01)
+    w.add_body(1.0, (0, 0, 0), fixed=True)
+    w.add_body(1e-3, (1, 0, 0), (0, 1, 0))
+    before = w.pos.copy()
+    with pytest.raises(ValueError, match=r"'wisdom_holman' cannot hold bodies fixed \(1 are\)"):
+        w.step(1)
+    assert np.array_equal(w.pos, before) and w.t == 0.0
+    w.integrator = "leapfrog"
+    w.step(1)
+    assert np.array_equal(w.pos[0], before[0]) and not np.array_equal(w.pos[1], before[1])

@@ -22,10 +22,9 @@ rounding.
 import math
 
 import numpy as np
-from numba import types
 from numba.experimental import structref
 
-from .._jit import kernel
+from .._jit import TableType, kernel
 from .arrays import grown_pairs, stable_argsort
 from .codes import (BOUNCE, BREAK_A, DESTROY_A, DESTROY_B, DESTROY_BOTH, ELASTIC, EV_BOUNCE,
                     EV_DESTROY, EV_MERGE, EV_SENSOR, EV_WALL, IGNORE, MERGE, PERIODIC, PLANE,
@@ -36,9 +35,8 @@ _MAX_PASSES = 32
 
 
 @structref.register
-class RulesType(types.StructRef):
-    def preprocess_fields(self, fields):
-        return tuple((name, types.unliteral(t)) for name, t in fields)
+class RulesType(TableType):
+    pass
 
 
 class Rules(structref.StructRefProxy):

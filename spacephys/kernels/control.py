@@ -20,10 +20,9 @@ Compiled without fastmath: log1p and the series of g carry the small-burn accura
 import math
 
 import numpy as np
-from numba import types
 from numba.experimental import structref
 
-from .._jit import kernel
+from .._jit import TableType, kernel
 from .codes import (EV_BURNOUT, EV_DETONATION, EV_EXPIRY, EV_FUEL_EMPTY, NO_GUIDANCE,
                     PURSUIT)
 from .collide import _wrap
@@ -36,9 +35,8 @@ DX, DY, DZ, F, MDOT, M0, T_STOP, VE = range(8)
 
 
 @structref.register
-class ActorsType(types.StructRef):
-    def preprocess_fields(self, fields):
-        return tuple((name, types.unliteral(t)) for name, t in fields)
+class ActorsType(TableType):
+    pass
 
 
 class Actors(structref.StructRefProxy):

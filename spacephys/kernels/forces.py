@@ -28,7 +28,7 @@ import numpy as np
 from numba import types, typed
 from numba.experimental import structref
 
-from .._jit import PARALLEL_MIN_PAIRS, kernel
+from .._jit import PARALLEL_MIN_PAIRS, TableType, kernel
 from .diagnostics import add
 
 # gravity models: a code and a name each, their accelerations (accelerations) and potential
@@ -45,9 +45,8 @@ USER_FORCE_TYPE = types.FunctionType(USER_FORCE)
 
 
 @structref.register
-class ForcesType(types.StructRef):
-    def preprocess_fields(self, fields):
-        return tuple((name, types.unliteral(t)) for name, t in fields)
+class ForcesType(TableType):
+    pass
 
 
 class Forces(structref.StructRefProxy):

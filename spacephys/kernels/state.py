@@ -7,16 +7,14 @@ per set of bodies; its arrays are views of the World's columns, so a step change
 place and a change made between steps (set_body, control) is seen by the next step.
 """
 import numpy as np
-from numba import types
 from numba.experimental import structref
 
-from .._jit import kernel
+from .._jit import TableType, kernel
 
 
 @structref.register
-class StateType(types.StructRef):
-    def preprocess_fields(self, fields):
-        return tuple((name, types.unliteral(t)) for name, t in fields)
+class StateType(TableType):
+    pass
 
 
 class State(structref.StructRefProxy):
