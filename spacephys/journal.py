@@ -1,6 +1,6 @@
 """The journal: every call that changes a World, recorded by its run log and fed back by
-replay. World wraps its changing methods with `journaled` and its settable properties with
-`journaled_setter`; a call's arguments are encoded as JSON (floats exact: json writes repr).
+replay. A recorded World's changing methods are wrapped by `attach`, its settable properties
+by `journaled_setter`; a call's arguments are encoded as JSON (floats exact: json writes repr).
 """
 import dataclasses
 import functools
@@ -48,16 +48,25 @@ def decode(value):
     return value
 
 
-def journaled(method):
-    """Wrap a public World method that changes the World: a run log attached to the World
-    records the call (the outermost one only: advance() calling step() is one input)."""
+def attach(world, log, names):
+    """Record the calls `names` of `world` into `log` (None: stop recording). Each becomes
+    an instance attribute shadowing the class's plain method, so a World that nothing
+    records pays nothing per call; a recorded one records the outermost call only
+    (advance() calling step() is one input)."""
+    for name in names:
+        world.__dict__.pop(name, None)
+    if log is not None:
+        for name in names:
+            world.__dict__[name] = _recorded(world, log, name, getattr(type(world), name))
+
+
+def _recorded(world, log, name, method):
     @functools.wraps(method)
-    def wrapper(self, *args, **kwargs):
-        log = self._log
-        if log is None or log.depth:
-            return method(self, *args, **kwargs)
-        return log.call(self, method.__name__, method, args, kwargs)
-    return wrapper
+    def call(*args, **kwargs):
+        if log.depth:
+            return method(world, *args, **kwargs)
+        return log.call(world, name, method, args, kwargs)
+    return call
 
 
 def journaled_setter(name):

@@ -208,11 +208,11 @@ def resume(path):
         raise
     meta = f.attrs
     world.recording = RunLog(world, path, every=int(meta["every"]) or None,
-                        every_time=float(meta["every_time"]) or None,
-                        checkpoint_every=int(meta["checkpoint_every"]) or None,
-                        checkpoint_seconds=float(meta["checkpoint_seconds"]),
-                        flush_seconds=float(meta["flush_seconds"]),
-                        _resume=(f, int(attrs["step"]), float(attrs["next_time"]), counts))
+                             every_time=float(meta["every_time"]) or None,
+                             checkpoint_every=int(meta["checkpoint_every"]) or None,
+                             checkpoint_seconds=float(meta["checkpoint_seconds"]),
+                             flush_seconds=float(meta["flush_seconds"]),
+                             _resume=(f, int(attrs["step"]), float(attrs["next_time"]), counts))
     return world
 
 
@@ -275,13 +275,13 @@ def replay(path):
         rep._world_frame(world)
         world.recording = rep
         for entry in run.inputs():
-            method = getattr(type(world), entry["call"]) if entry["call"] != "setattr" else None
+            method = getattr(world, entry["call"]) if entry["call"] != "setattr" else None
             args, kwargs = decode(entry["args"]), decode(entry["kwargs"])
             try:
                 if method is None:
                     setattr(world, *args)
                 else:
-                    method(world, *args, **kwargs)
+                    method(*args, **kwargs)
             except Exception as e:
                 if type(e).__name__ != entry.get("raised"):
                     raise

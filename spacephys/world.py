@@ -22,7 +22,8 @@ from .errors import InstabilityError
 from .events import EVENT_DTYPE
 from .forces import HELD, ForceField
 from .integrators import get_integrator
-from .journal import journaled, journaled_setter
+from . import journal
+from .journal import journaled_setter
 from .kernels import diagnostics
 from .kernels import forces as kforces
 from .kernels import state as kstate
@@ -685,6 +686,8 @@ class World:
         state["_plan"] = None                          # kernel tables: rebuilt on demand
         state["_scratch"] = None
         state["_log"] = None                           # a copy is not recorded
+        for name in JOURNALED:
+            state.pop(name, None)
         return state
 
     def __setstate__(self, state):
@@ -736,11 +739,11 @@ class World:
             raise ValueError(f"compress_state = {compress_state!r}: must be True or False")
         if scenario is not None and not isinstance(scenario, str):
             raise ValueError(f"scenario = {scenario!r}: must be text")
-        self._log = RunLog(self, path, every=every, every_time=every_time,
-                           checkpoint_every=checkpoint_every,
-                           checkpoint_seconds=checkpoint_seconds, flush_seconds=flush_seconds,
-                           compression=compression, compress_state=bool(compress_state),
-                           scenario=scenario)
+        self.recording = RunLog(self, path, every=every, every_time=every_time,
+                                checkpoint_every=checkpoint_every,
+                                checkpoint_seconds=checkpoint_seconds,
+                                flush_seconds=flush_seconds, compression=compression,
+                                compress_state=bool(compress_state), scenario=scenario)
         return self._log
 
     @property
@@ -751,6 +754,7 @@ class World:
     @recording.setter
     def recording(self, log):
         self._log = log
+        journal.attach(self, log, JOURNALED)
 
     def save(self, path):
         """Write the whole state to an HDF5 file; World.load(path) continues it bit for
@@ -1072,7 +1076,6 @@ class World:
         return plan
 
     # ---------------------------------------------------------------- stepping
-    @journaled
     def step(self, n=1):
         """Advance n steps of dt, the loop inside numba; returns the new time. w.events then
         holds what happened during these steps."""
@@ -1180,7 +1183,6 @@ class World:
         at = frame_at[frame_at > consumed] - consumed
         return (at,) + self._log.frame_buffers(at.size, self._b.n)
 
-    @journaled
     def advance(self, frame_time):
         """Fixed-step accumulator for variable frame time; returns alpha in [0, 1).
 
@@ -1285,7 +1287,6 @@ class World:
                                   self._masses(True), out)
         return out
 
-    @journaled
     def watch_energy(self, limit):
         """From now on, raise InstabilityError after any step() or advance() that leaves the
         relative energy error of the pulling bodies (since this call) above limit, naming the
@@ -1313,7 +1314,6 @@ class World:
         started with [length]: the absolute position of a body is origin + pos."""
         return self._origin[:self._dim].copy()
 
-    @journaled
     def shift_origin(self, delta):
         """Move the coordinate origin by delta (dim,) [length]: every position (bodies, the
         central body, walls, the boundary box, launches not yet reported) drops by delta,
@@ -1397,7 +1397,6 @@ class World:
             raise ValueError("center_of_mass_velocity: the total mass is 0 (only test particles)")
         return self.momentum() / M
 
-    @journaled
     def move_to_center_of_mass(self):
         """Shift every body so that the centre of mass rests at the origin."""
         r, v = self.center_of_mass(), self.center_of_mass_velocity()
@@ -1412,10 +1411,9 @@ class World:
                 f"integrator={self.integrator!r}, dt={self._dt!r}, t={self.t!r})")
 
 
-# the calls a run log records (journal.py): every public method that changes the World (step,
-# advance, watch_energy, shift_origin and move_to_center_of_mass are decorated above)
-for _name in ("add_kind", "add_body", "add_bodies", "set_body", "remove", "set_collision",
-              "add_plane", "add_segment", "clear_walls", "set_boundary", "add_ship", "control",
-              "set_heading", "set_fuel", "launch", "explode", "apply_force",
-              "apply_acceleration", "add_force", "set_force_params", "remove_force"):
-    setattr(World, _name, journaled(getattr(World, _name)))
+# the calls a run log records (journal.py): every public method that changes the World
+JOURNALED = ("step", "advance", "watch_energy", "shift_origin", "move_to_center_of_mass",
+             "add_kind", "add_body", "add_bodies", "set_body", "remove", "set_collision",
+             "add_plane", "add_segment", "clear_walls", "set_boundary", "add_ship", "control",
+             "set_heading", "set_fuel", "launch", "explode", "apply_force",
+             "apply_acceleration", "add_force", "set_force_params", "remove_force")

@@ -143,6 +143,29 @@ def _battle(s, dim):
     return ship, missile
 
 
+def test_only_a_recorded_world_journals_its_calls(tmp_path):
+    """An unrecorded World calls its plain methods (no per-call wrapper); while recorded,
+    every changing call, nested or not, reaches the log once; a copy is not recorded; after
+    close() the calls are plain again and go unrecorded."""
+    w = sp.World(2, dt=0.01)
+    plain = {name: getattr(w, name).__func__ for name in ("step", "control", "add_body")}
+    assert all(f is getattr(sp.World, n) for n, f in plain.items())
+    log = w.record(tmp_path / "r.h5")
+    a = w.add_body(1.0, (0.0, 0.0))
+    w.advance(0.025)                                   # advance() calling step(): one input
+    c = w.copy()
+    c.step(3)
+    c.add_body(0.0, (1.0, 0.0))
+    assert c.recording is None and all(
+        getattr(c, n).__func__ is f for n, f in plain.items())
+    log.close()
+    w.step(1)
+    w.set_body(a, vel=(1.0, 0.0))
+    assert all(getattr(w, n).__func__ is f for n, f in plain.items())
+    with sp.open_run(tmp_path / "r.h5") as run:
+        assert [e["call"] for e in run.inputs()] == ["add_body", "advance"]
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_round_trip_of_every_field(tmp_path, dim):
     path = tmp_path / "battle.h5"
