@@ -1,6 +1,6 @@
 """HDF5 run logs: the writer (World.record), the file format, and World state files.
 
-Layout (format version 2; docs/runlog.md has every dataset and attribute):
+Layout (format version 3; docs/runlog.md has every dataset and attribute):
 
     /                      attrs: format = "spacephys-run", format_version, versions, settings
     /frames/step, t        (F,) int64 / float64: when each frame was taken
@@ -12,15 +12,26 @@ Layout (format version 2; docs/runlog.md has every dataset and attribute):
                            change (bodies added, removed, or a mass or radius changed)
     /events                (E,) compound: "step" and the fields of spacephys.EVENT_DTYPE
     /inputs/step, t, call  (I,): the calls that changed the World, as JSON, in order
-    /checkpoints/NNNNNN    the World's state (World.state(), statefile.py) and the lengths of
-                           the tables then
+    /checkpoints/table     (C,) compound: each checkpoint's step, time, the lengths of the
+                           tables then, and where its image lies in
+    /checkpoints/image     (B,) uint8: world files (World.save's format) end to end
+    /commit                () compound: the lengths of the tables that count, and `closed`
+    /writer                (2,) int64: the process writing the file (pid, start time)
 
-Writes are buffered in memory and go to the file at each flush (every `flush_seconds` of wall
-time, at checkpoints and at close), followed by an HDF5 flush; between flushes the file is not
-touched, so a process killed outside a flush leaves a file holding everything flushed.
+Crash-proof by design: the file is made complete (frame 0, checkpoint 0) under a temporary
+name and renamed into place, then written in HDF5's SWMR mode, which orders its writes so
+that the file is readable whenever the writer stops. Writes are buffered in memory and go to
+the file at each flush (every `flush_seconds` of wall time, at checkpoints and at close):
+the rows are appended and flushed, then /commit takes the new lengths in one small write and
+is flushed. A reader reads only the committed rows, so a kill at any moment leaves a log
+holding everything committed before it; rows past the commit are overwritten by resume.
+HDF5 refuses a plain open of a file whose SWMR writer died (its superblock says a writer
+holds it): open_file sees from /writer that the process is gone and clears that
+(h5writer.py).
 Reading, resume and replay are in runs.py; this module knows nothing of World but its public
 surface (the recorder's side of World.record).
 """
+import io
 import json
 import math
 import os
@@ -30,15 +41,26 @@ import time
 import h5py
 import numpy as np
 
-from . import statefile
+from . import h5writer, statefile
 from .events import EVENT_DTYPE, EVENT_KINDS
 from .journal import encode
 
 FORMAT = "spacephys-run"
 WORLD_FORMAT = "spacephys-world"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 LOG_EVENT_DTYPE = np.dtype([("step", np.int64)] + EVENT_DTYPE.descr)
 LAYOUT = ("ids", "mass", "radius", "kind")
+# the lengths of the tables that count (/commit), and whether close() finished
+COUNTS = ("frames", "rows", "layouts", "layout_rows", "events", "inputs", "checkpoints")
+COMMIT_DTYPE = np.dtype([(name, np.int64) for name in COUNTS + ("closed",)])
+# a checkpoint: when, the lengths of the tables then, the every_time schedule, whether the
+# last frame is close()'s (off the schedule), and its world file's bytes in /checkpoints/image
+CHECKPOINT_DTYPE = np.dtype(
+    [("step", np.int64), ("t", np.float64)] + [(name, np.int64) for name in COUNTS[:6]] +
+    [("next_time", np.float64), ("extra_frame", np.int8), ("first", np.int64),
+     ("size", np.int64)])
+# SWMR needs HDF5 1.10's file format; no newer one, so HDF5 1.10 and later read the logs
+LIBVER = ("v110", "v110")
 _CHUNK_ROWS = 8192
 
 
@@ -68,8 +90,7 @@ def _metadata(world, every, every_time, checkpoint_every, checkpoint_seconds, fl
             "every": every or 0, "every_time": every_time or 0.0,
             "checkpoint_every": checkpoint_every or 0, "checkpoint_seconds": checkpoint_seconds,
             "flush_seconds": flush_seconds,
-            "scenario": scenario or "", "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-            "closed": False}
+            "scenario": scenario or "", "created": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
     return meta
 
 
@@ -187,16 +208,22 @@ class RunLog(_Schedule):
         self._since_checkpoint = 0
         self._checkpoint_due = False
         if _resume is not None:
-            # an open file truncated to its last checkpoint: (file, steps since the log
-            # began, the next every_time frame, the table lengths)
-            self._file, self.steps, self._next_time, self._counts = _resume
+            # a file opened for writing at its last checkpoint: (file, steps since the log
+            # began, the next every_time frame, the table lengths then, where the next
+            # checkpoint's image goes)
+            self._file, self.steps, self._next_time, self._counts, self._image_end = _resume
+            self._start_writing()
+            self._commit()                  # the tables cut back to the checkpoint
             return
         self.steps = 0                   # steps since the log began
         self._next_time = world.t        # the first frame: now
-        self._counts = {"frames": 0, "rows": 0, "layouts": 0, "layout_rows": 0, "events": 0,
-                        "inputs": 0, "checkpoints": 0}
+        self._counts = dict.fromkeys(COUNTS, 0)
+        self._image_end = 0
+        # made whole under another name, then renamed: a kill leaves no half-made log
+        part = os.path.join(os.path.dirname(os.path.abspath(self.path)),
+                            f".{os.path.basename(self.path)}.{os.getpid()}.part")
         try:
-            self._file = h5py.File(self.path, "w", rdcc_nbytes=0)
+            self._file = h5py.File(part, "w", libver=LIBVER, rdcc_nbytes=0)
         except (OSError, RuntimeError) as e:
             raise RunLogError(f"cannot write the run log {self.path!r}: {e}") from None
         try:
@@ -206,9 +233,22 @@ class RunLog(_Schedule):
             self._create(world, meta, compress_state)
             self._world_frame(world)
             self._checkpoint(world)
+            self._file.close()
+            os.replace(part, self.path)
+            self._file = h5py.File(self.path, "r+", libver=LIBVER, rdcc_nbytes=0)
+            self._start_writing()
         except (OSError, RuntimeError, RunLogError) as e:
             self._abandon()
+            if os.path.exists(part):
+                os.remove(part)
             raise RunLogError(f"cannot write the run log {self.path!r}: {e}") from None
+
+    def _start_writing(self):
+        """SWMR mode from here on (readers may follow; a kill leaves a readable file), and
+        this process named as the writer."""
+        self._file.swmr_mode = True
+        self._file["writer"][:] = h5writer.writer_id()
+        self._file.flush()
 
     def _create(self, world, meta, compress_state):
         f = self._file
@@ -243,7 +283,13 @@ class RunLog(_Schedule):
         inputs.create_dataset("t", (0,), np.float64, maxshape=(None,), chunks=(1024,))
         inputs.create_dataset("call", (0,), h5py.string_dtype(), maxshape=(None,),
                               chunks=(256,))
-        f.create_group("checkpoints")
+        checkpoints = f.create_group("checkpoints")
+        checkpoints.create_dataset("table", (0,), CHECKPOINT_DTYPE, maxshape=(None,),
+                                   chunks=(64,))
+        checkpoints.create_dataset("image", (0,), np.uint8, maxshape=(None,),
+                                   chunks=(1 << 18,), **opts)
+        f.create_dataset("commit", (), COMMIT_DTYPE, data=np.zeros((), COMMIT_DTYPE))
+        f.create_dataset("writer", (2,), np.int64, data=np.array(h5writer.writer_id()))
 
     # -- what World calls
     def call(self, world, name, method, args, kwargs):
@@ -336,17 +382,20 @@ class RunLog(_Schedule):
 
     def _write_checkpoint(self, world, extra_frame):
         c = self._counts
-        state = world.state()
-        self._room(_state_bytes(state))
-        group = self._file["checkpoints"].create_group(f"{c['checkpoints']:06d}")
-        group.attrs.update({"step": self.steps, "t": world.t, "frames": c["frames"],
-                            "rows": c["rows"], "layouts": c["layouts"],
-                            "layout_rows": c["layout_rows"], "events": c["events"],
-                            "inputs": c["inputs"], "next_time": self._next_time,
-                            "extra_frame": extra_frame})
-        statefile.write(group.create_group("world"), state)
+        image = world_image(world.state())
+        self._room(image.size)
+        f = self._file
+        row = np.zeros((), CHECKPOINT_DTYPE)
+        row["step"], row["t"], row["next_time"] = self.steps, world.t, self._next_time
+        for name in COUNTS[:6]:
+            row[name] = c[name]
+        row["extra_frame"], row["first"], row["size"] = extra_frame, self._image_end, image.size
+        self._append(f["checkpoints/image"], self._image_end, image)
+        self._append(f["checkpoints/table"], c["checkpoints"], row[None])
+        f.flush()
         c["checkpoints"] += 1
-        self._file.flush()
+        self._image_end += image.size
+        self._commit()
 
     def _maybe_flush(self):
         # on time, or when the staged state passes 8 MB: a fast run must not pile up, and a
@@ -395,7 +444,7 @@ class RunLog(_Schedule):
         folder = os.path.dirname(os.path.abspath(self.path))
         st = os.statvfs(folder)
         free = st.f_bavail * st.f_frsize
-        size = os.path.getsize(self.path)
+        size = os.path.getsize(self._file.filename)
         limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
         if limit != resource.RLIM_INFINITY:
             free = min(free, limit - size)
@@ -411,40 +460,56 @@ class RunLog(_Schedule):
                    sum(e.nbytes for e in self._events) + sum(len(e[2]) for e in self._inputs))
         if self._layouts:
             first = c["layout_rows"]
+            at = c["layouts"] - len(self._layouts)       # counted as they were buffered
             counts = np.array([lay[0].size for lay in self._layouts], np.int64)
-            self._append(f["layouts/first"], first + np.cumsum(counts) - counts)
-            self._append(f["layouts/count"], counts)
+            self._append(f["layouts/first"], at, first + np.cumsum(counts) - counts)
+            self._append(f["layouts/count"], at, counts)
             for k, name in enumerate(LAYOUT):
-                self._append(f["layouts/" + name], np.concatenate([lay[k]
-                                                                    for lay in self._layouts]))
+                self._append(f["layouts/" + name], first,
+                             np.concatenate([lay[k] for lay in self._layouts]))
             c["layout_rows"] += int(counts.sum())
             self._layouts = []
         if self._frames:
             for k, name in enumerate(("step", "t", "first", "count", "layout")):
                 dtype = np.float64 if name == "t" else np.int64
-                self._append(f["frames/" + name], np.array([fr[k] for fr in self._frames],
-                                                            dtype))
+                self._append(f["frames/" + name], c["frames"],
+                             np.array([fr[k] for fr in self._frames], dtype))
             for k, name in enumerate(("pos", "vel")):
-                self._append(f["frames/" + name], self._stage[k, :self._staged, :dim])
+                self._append(f["frames/" + name], c["rows"] - self._staged,
+                             self._stage[k, :self._staged, :dim])
             c["frames"] += len(self._frames)
             self._frames, self._staged = [], 0
         if self._events:
-            self._append(f["events"], np.concatenate(self._events))
-            c["events"] = f["events"].shape[0]
+            events = np.concatenate(self._events)
+            self._append(f["events"], c["events"], events)
+            c["events"] += events.size
             self._events = []
         if self._inputs:
-            self._append(f["inputs/step"], np.array([e[0] for e in self._inputs], np.int64))
-            self._append(f["inputs/t"], np.array([e[1] for e in self._inputs]))
-            self._append(f["inputs/call"], np.array([e[2] for e in self._inputs], object))
+            at = c["inputs"]
+            self._append(f["inputs/step"], at, np.array([e[0] for e in self._inputs],
+                                                        np.int64))
+            self._append(f["inputs/t"], at, np.array([e[1] for e in self._inputs]))
+            self._append(f["inputs/call"], at, np.array([e[2] for e in self._inputs], object))
             c["inputs"] += len(self._inputs)
             self._inputs = []
         f.flush()
+        self._commit()
+
+    def _commit(self, closed=False):
+        """The rows written and flushed so far become the log's: one write of /commit, then
+        flushed (a kill before it leaves the previous lengths, after it the new ones)."""
+        commit = np.zeros((), COMMIT_DTYPE)
+        for name in COUNTS:
+            commit[name] = self._counts[name]
+        commit["closed"] = closed
+        self._file["commit"][()] = commit
+        self._file.flush()
 
     @staticmethod
-    def _append(dataset, data):
-        n = dataset.shape[0]
-        dataset.resize(n + len(data), axis=0)
-        dataset[n:] = data
+    def _append(dataset, at, data):
+        """Write rows from `at` on (rows past it, left by a killed writer, are replaced)."""
+        dataset.resize(at + len(data), axis=0)
+        dataset[at:] = data
 
     def __enter__(self):
         return self
@@ -468,8 +533,7 @@ class RunLog(_Schedule):
                 if extra:
                     self._world_frame(world)    # the end state, off the frame schedule
                 self._checkpoint(world, extra_frame=extra)
-                self._file.attrs["closed"] = True
-                self._file.flush()
+                self._guarded(self._commit, True)
         finally:
             self._file.close()
             self._file = None
@@ -478,29 +542,49 @@ class RunLog(_Schedule):
         """The step of the last frame taken."""
         if self._frames:
             return self._frames[-1][0]
-        return int(self._file["frames/step"][-1]) if self._counts["frames"] else -1
-
-
-def _state_bytes(state):
-    """About how many bytes a state takes (its arrays)."""
-    if isinstance(state, dict):
-        return sum(_state_bytes(v) for v in state.values())
-    if isinstance(state, (list, tuple)):
-        return sum(_state_bytes(v) for v in state)
-    return state.nbytes if isinstance(state, np.ndarray) else 64
+        n = self._counts["frames"]
+        return int(self._file["frames/step"][n - 1]) if n else -1
 
 
 # ----------------------------------------------------------------------------- files
 
+def world_image(state):
+    """A World file (World.save's format) holding `state`, as (B,) uint8 bytes: what a
+    checkpoint stores."""
+    with h5py.File(f"world-{id(state)}", "w", driver="core", backing_store=False,
+                   libver=LIBVER) as f:
+        f.attrs.update({"format": WORLD_FORMAT, "format_version": FORMAT_VERSION})
+        statefile.write(f.create_group("world"), state)
+        f.flush()
+        return np.frombuffer(f.id.get_file_image(), np.uint8)
+
+
 def open_file(path, mode="r"):
     """An h5py File of a spacephys log or world file, its format checked; RunLogError naming
-    the file and the problem otherwise. Version-1 files open (their frames, events and
+    the file and the problem otherwise. A log whose writer was killed opens (its flags
+    cleared, see h5writer); one being written opens for reading in SWMR mode (follow it with
+    Run.refresh) and is refused for writing. Version-1 files open (their frames, events and
     inputs read as before); their checkpoints are refused by checkpoint_state."""
     path = os.fspath(path)
     if not os.path.exists(path):
         raise RunLogError(f"{path!r}: no such file")
+    if os.path.isdir(path):
+        raise RunLogError(f"{path!r}: a folder, not a file")
     try:
-        f = h5py.File(path, mode)
+        if h5writer.flags_set(path):
+            writer = _writer(path)
+            if writer is None:
+                raise RunLogError(f"{path!r}: held open for writing by a program other than "
+                                  f"spacephys, or left so by one that was killed")
+            if writer[1] and mode != "r":
+                raise RunLogError(f"{path!r}: being written by process {writer[0]} (close "
+                                  f"its log first)")
+            if not writer[1] and not h5writer.clear_flags(path):
+                raise RunLogError(f"{path!r}: corrupt (its superblock does not check)")
+        if h5writer.flags_set(path):                   # a live writer: follow it
+            f = h5py.File(path, "r", swmr=True)
+        else:
+            f = h5py.File(path, mode, **({} if mode == "r" else {"libver": LIBVER}))
     except OSError as e:
         text = str(e)
         why = "not an HDF5 file" if "signature" in text else "truncated or corrupt"
@@ -520,7 +604,8 @@ def open_file(path, mode="r"):
             ("frames/step", "frames/t", "frames/first", "frames/count", "frames/layout",
              "frames/pos", "frames/vel", "layouts/first", "layouts/count", "layouts/ids",
              "layouts/mass", "layouts/radius", "layouts/kind", "events", "inputs/call",
-             "checkpoints")
+             "checkpoints") + (("commit", "writer", "checkpoints/table", "checkpoints/image")
+                               if version >= 3 else ())
         for name in need:
             if name not in f:
                 raise RunLogError(f"{path!r}: corrupt spacephys log: {name!r} is missing")
@@ -530,9 +615,46 @@ def open_file(path, mode="r"):
     return f
 
 
-def _state(group, path, what):
-    """The state in `group` (a checkpoint's or a world file's "world")."""
-    version = int(group.file.attrs.get("format_version", -1))
+def _writer(path):
+    """(pid, alive) of the process named as the log's writer, or None if none can be read."""
+    try:
+        with h5py.File(path, "r", swmr=True) as f:
+            pid, start = (int(x) for x in f["writer"][:])
+    except (OSError, KeyError, ValueError, TypeError):
+        return None
+    return pid, h5writer.alive(pid, start)
+
+
+def committed(f):
+    """The lengths of the tables that count (COUNTS) and `closed`, as a dict: /commit's in a
+    version-3 log, the datasets' own in older ones."""
+    if "commit" in f:
+        commit = f["commit"][()]
+        return {name: int(commit[name]) for name in COMMIT_DTYPE.names}
+    ckpt = f["checkpoints"]
+    n = {"frames": f["frames/step"].shape[0], "rows": f["frames/pos"].shape[0],
+         "layouts": f["layouts/first"].shape[0], "layout_rows": f["layouts/ids"].shape[0],
+         "events": f["events"].shape[0], "inputs": f["inputs/call"].shape[0],
+         "checkpoints": len(ckpt), "closed": int(bool(f.attrs.get("closed", False)))}
+    return n
+
+
+def checkpoint_table(f):
+    """(C,) CHECKPOINT_DTYPE rows of the committed checkpoints (version 2: from the groups'
+    attributes, first = -1)."""
+    n = committed(f)["checkpoints"]
+    if "table" in f["checkpoints"]:
+        return f["checkpoints/table"][:n]
+    table = np.zeros(n, CHECKPOINT_DTYPE)
+    for k, (_, g) in enumerate(sorted(f["checkpoints"].items())):
+        for name in CHECKPOINT_DTYPE.names:
+            table[k][name] = g.attrs.get(name, -1)
+    return table
+
+
+def _state(group, path, what, version):
+    """The state in `group` (a checkpoint's or a world file's "world"), from a file of
+    format `version`."""
     if version < 2:
         raise RunLogError(
             f"{path!r}: format version {version}: its {what} holds a World in the layout of "
@@ -547,29 +669,48 @@ def _state(group, path, what):
 
 def checkpoint_state(f, path, index=-1):
     """(state, attributes) of checkpoint `index` of an open log."""
-    names = sorted(f["checkpoints"].keys())
-    if not names:
+    table = checkpoint_table(f)
+    if not table.size:
         raise RunLogError(f"{path!r}: the log holds no checkpoint")
     try:
-        name = names[index]
+        row = table[index]
     except IndexError:
-        raise RunLogError(f"checkpoint {index}: the log {path!r} holds {len(names)}") from None
-    group = f["checkpoints"][name]
+        raise RunLogError(f"checkpoint {index}: the log {path!r} holds "
+                          f"{table.size}") from None
+    attrs = {name: row[name].item() for name in CHECKPOINT_DTYPE.names}
+    what = f"checkpoint {index % table.size}"
+    version = int(f.attrs["format_version"])
+    if "table" not in f["checkpoints"]:                     # versions 1, 2: a group each
+        group = f["checkpoints"][sorted(f["checkpoints"].keys())[index]]
+        if "world" not in group:
+            raise RunLogError(f"{path!r}: {what} is corrupt (no world)")
+        return _state(group["world"], path, what, version), attrs
+    if version < 2:
+        _state(None, path, what, version)
+    first, size = int(row["first"]), int(row["size"])
+    image = f["checkpoints/image"]
+    if first < 0 or size <= 0 or first + size > image.shape[0]:
+        raise RunLogError(f"{path!r}: {what} is corrupt (its image lies outside the file)")
     try:
-        world = group["world"]
-    except KeyError:
-        raise RunLogError(f"{path!r}: checkpoint {name} is corrupt (no world)") from None
-    return _state(world, path, f"checkpoint {name}"), dict(group.attrs)
+        with h5py.File(io.BytesIO(image[first:first + size].tobytes()), "r") as world:
+            return _state(world["world"], path, what, version), attrs
+    except (OSError, KeyError) as e:
+        raise RunLogError(f"{path!r}: {what} is corrupt ({e})") from None
 
 
 def save_state(state, path):
-    """Write a World's state (World.save) to an HDF5 world file."""
+    """Write a World's state (World.save) to an HDF5 world file: written under another name
+    and renamed into place, so a kill leaves the old file or the new one."""
     path = os.fspath(path)
+    part = os.path.join(os.path.dirname(os.path.abspath(path)),
+                        f".{os.path.basename(path)}.{os.getpid()}.part")
     try:
-        with h5py.File(path, "w") as f:
-            f.attrs.update({"format": WORLD_FORMAT, "format_version": FORMAT_VERSION})
-            statefile.write(f.create_group("world"), state)
+        with open(part, "wb") as out:
+            out.write(world_image(state).tobytes())
+        os.replace(part, path)
     except OSError as e:
+        if os.path.exists(part):
+            os.remove(part)
         raise RunLogError(f"cannot write {path!r}: {e}") from None
 
 
@@ -580,7 +721,7 @@ def load_state(path, checkpoint=-1):
     f = open_file(path)
     try:
         if f.attrs["format"] == WORLD_FORMAT:
-            return _state(f["world"], path, "world file"), {}
+            return _state(f["world"], path, "world file", int(f.attrs["format_version"])), {}
         return checkpoint_state(f, path, checkpoint)
     finally:
         f.close()

@@ -5,12 +5,13 @@ import json
 import os
 from collections import namedtuple
 
+import h5py
 import numpy as np
 
 from .events import EVENT_KINDS
 from .journal import decode
-from .runlog import (FORMAT, LAYOUT, RunLog, RunLogError, _Schedule, checkpoint_state,
-                     open_file)
+from .runlog import (COUNTS, FORMAT, LAYOUT, RunLog, RunLogError, _Schedule, checkpoint_state,
+                     checkpoint_table, committed, open_file)
 from .world import World
 
 Frame = namedtuple("Frame", "index step t ids pos vel mass radius kind")
@@ -42,8 +43,10 @@ def _world(f, path, index=-1):
 class Run:
     """A run log opened for reading (sp.open_run): lazy, nothing is loaded until asked for.
 
-    meta: the root attributes; times, steps: (F,) of the frames; frame(i), frame_at(t),
-    trajectory(id), events(kind=, id=), inputs(), checkpoints, world(k)."""
+    meta: the root attributes (and "closed": whether close() finished the log); times,
+    steps: (F,) of the frames; frame(i), frame_at(t), trajectory(id), events(kind=, id=),
+    inputs(), checkpoints, world(k). It reads what the writer had committed when the log was
+    opened; refresh() reads what it committed since (a log being written opens too)."""
 
     def __init__(self, path):
         self.path = os.fspath(path)
@@ -51,6 +54,24 @@ class Run:
         self.meta = {k: (v.item() if isinstance(v, np.generic) else v)
                      for k, v in self._f.attrs.items()}
         self.kinds = tuple(json.loads(self._f["frames"].attrs["kinds"]))
+        self._n = None
+        self.refresh()
+
+    def refresh(self):
+        """Read what the writer committed since (when it is still writing)."""
+        if self._f.swmr_mode:
+            self._f["commit"].refresh()
+        n = committed(self._f)
+        if n != self._n and self._f.swmr_mode:
+            self._f.visititems(lambda _, node: node.refresh()
+                               if isinstance(node, h5py.Dataset) else None)
+        self._n = n
+        self.meta["closed"] = bool(n["closed"])
+        return self
+
+    def _table(self, name, count):
+        """The committed rows of a dataset."""
+        return self._f[name][:self._n[count]]
 
     def __enter__(self):
         return self
@@ -62,15 +83,15 @@ class Run:
         self._f.close()
 
     def __len__(self):
-        return self._f["frames/step"].shape[0]
+        return self._n["frames"]
 
     @property
     def times(self):
-        return self._f["frames/t"][:]
+        return self._table("frames/t", "frames")
 
     @property
     def steps(self):
-        return self._f["frames/step"][:]
+        return self._table("frames/step", "frames")
 
     def frame(self, index):
         n = len(self)
@@ -99,18 +120,19 @@ class Run:
         fr, lay = self._f["frames"], self._f["layouts"]
         block = 1 << 20
         # where the id sits in each layout (-1: absent)
-        lfirst = lay["first"][:]
+        lfirst = self._table("layouts/first", "layouts")
         where = np.full(lfirst.size, -1, np.int64)
         ids = lay["ids"]
-        for start in range(0, ids.shape[0], block):
-            rows = start + np.flatnonzero(ids[start:start + block] == body_id)
+        for start in range(0, self._n["layout_rows"], block):
+            end = min(start + block, self._n["layout_rows"])
+            rows = start + np.flatnonzero(ids[start:end] == body_id)
             layout = np.searchsorted(lfirst, rows, side="right") - 1
             where[layout] = rows - lfirst[layout]
-        local = where[fr["layout"][:]]
+        local = where[self._table("frames/layout", "frames")]
         alive = local >= 0
         F, dim = alive.size, int(self.meta["dim"])
         pos, vel = np.full((F, dim), np.nan), np.full((F, dim), np.nan)
-        rows = fr["first"][:] + local
+        rows = self._table("frames/first", "frames") + local
         # read the state in blocks of whole rows and pick the id's row in each frame
         frames = np.flatnonzero(alive)
         k = 0
@@ -128,7 +150,7 @@ class Run:
     def events(self, kind=None, id=None):
         """Events (LOG_EVENT_DTYPE: the step and EVENT_DTYPE's fields), optionally those of
         one kind (name or code) or involving one id (as a or b)."""
-        ev = self._f["events"][:]
+        ev = self._table("events", "events")
         if kind is not None:
             names = {v: k for k, v in EVENT_KINDS.items()}
             code = names.get(kind, kind)
@@ -143,10 +165,11 @@ class Run:
     def inputs(self):
         """The recorded calls, in order: dicts with step, t, call, args, kwargs (and raised,
         the exception it raised, if it did)."""
+        n = self._n["inputs"]
         g = self._f["inputs"]
-        steps, times = g["step"][:], g["t"][:]
+        steps, times = g["step"][:n], g["t"][:n]
         out = []
-        for s, t, text in zip(steps, times, g["call"].asstr()[:]):
+        for s, t, text in zip(steps, times, g["call"].asstr()[:n]):
             entry = json.loads(text)
             entry.update(step=int(s), t=float(t))
             out.append(entry)
@@ -155,8 +178,7 @@ class Run:
     @property
     def checkpoints(self):
         """(step, t) of each checkpoint."""
-        return [(int(g.attrs["step"]), float(g.attrs["t"]))
-                for _, g in sorted(self._f["checkpoints"].items())]
+        return [(int(row["step"]), float(row["t"])) for row in checkpoint_table(self._f)]
 
     def world(self, checkpoint=-1):
         """The World saved at a checkpoint (default: the last)."""
@@ -180,39 +202,31 @@ def resume(path):
     try:
         if f.attrs["format"] != FORMAT:
             raise RunLogError(f"{path!r}: a world file, not a run log: nothing to resume")
+        if int(f.attrs["format_version"]) < 3:
+            raise RunLogError(f"{path!r}: format version {int(f.attrs['format_version'])}: "
+                              f"resume appends to version-3 logs only (this one still "
+                              f"reads: sp.open_run, World.load)")
         world, attrs = _world(f, path)
-        names = sorted(f["checkpoints"].keys())
-        counts = {"frames": int(attrs["frames"]), "rows": int(attrs["rows"]),
-                  "events": int(attrs["events"]), "inputs": int(attrs["inputs"]),
-                  "checkpoints": len(names)}
-        counts.update(layouts=int(attrs["layouts"]), layout_rows=int(attrs["layout_rows"]))
-        if attrs.get("extra_frame"):
+        counts = {name: int(attrs[name]) for name in COUNTS[:6]}
+        counts["checkpoints"] = committed(f)["checkpoints"]
+        if attrs["extra_frame"]:
             # close()'s frame of the end state, off the schedule: the run goes on from here
             counts["frames"] -= 1
             counts["rows"] = int(f["frames/first"][counts["frames"]])
-        for name in ("step", "t", "first", "count", "layout"):
-            f["frames/" + name].resize(counts["frames"], axis=0)
-        for name in ("pos", "vel"):
-            f["frames/" + name].resize(counts["rows"], axis=0)
-        for name in ("first", "count"):
-            f["layouts/" + name].resize(counts["layouts"], axis=0)
-        for name in LAYOUT:
-            f["layouts/" + name].resize(counts["layout_rows"], axis=0)
-        f["events"].resize(counts["events"], axis=0)
-        for name in ("step", "t", "call"):
-            f["inputs/" + name].resize(counts["inputs"], axis=0)
-        f.attrs["closed"] = False
-        f.flush()
+        image_end = int(attrs["first"]) + int(attrs["size"])
     except Exception:
         f.close()
         raise
     meta = f.attrs
+    # RunLog commits the checkpoint's lengths at once; rows past them are overwritten as
+    # the run goes on
     world.recording = RunLog(world, path, every=int(meta["every"]) or None,
                              every_time=float(meta["every_time"]) or None,
                              checkpoint_every=int(meta["checkpoint_every"]) or None,
                              checkpoint_seconds=float(meta["checkpoint_seconds"]),
                              flush_seconds=float(meta["flush_seconds"]),
-                             _resume=(f, int(attrs["step"]), float(attrs["next_time"]), counts))
+                             _resume=(f, int(attrs["step"]), float(attrs["next_time"]), counts,
+                                      image_end))
     return world
 
 

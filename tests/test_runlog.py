@@ -252,7 +252,7 @@ def test_round_trip_of_every_field(tmp_path, dim):
 
         # metadata
         meta = run.meta
-        want_meta = {"format": "spacephys-run", "format_version": 2,
+        want_meta = {"format": "spacephys-run", "format_version": 3,
                      "spacephys_version": sp.__version__, "numpy_version": np.__version__,
                      "numba_version": numba.__version__, "h5py_version": h5py.__version__,
                      "integrator": "leapfrog", "dt": 0.01, "G": w.G, "units": "game",
