@@ -8,7 +8,7 @@ import importlib
 
 from ._jit import get_threads, set_threads
 from .entities import GUIDANCE, ExplosionSpec, MissileSpec, ShipSpec
-from .errors import InstabilityError
+from .errors import InstabilityError, PrecisionWarning
 from .events import EVENT_DTYPE, EVENT_KINDS
 from .geometry import polygon_center_of_mass
 from .integrators import INTEGRATORS, Integrator, get_integrator
@@ -29,7 +29,7 @@ _LAZY = {
 }
 
 __all__ = [
-    "World", "Body", "InstabilityError", "DEFAULT_KINDS", "GRAVITY_MODELS", "RESPONSES", "BOUNDARIES",
+    "World", "Body", "InstabilityError", "PrecisionWarning", "DEFAULT_KINDS", "GRAVITY_MODELS", "RESPONSES", "BOUNDARIES",
     "EVENT_DTYPE", "EVENT_KINDS",
     "ShipSpec", "MissileSpec", "ExplosionSpec", "GUIDANCE",
     "INTEGRATORS", "Integrator", "get_integrator", "STEPPERS", "Capabilities", "capabilities",

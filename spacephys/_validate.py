@@ -62,6 +62,9 @@ def scalar(name, value, *, minimum=None, positive=False):
     return float(floats(name, value, (), minimum=minimum, positive=positive))
 
 
+_INT64_MAX = np.iinfo(np.int64).max
+
+
 def count(name, value, *, minimum=0):
     """An integer >= minimum (bools refused)."""
     if isinstance(value, np.ndarray) and value.ndim == 0:
@@ -70,6 +73,8 @@ def count(name, value, *, minimum=0):
         raise ValueError(f"{name} = {value!r}: expected an integer")
     if value < minimum:
         raise ValueError(f"{name} = {value}: must be >= {minimum}")
+    if value > _INT64_MAX:              # kernels and files hold counts as int64
+        raise ValueError(f"{name} = {value}: must be < 2**63")
     return int(value)
 
 

@@ -145,8 +145,9 @@ class CollisionRules:
         ordered = r[rows]
         giants = 0
         if ordered.size > 1:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                # a body with a radius above points: an infinite gap; between points: none
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                # a body with a radius above points (or a tiny one): an infinite gap;
+                # between points: none
                 gaps = np.where(ordered[1:] > 0, ordered[:-1] / ordered[1:],
                                 np.where(ordered[:-1] > 0, np.inf, 1.0))
             k = int(np.argmax(gaps))

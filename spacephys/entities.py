@@ -107,6 +107,7 @@ class ShipSpec:
     explosion: ExplosionSpec = None
 
     def __post_init__(self):
+        exhaust_given = self.exhaust_speed is not None or self.isp is not None
         _set_engine(self, "ShipSpec")
         object.__setattr__(self, "side_thrust", _nonneg("side_thrust", self.side_thrust))
         object.__setattr__(self, "turn_rate", _nonneg("turn_rate", self.turn_rate))
@@ -116,6 +117,14 @@ class ShipSpec:
         object.__setattr__(self, "torque", _nonneg("torque", self.torque))
         if not isinstance(self.active, (bool, np.bool_)):
             raise ValueError(f"active = {self.active!r}: must be True or False")
+        # an empty tank with an engine described is a ship to refuel (set_fuel)
+        _refuse_dead_engine(self, "max_thrust" if self.max_thrust else "side_thrust",
+                            self.max_thrust + self.side_thrust, empty_tank_ok=exhaust_given)
+        if self.moment_of_inertia is not None and self.torque == 0.0:
+            raise ValueError(f"moment_of_inertia = {self.moment_of_inertia} with torque = 0: "
+                             f"the ship could never turn (physical rotation turns by torque); "
+                             f"give torque > 0, or leave moment_of_inertia out to turn at "
+                             f"turn_rate")
 
 
 @dataclass(frozen=True)
@@ -173,6 +182,25 @@ class MissileSpec:
         for name in ("recoil", "kill_target"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise ValueError(f"{name} = {getattr(self, name)!r}: must be True or False")
+        _refuse_dead_engine(self, "thrust", self.max_thrust, empty_tank_ok=False)
+        if self.guidance != "none" and self.turn_rate == 0.0:
+            raise ValueError(f"guidance = {self.guidance!r} with turn_rate = 0: the missile "
+                             f"could never turn toward its target; give turn_rate > 0")
+        if self.arming_delay > 0.0 and self.lifetime <= self.arming_delay:
+            raise ValueError(f"lifetime = {self.lifetime} <= arming_delay = "
+                             f"{self.arming_delay}: the missile would expire before it arms")
+
+
+def _refuse_dead_engine(spec, name, thrust, empty_tank_ok):
+    """An engine that could never push: thrust without fuel (unless empty_tank_ok), or a
+    thrust curve that is 0 everywhere."""
+    if thrust > 0.0 and spec.fuel_mass == 0.0 and not empty_tank_ok:
+        raise ValueError(f"{name} = {getattr(spec, name)} with fuel_mass = 0: the engine burns "
+                         f"fuel to push and would never fire; give fuel_mass > 0 and "
+                         f"exhaust_speed (or isp)")
+    if thrust > 0.0 and spec.thrust_curve is not None and not spec.thrust_curve[:, 1].any():
+        raise ValueError(f"thrust_curve factors are all 0: the engine would never push "
+                         f"({name} = {getattr(spec, name)})")
 
 
 def _set_engine(spec, spec_name):

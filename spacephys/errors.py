@@ -10,3 +10,9 @@ class InstabilityError(FloatingPointError):
         super().__init__(message)
         self.ids = ids
         self.t = t
+
+
+class PrecisionWarning(UserWarning):
+    """The bodies lie so far from the origin, for the size of the scene, that positions keep
+    too few significant digits within it (errors grow with that); move the origin to the
+    scene (World.shift_origin). Given once per World."""

@@ -62,7 +62,8 @@ def flags_set(path):
 
 
 def clear_flags(path):
-    """Reset the consistency flags a killed writer left (and the superblock's checksum).
+    """Reset the consistency flags a killed writer left, and its end-of-file address to the
+    file's size if that is larger (and the superblock's checksum).
     Returns False, changing nothing, unless the file starts with a version-3 superblock whose
     checksum is right."""
     with open(path, "r+b") as f:
@@ -75,6 +76,15 @@ def clear_flags(path):
                 int.from_bytes(block[size:], "little"):
             return False
         block[11] = 0
+        # the end-of-file address: a writer killed between flushing a chunk's index and the
+        # superblock leaves it short of data the index points to (written: the file is
+        # longer); HDF5 refuses to read past it
+        width = head[9]
+        at = 12 + 2 * width
+        stored = int.from_bytes(block[at:at + width], "little")
+        actual = os.fstat(f.fileno()).st_size
+        if actual > stored:
+            block[at:at + width] = actual.to_bytes(width, "little")
         block[size:] = hashlittle(bytes(block[:size])).to_bytes(4, "little")
         f.seek(0)
         f.write(block)           # one write of some 48 bytes: a kill cannot split it
@@ -90,37 +100,22 @@ def hashlittle(data, initval=0):
     HDF5's metadata. bytes -> uint32."""
     n = len(data)
     a = b = c = (0xDEADBEEF + n + initval) & _M
-    word = lambda i: int.from_bytes(data[i:i + 4], "little")
-    i = 0
-    while n > 12:
-        a, b, c = (a + word(i)) & _M, (b + word(i + 4)) & _M, (c + word(i + 8)) & _M
-        # mix
-        a = (a - c) & _M ^ _rot(c, 4)
-        c = (c + b) & _M
-        b = (b - a) & _M ^ _rot(a, 6)
-        a = (a + c) & _M
-        c = (c - b) & _M ^ _rot(b, 8)
-        b = (b + a) & _M
-        a = (a - c) & _M ^ _rot(c, 16)
-        c = (c + b) & _M
-        b = (b - a) & _M ^ _rot(a, 19)
-        a = (a + c) & _M
-        c = (c - b) & _M ^ _rot(b, 4)
-        b = (b + a) & _M
-        n -= 12
-        i += 12
-    if n == 0:
-        return c
-    tail = data[i:i + n] + bytes(12 - n)
-    a = (a + int.from_bytes(tail[0:4], "little")) & _M
-    b = (b + int.from_bytes(tail[4:8], "little")) & _M
-    c = (c + int.from_bytes(tail[8:12], "little")) & _M
-    # final
-    c = (c ^ b) - _rot(b, 14) & _M
-    a = (a ^ c) - _rot(c, 11) & _M
-    b = (b ^ a) - _rot(a, 25) & _M
-    c = (c ^ b) - _rot(b, 16) & _M
-    a = (a ^ c) - _rot(c, 4) & _M
-    b = (b ^ a) - _rot(a, 14) & _M
-    c = (c ^ b) - _rot(b, 24) & _M
+    tail = n - 1 - (n - 1) % 12 if n else 0        # the last 1..12 bytes go to the final mix
+    padded = data + bytes(12)
+    for i in range(0, tail + 12 if n else 0, 12):
+        a = (a + int.from_bytes(padded[i:i + 4], "little")) & _M
+        b = (b + int.from_bytes(padded[i + 4:i + 8], "little")) & _M
+        c = (c + int.from_bytes(padded[i + 8:i + 12], "little")) & _M
+        if i < tail:
+            # mix: x -= z; x ^= rot(z, k); z += y, the roles turning (a, b, c) -> (b, c, a)
+            for k in (4, 6, 8, 16, 19, 4):
+                a = (a - c) & _M ^ _rot(c, k)
+                c = (c + b) & _M
+                a, b, c = b, c, a
+        else:
+            # final: x ^= y; x -= rot(y, k), (x, y) turning (c, b) -> (a, c) -> (b, a)
+            for k in (14, 11, 25, 16, 4, 14, 24):
+                c = (c ^ b) - _rot(b, k) & _M
+                a, b, c = b, c, a
+            a, b, c = c, a, b          # seven turns of three roles: one back
     return c

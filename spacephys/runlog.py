@@ -11,7 +11,8 @@ Layout (format version 3; docs/runlog.md has every dataset and attribute):
     /layouts/ids, mass, radius, kind   (Rl,): who the bodies are, written only when they
                            change (bodies added, removed, or a mass or radius changed)
     /events                (E,) compound: "step" and the fields of spacephys.EVENT_DTYPE
-    /inputs/step, t, call  (I,): the calls that changed the World, as JSON, in order
+    /inputs/step, t, first, size   (I,): the calls that changed the World, in order: their
+    /inputs/text           JSON is text[first : first + size] (UTF-8)
     /checkpoints/table     (C,) compound: each checkpoint's step, time, the lengths of the
                            tables then, and where its image lies in
     /checkpoints/image     (B,) uint8: world files (World.save's format) end to end
@@ -37,6 +38,7 @@ import math
 import os
 import resource
 import time
+import zlib
 
 import h5py
 import numpy as np
@@ -52,7 +54,7 @@ LOG_EVENT_DTYPE = np.dtype([("step", np.int64)] + EVENT_DTYPE.descr)
 LAYOUT = ("ids", "mass", "radius", "kind")
 # the lengths of the tables that count (/commit), and whether close() finished
 COUNTS = ("frames", "rows", "layouts", "layout_rows", "events", "inputs", "checkpoints")
-COMMIT_DTYPE = np.dtype([(name, np.int64) for name in COUNTS + ("closed",)])
+COMMIT_DTYPE = np.dtype([(name, np.int64) for name in COUNTS + ("closed", "crc")])
 # a checkpoint: when, the lengths of the tables then, the every_time schedule, whether the
 # last frame is close()'s (off the schedule), and its world file's bytes in /checkpoints/image
 CHECKPOINT_DTYPE = np.dtype(
@@ -71,6 +73,11 @@ def _next_multiple(t, every_time, dt):
 
 class RunLogError(ValueError):
     """A run log that cannot be written or read; the message names the file and why."""
+
+
+# what h5py, numpy and json raise on a damaged file (a failed checksum, a missing or
+# mistyped node, bytes that do not decode): a reader turns them into RunLogError
+DAMAGE = (OSError, KeyError, ValueError, TypeError, AttributeError, RuntimeError, IndexError)
 
 
 # ----------------------------------------------------------------------------- writing
@@ -189,7 +196,7 @@ class RunLog(_Schedule):
     the end of the call in which it fell due)."""
 
     def __init__(self, world, path, *, every=1, every_time=None, checkpoint_every=None,
-                 checkpoint_seconds=10.0, flush_seconds=1.0, compression="gzip",
+                 checkpoint_seconds=10.0, flush_seconds=1.0, compression=None,
                  compress_state=False, scenario=None, _resume=None):
         self.path = os.fspath(path)
         self.world = world
@@ -212,13 +219,16 @@ class RunLog(_Schedule):
             # began, the next every_time frame, the table lengths then, where the next
             # checkpoint's image goes)
             self._file, self.steps, self._next_time, self._counts, self._image_end = _resume
+            n = self._counts["inputs"]
+            self._text_end = int(self._file["inputs/first"][n - 1] +
+                                 self._file["inputs/size"][n - 1]) if n else 0
             self._start_writing()
             self._commit()                  # the tables cut back to the checkpoint
             return
         self.steps = 0                   # steps since the log began
         self._next_time = world.t        # the first frame: now
         self._counts = dict.fromkeys(COUNTS, 0)
-        self._image_end = 0
+        self._image_end = self._text_end = 0       # bytes used in checkpoints/image, inputs/text
         # made whole under another name, then renamed: a kill leaves no half-made log
         part = os.path.join(os.path.dirname(os.path.abspath(self.path)),
                             f".{os.path.basename(self.path)}.{os.getpid()}.part")
@@ -259,9 +269,15 @@ class RunLog(_Schedule):
             opts["compression_opts"] = 1
 
         def table(group, name, shape, dtype, chunk, compress=True):
+            # A compressed chunk gets a checksum (fletcher32: a damaged row is an error, not
+            # a number): its size changes as rows are appended, so HDF5 writes it anew
+            # elsewhere and a kill mid-write leaves the old one. A raw chunk is rewritten in
+            # place, where a kill can tear the write: the rows it held are rewritten with the
+            # same bytes, and only a checksum over the whole chunk would break.
             o = opts if compress else {}
             group.create_dataset(name, (0,) + shape, dtype, maxshape=(None,) + shape,
-                                 chunks=(chunk,) + shape, shuffle=bool(o), **o)
+                                 chunks=(chunk,) + shape, shuffle=bool(o),
+                                 fletcher32=bool(o), **o)
 
         frames = f.create_group("frames")
         for name, dtype in (("step", np.int64), ("t", np.float64), ("first", np.int64),
@@ -279,15 +295,17 @@ class RunLog(_Schedule):
         table(f, "events", (), LOG_EVENT_DTYPE, 1024)
         f["events"].attrs["kinds"] = json.dumps({str(k): v for k, v in EVENT_KINDS.items()})
         inputs = f.create_group("inputs")
-        inputs.create_dataset("step", (0,), np.int64, maxshape=(None,), chunks=(1024,))
-        inputs.create_dataset("t", (0,), np.float64, maxshape=(None,), chunks=(1024,))
-        inputs.create_dataset("call", (0,), h5py.string_dtype(), maxshape=(None,),
-                              chunks=(256,))
+        table(inputs, "step", (), np.int64, 1024)
+        table(inputs, "t", (), np.float64, 1024)
+        # the calls' JSON as bytes end to end (variable-length strings are not SWMR-safe:
+        # HDF5's global heap is not written in order)
+        table(inputs, "first", (), np.int64, 1024)
+        table(inputs, "size", (), np.int64, 1024)
+        table(inputs, "text", (), np.uint8, 1 << 16)
         checkpoints = f.create_group("checkpoints")
-        checkpoints.create_dataset("table", (0,), CHECKPOINT_DTYPE, maxshape=(None,),
-                                   chunks=(64,))
-        checkpoints.create_dataset("image", (0,), np.uint8, maxshape=(None,),
-                                   chunks=(1 << 18,), **opts)
+        table(checkpoints, "table", (), CHECKPOINT_DTYPE, 64)
+        # world files, whose arrays statefile compresses already
+        table(checkpoints, "image", (), np.uint8, 1 << 16, compress=False)
         f.create_dataset("commit", (), COMMIT_DTYPE, data=np.zeros((), COMMIT_DTYPE))
         f.create_dataset("writer", (2,), np.int64, data=np.array(h5writer.writer_id()))
 
@@ -441,13 +459,7 @@ class RunLog(_Schedule):
         """Refuse a write that would not fit on the disk (or under the file size limit)
         before HDF5 starts it: a write that fails half-way can leave the file unreadable."""
         need = 2 * need + (1 << 20)           # chunks are allocated whole; some slack
-        folder = os.path.dirname(os.path.abspath(self.path))
-        st = os.statvfs(folder)
-        free = st.f_bavail * st.f_frsize
-        size = os.path.getsize(self._file.filename)
-        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
-        if limit != resource.RLIM_INFINITY:
-            free = min(free, limit - size)
+        free = room(self.path, os.path.getsize(self._file.filename))
         if need > free:
             raise OSError(f"no room: writing needs about {need} bytes, {max(free, 0)} are "
                           f"free (disk space or the file size limit)")
@@ -489,7 +501,13 @@ class RunLog(_Schedule):
             self._append(f["inputs/step"], at, np.array([e[0] for e in self._inputs],
                                                         np.int64))
             self._append(f["inputs/t"], at, np.array([e[1] for e in self._inputs]))
-            self._append(f["inputs/call"], at, np.array([e[2] for e in self._inputs], object))
+            texts = [e[2].encode() for e in self._inputs]
+            size = np.array([len(b) for b in texts], np.int64)
+            self._append(f["inputs/first"], at, self._text_end + np.cumsum(size) - size)
+            self._append(f["inputs/size"], at, size)
+            self._append(f["inputs/text"], self._text_end,
+                         np.frombuffer(b"".join(texts), np.uint8))
+            self._text_end += int(size.sum())
             c["inputs"] += len(self._inputs)
             self._inputs = []
         f.flush()
@@ -502,6 +520,7 @@ class RunLog(_Schedule):
         for name in COUNTS:
             commit[name] = self._counts[name]
         commit["closed"] = closed
+        commit["crc"] = _crc(commit)
         self._file["commit"][()] = commit
         self._file.flush()
 
@@ -546,6 +565,24 @@ class RunLog(_Schedule):
         return int(self._file["frames/step"][n - 1]) if n else -1
 
 
+def room(path, size=0):
+    """Bytes a file at `path`, now `size` bytes long, may still grow by: the free disk
+    space, or the process's file size limit if that is less."""
+    st = os.statvfs(os.path.dirname(os.path.abspath(path)))
+    free = st.f_bavail * st.f_frsize
+    limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    if limit != resource.RLIM_INFINITY:
+        free = min(free, limit - size)
+    return free
+
+
+def expected_size(n, dim, frames):
+    """About how many bytes a log of `frames` frames of n bodies takes: their positions and
+    velocities, a frame's row, and a megabyte for the rest (the tables' first chunks, the
+    checkpoints of a small scene)."""
+    return frames * (n * dim * 16 + 40) + (1 << 20)
+
+
 # ----------------------------------------------------------------------------- files
 
 def world_image(state):
@@ -585,7 +622,9 @@ def open_file(path, mode="r"):
             f = h5py.File(path, "r", swmr=True)
         else:
             f = h5py.File(path, mode, **({} if mode == "r" else {"libver": LIBVER}))
-    except OSError as e:
+    except DAMAGE as e:
+        if isinstance(e, RunLogError):
+            raise
         text = str(e)
         why = "not an HDF5 file" if "signature" in text else "truncated or corrupt"
         raise RunLogError(f"{path!r}: {why} ({text})") from None
@@ -603,14 +642,17 @@ def open_file(path, mode="r"):
         need = ("world",) if kind == WORLD_FORMAT else \
             ("frames/step", "frames/t", "frames/first", "frames/count", "frames/layout",
              "frames/pos", "frames/vel", "layouts/first", "layouts/count", "layouts/ids",
-             "layouts/mass", "layouts/radius", "layouts/kind", "events", "inputs/call",
-             "checkpoints") + (("commit", "writer", "checkpoints/table", "checkpoints/image")
-                               if version >= 3 else ())
+             "layouts/mass", "layouts/radius", "layouts/kind", "events", "inputs/step",
+             "inputs/t", "checkpoints") + (
+                ("commit", "writer", "checkpoints/table", "checkpoints/image", "inputs/first",
+                 "inputs/size", "inputs/text") if version >= 3 else ("inputs/call",))
         for name in need:
             if name not in f:
                 raise RunLogError(f"{path!r}: corrupt spacephys log: {name!r} is missing")
-    except Exception:
+    except Exception as e:
         f.close()
+        if isinstance(e, DAMAGE) and not isinstance(e, RunLogError):
+            raise RunLogError(f"{path!r}: corrupt ({type(e).__name__}: {e})") from None
         raise
     return f
 
@@ -630,13 +672,29 @@ def committed(f):
     version-3 log, the datasets' own in older ones."""
     if "commit" in f:
         commit = f["commit"][()]
-        return {name: int(commit[name]) for name in COMMIT_DTYPE.names}
+        if int(commit["crc"]) != _crc(commit):
+            raise RunLogError(f"{f.filename!r}: corrupt: /commit does not match its checksum")
+        n = {name: int(commit[name]) for name in COMMIT_DTYPE.names[:-1]}
+        for name, table in (("frames", "frames/step"), ("rows", "frames/pos"),
+                            ("layouts", "layouts/first"), ("layout_rows", "layouts/ids"),
+                            ("events", "events"), ("inputs", "inputs/first"),
+                            ("checkpoints", "checkpoints/table")):
+            if not 0 <= n[name] <= f[table].shape[0]:
+                raise RunLogError(f"{f.filename!r}: corrupt: /commit counts {n[name]} "
+                                  f"{name}, {table} holds {f[table].shape[0]}")
+        return n
     ckpt = f["checkpoints"]
     n = {"frames": f["frames/step"].shape[0], "rows": f["frames/pos"].shape[0],
          "layouts": f["layouts/first"].shape[0], "layout_rows": f["layouts/ids"].shape[0],
-         "events": f["events"].shape[0], "inputs": f["inputs/call"].shape[0],
+         "events": f["events"].shape[0], "inputs": f["inputs/step"].shape[0],
          "checkpoints": len(ckpt), "closed": int(bool(f.attrs.get("closed", False)))}
     return n
+
+
+def _crc(commit):
+    """CRC-32 of a commit's counts (every field but crc)."""
+    return zlib.crc32(np.array([commit[name] for name in COMMIT_DTYPE.names[:-1]],
+                               np.int64).tobytes())
 
 
 def checkpoint_table(f):
@@ -663,8 +721,8 @@ def _state(group, path, what, version):
             f"(sp.open_run). Re-run the scenario to get a version-{FORMAT_VERSION} file.")
     try:
         return statefile.read(group)
-    except (KeyError, OSError, ValueError, TypeError) as e:
-        raise RunLogError(f"{path!r}: {what} is corrupt ({e})") from None
+    except DAMAGE as e:
+        raise RunLogError(f"{path!r}: {what} is corrupt ({type(e).__name__}: {e})") from None
 
 
 def checkpoint_state(f, path, index=-1):
@@ -694,7 +752,7 @@ def checkpoint_state(f, path, index=-1):
     try:
         with h5py.File(io.BytesIO(image[first:first + size].tobytes()), "r") as world:
             return _state(world["world"], path, what, version), attrs
-    except (OSError, KeyError) as e:
+    except DAMAGE as e:
         raise RunLogError(f"{path!r}: {what} is corrupt ({e})") from None
 
 
@@ -723,5 +781,9 @@ def load_state(path, checkpoint=-1):
         if f.attrs["format"] == WORLD_FORMAT:
             return _state(f["world"], path, "world file", int(f.attrs["format_version"])), {}
         return checkpoint_state(f, path, checkpoint)
+    except DAMAGE as e:
+        if isinstance(e, RunLogError):
+            raise
+        raise RunLogError(f"{path!r}: corrupt ({type(e).__name__}: {e})") from None
     finally:
         f.close()

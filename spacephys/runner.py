@@ -101,7 +101,6 @@ def run_scenario(scenario, *, integrator=None, dt=None, duration=None, progress=
 
 
 def _run_world(w, name, duration, timeline, ids, missiles, progress, out, text, every=None):
-    from .scenario import apply
     if not math.isfinite(duration) or duration <= 0:
         raise ValueError(f"duration = {duration}: must be > 0")
     if duration < w.dt:
@@ -112,10 +111,51 @@ def _run_world(w, name, duration, timeline, ids, missiles, progress, out, text, 
         raise ValueError(f"duration / dt = {ratio:.3g} steps: too many (max 1e12)")
     total = round(ratio)
     # the timeline as step counts: each entry at the first step at or after its time
-    plan = [(max(0, math.ceil(t / w.dt - 1e-9)), action, value) for t, action, value in timeline]
+    plan = [(max(0, math.ceil(t / w.dt - 1e-9)), action, value, path)
+            for t, action, value, path in timeline]
     log = None
     if out is not None:
-        log = w.record(out, scenario=text, **(every or {}))
+        every = _log_schedule(w, out, total, duration, every)
+        log = w.record(out, scenario=text, **every)
+    try:
+        return _run_steps(w, name, total, plan, ids, missiles, progress, log)
+    except Exception as e:
+        # a breakdown keeps its log (to look at); bad input found while running (a timeline
+        # entry) leaves none: no log of a run that never was
+        if log is not None:
+            log.close()
+            if isinstance(e, ValueError):
+                os.remove(out)
+        raise
+
+
+# a log of a run says nothing finer than this many frames unless asked
+FRAMES_PER_RUN = 1000
+
+
+def _log_schedule(w, out, total, duration, every):
+    """The frame schedule of a recorded run: the one given, or a frame every
+    total // FRAMES_PER_RUN steps; refused if its log would not fit where it goes (the
+    schedule and the expected size printed on stderr)."""
+    from .runlog import expected_size, room
+    if not every:
+        every = {"every": max(1, total // FRAMES_PER_RUN)}
+    frames = (total // every["every"] if "every" in every else
+              int(duration / every["every_time"])) + 2
+    size, free = expected_size(w.n, w.dim, frames), room(out)
+    schedule = (f"a frame every {every['every']} steps" if "every" in every else
+                f"a frame every {every['every_time']:g} time units")
+    if size > free:
+        raise ValueError(f"out = {out!r}: {schedule} ({frames} frames of {w.n} bodies) "
+                         f"makes a log of about {size / 1e6:.0f} MB, and {free / 1e6:.0f} MB "
+                         f"are free: record less often (the scenario's [log] every = ...)")
+    print(f"spacephys: recording {out}: {schedule}, {frames} frames, about "
+          f"{size / 1e6:.1f} MB", file=sys.stderr)
+    return every
+
+
+def _run_steps(w, name, total, plan, ids, missiles, progress, log):
+    from .scenario import apply
     # the conserved quantities: with massive passive bodies (ships) those of the pulling ones
     t0, E0, P0, L0 = w.t, w.energy(True), w.momentum(True), _norm_L(w)
     bodies0 = w.n
@@ -130,8 +170,8 @@ def _run_world(w, name, duration, timeline, ids, missiles, progress, out, text, 
 
     def act(upto):
         while plan and plan[0][0] <= upto:
-            _, action, value = plan.pop(0)
-            apply(w, ids, missiles, action, value)
+            _, action, value, path = plan.pop(0)
+            apply(w, ids, missiles, action, value, path)
 
     act(0)
     start = time.perf_counter()

@@ -1,6 +1,7 @@
 """Reading run logs (sp.open_run), resume and replay: what needs both the log format
 (runlog.py) and World.
 """
+import functools
 import json
 import os
 from collections import namedtuple
@@ -10,8 +11,8 @@ import numpy as np
 
 from .events import EVENT_KINDS
 from .journal import decode
-from .runlog import (COUNTS, FORMAT, LAYOUT, RunLog, RunLogError, _Schedule, checkpoint_state,
-                     checkpoint_table, committed, open_file)
+from .runlog import (COUNTS, DAMAGE, FORMAT, LAYOUT, RunLog, RunLogError, _Schedule,
+                     checkpoint_state, checkpoint_table, committed, open_file)
 from .world import World
 
 Frame = namedtuple("Frame", "index step t ids pos vel mass radius kind")
@@ -36,8 +37,22 @@ def _world(f, path, index=-1):
     state, attrs = checkpoint_state(f, path, index)
     try:
         return World.from_state(state), attrs
-    except (KeyError, ValueError, TypeError) as e:
+    except DAMAGE as e:
         raise RunLogError(f"{path!r}: checkpoint {index} is corrupt ({e})") from None
+
+
+def _reading(method):
+    """A damaged log found while reading (a checksum that fails, a table that does not
+    decode) is a RunLogError naming the file, whatever h5py or json said."""
+    @functools.wraps(method)
+    def read(self, *args, **kwargs):
+        try:
+            return method(self, *args, **kwargs)
+        except (RunLogError, IndexError):
+            raise
+        except DAMAGE as e:
+            raise RunLogError(f"{self.path!r}: corrupt ({type(e).__name__}: {e})") from None
+    return read
 
 
 class Run:
@@ -51,25 +66,35 @@ class Run:
     def __init__(self, path):
         self.path = os.fspath(path)
         self._f = open_file(self.path)
+        try:
+            self._read_header()
+        except Exception:
+            self._f.close()
+            raise
+
+    @_reading
+    def _read_header(self):
         self.meta = {k: (v.item() if isinstance(v, np.generic) else v)
                      for k, v in self._f.attrs.items()}
         self.kinds = tuple(json.loads(self._f["frames"].attrs["kinds"]))
         self._n = None
         self.refresh()
 
+    @_reading
     def refresh(self):
         """Read what the writer committed since (when it is still writing)."""
         if self._f.swmr_mode:
-            self._f["commit"].refresh()
-        n = committed(self._f)
-        if n != self._n and self._f.swmr_mode:
-            self._f.visititems(lambda _, node: node.refresh()
-                               if isinstance(node, h5py.Dataset) else None)
-        self._n = n
+            # the commit first, then the tables: they hold at least the rows it counts
+            commit = self._f["commit"]
+            commit.refresh()
+            self._f.visititems(lambda _, node: node.refresh() if isinstance(
+                node, h5py.Dataset) and node != commit else None)
+        self._n = n = committed(self._f)
         self.meta["closed"] = bool(n["closed"])
         return self
 
-    def _table(self, name, count):
+    @_reading
+    def _read(self, name, count):
         """The committed rows of a dataset."""
         return self._f[name][:self._n[count]]
 
@@ -86,13 +111,16 @@ class Run:
         return self._n["frames"]
 
     @property
+    @_reading
     def times(self):
-        return self._table("frames/t", "frames")
+        return self._read("frames/t", "frames")
 
     @property
+    @_reading
     def steps(self):
-        return self._table("frames/step", "frames")
+        return self._read("frames/step", "frames")
 
+    @_reading
     def frame(self, index):
         n = len(self)
         if not -n <= index < n:
@@ -106,6 +134,7 @@ class Run:
         return Frame(index, int(fr["step"][index]), float(fr["t"][index]), who[0],
                      fr["pos"][first:first + count], fr["vel"][first:first + count], *who[1:])
 
+    @_reading
     def frame_at(self, t):
         """The last frame taken at or before time t."""
         times = self.times
@@ -114,13 +143,14 @@ class Run:
             raise IndexError(f"t = {t}: before the first frame (t = {times[0]})")
         return self.frame(k)
 
+    @_reading
     def trajectory(self, body_id):
         """Trajectory of one id through every frame (read in blocks: O(rows) time, O(block)
         memory)."""
         fr, lay = self._f["frames"], self._f["layouts"]
         block = 1 << 20
         # where the id sits in each layout (-1: absent)
-        lfirst = self._table("layouts/first", "layouts")
+        lfirst = self._read("layouts/first", "layouts")
         where = np.full(lfirst.size, -1, np.int64)
         ids = lay["ids"]
         for start in range(0, self._n["layout_rows"], block):
@@ -128,11 +158,11 @@ class Run:
             rows = start + np.flatnonzero(ids[start:end] == body_id)
             layout = np.searchsorted(lfirst, rows, side="right") - 1
             where[layout] = rows - lfirst[layout]
-        local = where[self._table("frames/layout", "frames")]
+        local = where[self._read("frames/layout", "frames")]
         alive = local >= 0
         F, dim = alive.size, int(self.meta["dim"])
         pos, vel = np.full((F, dim), np.nan), np.full((F, dim), np.nan)
-        rows = self._table("frames/first", "frames") + local
+        rows = self._read("frames/first", "frames") + local
         # read the state in blocks of whole rows and pick the id's row in each frame
         frames = np.flatnonzero(alive)
         k = 0
@@ -150,36 +180,47 @@ class Run:
     def events(self, kind=None, id=None):
         """Events (LOG_EVENT_DTYPE: the step and EVENT_DTYPE's fields), optionally those of
         one kind (name or code) or involving one id (as a or b)."""
-        ev = self._table("events", "events")
         if kind is not None:
             names = {v: k for k, v in EVENT_KINDS.items()}
             code = names.get(kind, kind)
             if code not in EVENT_KINDS:
                 raise ValueError(f"kind = {kind!r}: not an event kind; valid: "
                                  f"{', '.join(EVENT_KINDS.values())}")
+        ev = self._read("events", "events")
+        if kind is not None:
             ev = ev[ev["kind"] == code]
         if id is not None:
             ev = ev[(ev["a"] == id) | (ev["b"] == id)]
         return ev
 
+    @_reading
     def inputs(self):
         """The recorded calls, in order: dicts with step, t, call, args, kwargs (and raised,
         the exception it raised, if it did)."""
         n = self._n["inputs"]
         g = self._f["inputs"]
         steps, times = g["step"][:n], g["t"][:n]
+        if "text" in g:                                  # version 3: bytes end to end
+            first, size = g["first"][:n], g["size"][:n]
+            end = int(first[-1] + size[-1]) if n else 0
+            text = g["text"][:end].tobytes()
+            calls = [text[a:a + b].decode() for a, b in zip(first, size)]
+        else:
+            calls = g["call"].asstr()[:n]
         out = []
-        for s, t, text in zip(steps, times, g["call"].asstr()[:n]):
+        for s, t, text in zip(steps, times, calls):
             entry = json.loads(text)
             entry.update(step=int(s), t=float(t))
             out.append(entry)
         return out
 
     @property
+    @_reading
     def checkpoints(self):
         """(step, t) of each checkpoint."""
         return [(int(row["step"]), float(row["t"])) for row in checkpoint_table(self._f)]
 
+    @_reading
     def world(self, checkpoint=-1):
         """The World saved at a checkpoint (default: the last)."""
         return _world(self._f, self.path, checkpoint)[0]

@@ -5,6 +5,7 @@ load_scenario(path or text) checks the whole file first and raises ScenarioError
 every problem (`bodies[2].mass: must be >= 0 (got -1.0)`), so nothing is built or run from
 a file with a mistake in it.
 """
+import contextlib
 import math
 import os
 import tomllib
@@ -79,13 +80,13 @@ class Scenario:
     data: dict
     title: str = ""
     duration: float = 0.0
-    timeline: list = field(default_factory=list)      # (t, action, table) sorted by t
+    timeline: list = field(default_factory=list)      # (t, action, table, key path) sorted by t
     log: dict = None
 
     def build(self, **world):
         """A new World at t = 0 with the scenario's bodies, ships and rules; and name -> id.
         world: settings of [world] to override (integrator=, dt=), the Scenario unchanged."""
-        return _build({**self.data, "world": {**self.data["world"], **world}})
+        return _build({**self.data, "world": {**self.data["world"], **world}}, self.source)
 
 
 class _Checker:
@@ -389,7 +390,8 @@ def _check_timeline(chk, entries, names, missiles):
                 chk.minimum(f"{path}.spawn.mass", value["mass"], 0.0)
         elif value not in names:
             chk.bad(f"{path}.{action}", f"{value!r} names no body")
-        out.append((t["t"], action, value))
+        if t["t"] is not None:           # a bad t is a problem already: nothing to sort by
+            out.append((t["t"], action, value, path))
     out.sort(key=lambda e: e[0])          # stable: same-time entries keep their order
     return out
 
@@ -451,7 +453,19 @@ def _heading(value):
     return value
 
 
-def _build(data):
+@contextlib.contextmanager
+def _at(source, path):
+    """A refusal while building names the table it came from (the checks above catch most
+    mistakes; the World's own checks catch the rest)."""
+    try:
+        yield
+    except ScenarioError:
+        raise
+    except ValueError as e:
+        raise ScenarioError(source, [(path, str(e))]) from None
+
+
+def _build(data, source="<scenario>"):
     s = data["world"]
     kw = {k: s[k] for k in ("dim", "units", "integrator", "dt", "softening", "gravity", "seed",
                             "drag")}
@@ -459,38 +473,51 @@ def _build(data):
               "wind"):
         if s[k] is not None:
             kw[k] = s[k]
-    w = World(**kw)
-    for kind in s["kinds"]:
-        w.add_kind(kind)
+    with _at(source, "world"):
+        w = World(**kw)
+        for kind in s["kinds"]:
+            w.add_kind(kind)
     ids = {}
-    for t in data["bodies"]:
-        _add_body(w, t, ids)
-    for ring in data["rings"]:
-        _add_ring(w, ring, ids)
-    for t in data["ships"]:
-        spec = ShipSpec(**{k: (ExplosionSpec(**v) if k == "explosion" else v)
-                           for k, v in t["spec"].items()})
-        pos, vel = _place(w, {**t, "mass": spec.dry_mass + spec.fuel_mass,
-                              "pulls": spec.active}, ids)
-        ids[t["name"]] = w.add_ship(spec, pos, vel, heading=_heading(t["heading"]))
+    for k, t in enumerate(data["bodies"]):
+        with _at(source, f"bodies[{k}]"):
+            _add_body(w, t, ids)
+    for k, ring in enumerate(data["rings"]):
+        with _at(source, f"rings[{k}]"):
+            _add_ring(w, ring, ids)
+    for k, t in enumerate(data["ships"]):
+        with _at(source, f"ships[{k}].spec"):
+            spec = ShipSpec(**{key: (ExplosionSpec(**v) if key == "explosion" else v)
+                               for key, v in t["spec"].items()})
+        with _at(source, f"ships[{k}]"):
+            pos, vel = _place(w, {**t, "mass": spec.dry_mass + spec.fuel_mass,
+                                  "pulls": spec.active}, ids)
+            ids[t["name"]] = w.add_ship(spec, pos, vel, heading=_heading(t["heading"]))
     if s["center_of_mass"]:
         w.move_to_center_of_mass()
-    for c in data["collisions"]:
-        w.set_collision(c["a"], c["b"], c["response"], restitution=c["restitution"])
+    for k, c in enumerate(data["collisions"]):
+        with _at(source, f"collisions[{k}]"):
+            w.set_collision(c["a"], c["b"], c["response"], restitution=c["restitution"])
     b = data["boundary"]
     if b is not None:
-        w.set_boundary(b["mode"], lo=b["lo"], hi=b["hi"], restitution=b["restitution"])
-    for wall in data["walls"]:
-        if wall["a"] is not None:
-            w.add_segment(wall["a"], wall["b"], restitution=wall["restitution"])
-        else:
-            w.add_plane(wall["point"], wall["normal"], restitution=wall["restitution"])
+        with _at(source, "boundary"):
+            w.set_boundary(b["mode"], lo=b["lo"], hi=b["hi"], restitution=b["restitution"])
+    for k, wall in enumerate(data["walls"]):
+        with _at(source, f"walls[{k}]"):
+            if wall["a"] is not None:
+                w.add_segment(wall["a"], wall["b"], restitution=wall["restitution"])
+            else:
+                w.add_plane(wall["point"], wall["normal"], restitution=wall["restitution"])
     return w, ids
 
 
-def apply(w, ids, missiles, action, value):
+def apply(w, ids, missiles, action, value, path="timeline", source="<scenario>"):
     """Carry out one timeline entry on World w (ids: name -> id, grown by spawns and named
-    launches)."""
+    launches); a refusal names the entry's path."""
+    with _at(source, path):
+        _apply(w, ids, missiles, action, value)
+
+
+def _apply(w, ids, missiles, action, value):
     if action == "control":
         ship = ids[value["ship"]]
         if value["heading"] is not None:          # point the ship, then set the controls

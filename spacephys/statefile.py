@@ -7,6 +7,7 @@ with the attribute `__spec__`. docs/runlog.md lists every field. Nothing here kn
 World is: world.py writes and reads the fields.
 """
 import dataclasses
+import hashlib
 
 import numpy as np
 
@@ -16,9 +17,47 @@ _SPECS = {"ExplosionSpec": ExplosionSpec}
 
 
 def write(group, state):
-    """Write the dict `state` into the (empty) h5py group."""
+    """Write the dict `state` into the (empty) h5py group, with its digest (the attribute
+    __digest__: a damaged file is found when it is read, not run)."""
     for key, value in state.items():
         _put(group, key, value)
+    group.attrs["__digest__"] = digest(state)
+
+
+def digest(state):
+    """SHA-256 (hex) of a state as stored: arrays by dtype, shape and bytes, numbers as
+    int64 / float64, dict keys sorted; the same for the state written and the state read."""
+    h = hashlib.sha256()
+    _feed(h, state)
+    return h.hexdigest()
+
+
+def _feed(h, value):
+    if isinstance(value, np.ndarray):
+        a = np.ascontiguousarray(value)
+        h.update(f"a{a.dtype.str}{a.shape}".encode())
+        h.update(a.tobytes())
+    elif isinstance(value, dict):
+        h.update(f"d{len(value)}".encode())
+        for key in sorted(value):
+            h.update(f"k{key}".encode())
+            _feed(h, value[key])
+    elif isinstance(value, (list, tuple)):
+        h.update(f"l{len(value)}".encode())
+        for item in value:
+            _feed(h, item)
+    elif dataclasses.is_dataclass(value):
+        _feed(h, {f.name: getattr(value, f.name) for f in dataclasses.fields(value)})
+    elif isinstance(value, (bool, np.bool_)):
+        h.update(b"b1" if value else b"b0")
+    elif isinstance(value, (int, np.integer)):
+        h.update(f"i{int(value)}".encode())
+    elif isinstance(value, (float, np.floating)):
+        h.update(f"f{float(value).hex()}".encode())
+    elif value is None:
+        h.update(b"n")
+    else:
+        h.update(f"s{value}".encode())
 
 
 def _put(group, name, value):
@@ -55,7 +94,16 @@ def _put(group, name, value):
 
 
 def read(group):
-    """The dict write() wrote into group."""
+    """The dict write() wrote into group; ValueError if it does not match its digest."""
+    out = _read(group)
+    stored = group.attrs.get("__digest__")
+    if stored is not None and _scalar(stored) != digest(out):
+        raise ValueError(f"its contents do not match their digest (stored "
+                         f"{_scalar(stored)[:12]}..., read {digest(out)[:12]}...)")
+    return out
+
+
+def _read(group):
     out = {}
     for key, node in group.items():
         out[key] = _get(node)
@@ -80,12 +128,12 @@ def _scalar(value):
 
 
 def _get(node):
-    if not hasattr(node, "keys"):                          # a dataset
-        return node[()]
+    if not hasattr(node, "keys"):                          # a dataset (0-d ones too)
+        return node[()] if node.shape != () else np.array(node[()])
     if "__list__" in node.attrs:
-        items = read(node)
+        items = _read(node)
         return [items[str(k)] for k in range(int(node.attrs["__list__"]))]
     if "__spec__" in node.attrs:
         kind = _scalar(node.attrs["__spec__"])
-        return _SPECS[kind](**read(node))
-    return read(node)
+        return _SPECS[kind](**_read(node))
+    return _read(node)

@@ -9,6 +9,8 @@ World's own; nothing else reads its private attributes (docs/architecture.md).
 """
 import copy
 import math
+import os
+import sys
 import warnings
 from collections import namedtuple
 
@@ -18,7 +20,7 @@ from . import _validate as check
 from ._jit import ThreadChoice, announced
 from .actors import Actors
 from .collisions import CollisionRules
-from .errors import InstabilityError
+from .errors import InstabilityError, PrecisionWarning
 from .events import EVENT_DTYPE
 from .forces import HELD, ForceField
 from .integrators import get_integrator
@@ -131,6 +133,7 @@ class World:
         adaptive = self._adaptive_settings(tolerance, max_step, min_step)
         step_control = self._checked_step_control(step_control)
 
+        self._precision_warned = False     # PrecisionWarning given (once)
         self._log = None                   # the RunLog recording this World, if one is
         self._dim = dim
         self._units = unit_system
@@ -701,7 +704,7 @@ class World:
 
     # ---------------------------------------------------------------- run logs and files
     def record(self, path, *, every=1, every_time=None, checkpoint_every=None,
-               checkpoint_seconds=10.0, flush_seconds=1.0, compression="gzip",
+               checkpoint_seconds=10.0, flush_seconds=1.0, compression=None,
                compress_state=False, scenario=None):
         """Record this World into an HDF5 run log (see spacephys/runlog.py, docs/runlog.md);
         returns the RunLog (close it, or use it in a with-block).
@@ -712,11 +715,15 @@ class World:
         the World are recorded too; a checkpoint (the whole state, for resume) every
         checkpoint_seconds of wall time, or every checkpoint_every frames if that comes
         first, at the end of the call in which it fell due; the file is written every
-        flush_seconds of wall time (and when 8 MB of state are waiting). compression: "gzip",
-        "lzf" or None, for every table but positions and velocities, which are compressed
-        too with compress_state=True (they shrink by about a fifth, at 20-50x the cost of
-        writing them: see the README's figures). scenario: a text kept with the log. The file
-        is created at once, so an unwritable path fails here, before anything runs.
+        flush_seconds of wall time (and when 8 MB of state are waiting). compression: None
+        (the default: a kill at any moment loses nothing committed), "gzip" or "lzf" for
+        every table but positions and velocities, which are compressed too with
+        compress_state=True (they shrink by about a fifth, at 20-50x the cost of writing
+        them). Compressed tables are smaller (events and layouts by 100x) and checksummed,
+        but a kill during a flush can destroy the last chunk of one, rows committed before
+        included: HDF5 may rewrite a compressed chunk in place (docs/runlog.md). scenario: a
+        text kept with the log. The file is created at once, so an unwritable path fails
+        here, before anything runs.
         """
         from .runlog import RunLog
         if self._log is not None:
@@ -801,6 +808,7 @@ class World:
         w = cls.__new__(cls)
         ws = s["world"]
         w._log = None
+        w._precision_warned = False
         w._dim = int(ws["dim"])
         w._units = get_units(str(ws["units"]))
         w._forces = ForceField.from_state(w._dim, s["forces"])
@@ -1073,7 +1081,28 @@ class World:
                     self._stepper.method(self, sources), alive,
                     self._forces.work(n, sources[0].size))
         self._plan = plan
+        self._check_precision(b.pos[:n, :self._dim])
         return plan
+
+    def _check_precision(self, pos):
+        """Warn once (PrecisionWarning) when the bodies lie so far from the origin, for how
+        far apart they are, that positions keep fewer than 8 significant digits within the
+        scene (beyond ~1e8 times its size): a circular orbit of radius 1 at 1e9 ends a
+        period 6x less accurately than at the origin, at 1e12 2 800x. Checked whenever the
+        tables are rebuilt (bodies come or go)."""
+        if self._precision_warned or pos.shape[0] < 2:
+            return
+        span = float(np.max(pos.max(axis=0) - pos.min(axis=0)))
+        far = float(np.max(np.abs(pos)))
+        if span > 0.0 and np.spacing(far) > 1e-8 * span:
+            self._precision_warned = True
+            digits = max(0.0, -math.log10(np.spacing(far) / span))
+            warnings.warn(PrecisionWarning(
+                f"the bodies lie {far:.3g} from the origin but only {span:.3g} apart: their "
+                f"positions keep about {digits:.0f} significant digits within the scene (16 "
+                f"at the origin), and the integration's errors grow with that. Move the "
+                f"origin to the scene: w.shift_origin(w.center_of_mass()) (journaled; "
+                f"velocities and the motion are unchanged)"), stacklevel=_caller_level())
 
     # ---------------------------------------------------------------- stepping
     def step(self, n=1):
@@ -1410,6 +1439,16 @@ class World:
         return (f"World(dim={self._dim}, n={self.n}, gravity={self.gravity!r}, "
                 f"integrator={self.integrator!r}, dt={self._dt!r}, t={self.t!r})")
 
+
+def _caller_level():
+    """warnings.warn's stacklevel for the first frame outside spacephys (the user's call)."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_code.co_filename.startswith(_PACKAGE):
+        frame, level = frame.f_back, level + 1
+    return level
+
+
+_PACKAGE = os.path.dirname(os.path.abspath(__file__))
 
 # the calls a run log records (journal.py): every public method that changes the World
 JOURNALED = ("step", "advance", "watch_energy", "shift_origin", "move_to_center_of_mass",

@@ -154,6 +154,7 @@ def _far_kepler(offset):
     return w
 
 
+@pytest.mark.filterwarnings("ignore::spacephys.PrecisionWarning")  # its subject
 def test_far_from_the_origin_precision_is_lost_and_a_shifted_origin_keeps_it():
     """At 1e15 from the origin a double resolves only 0.125: a unit orbit there is garbage
     (measured position error of order 1). Shifting the origin to the star gives the same
@@ -326,6 +327,7 @@ def test_speed_past_the_range_of_doubles_is_reported_naming_the_body():
     w.step(1)                                  # the rest goes on
 
 
+@pytest.mark.filterwarnings("ignore::spacephys.PrecisionWarning")  # its subject
 def test_a_floating_origin_is_recorded_and_replays(tmp_path):
     """shift_origin and watch_energy are journaled like every other change: a run that
     follows its planet with the origin replays bit for bit, and a checkpoint keeps the

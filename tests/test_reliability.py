@@ -6,6 +6,7 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import h5py
@@ -13,6 +14,7 @@ import numpy as np
 import pytest
 
 import spacephys as sp
+from spacephys import events as ev
 from spacephys import h5writer
 
 DATA = Path(__file__).parent / "data"
@@ -260,3 +262,164 @@ def test_version_2_files_still_read_and_are_not_resumed(tmp_path):
     copy.write_bytes((DATA / "version2.h5").read_bytes())
     with pytest.raises(sp.RunLogError, match="v2.h5.*format version 2.*resume"):
         sp.resume(copy)
+
+
+# ----------------------------------------------------------------------------- traps of the API
+
+TRAPS = [
+    # (spec, keyword arguments, words the refusal must hold)
+    (sp.MissileSpec, dict(thrust=200), ["thrust = 200", "fuel_mass = 0", "never fire"]),
+    (sp.MissileSpec, dict(thrust=2.0, exhaust_speed=3.0), ["thrust = 2.0", "fuel_mass"]),
+    (sp.ShipSpec, dict(max_thrust=5.0), ["max_thrust = 5.0", "fuel_mass = 0"]),
+    (sp.ShipSpec, dict(side_thrust=1.0), ["side_thrust = 1.0", "fuel_mass = 0"]),
+    (sp.MissileSpec, dict(fuel_mass=1.0, thrust=2.0, exhaust_speed=1.0,
+                          thrust_curve=[[0.0, 0.0], [5.0, 0.0]]), ["thrust_curve", "all 0"]),
+    (sp.MissileSpec, dict(guidance="pn", turn_rate=0.0), ["guidance = 'pn'", "turn_rate = 0"]),
+    (sp.MissileSpec, dict(guidance="pursuit", turn_rate=0.0), ["'pursuit'", "turn_rate"]),
+    (sp.MissileSpec, dict(lifetime=1.0, arming_delay=2.0), ["lifetime = 1.0",
+                                                             "arming_delay = 2.0", "arms"]),
+    (sp.MissileSpec, dict(lifetime=2.0, arming_delay=2.0), ["lifetime = 2.0", "arms"]),
+    (sp.ShipSpec, dict(moment_of_inertia=2.0), ["moment_of_inertia = 2.0", "torque = 0",
+                                                "never turn"]),
+]
+
+
+@pytest.mark.parametrize("spec, kwargs, words", TRAPS,
+                         ids=[f"{s.__name__}({', '.join(k)})" for s, k, _ in TRAPS])
+def test_a_spec_that_cannot_do_what_it_says_is_refused(spec, kwargs, words):
+    with pytest.raises(ValueError) as info:
+        spec(**kwargs)
+    for word in words:
+        assert word in str(info.value)
+
+
+def test_what_the_trap_checks_still_allow():
+    """An empty tank on a ship whose engine is described (refuelled with set_fuel), an
+    unguided missile that turns at 0, a mine (no thrust, no lifetime), a lifetime just past
+    the arming delay, a ship that cannot turn by choice."""
+    w = sp.World(2, dt=0.1)
+    ship = w.add_ship(sp.ShipSpec(max_thrust=5.0, exhaust_speed=2.0), (0.0, 0.0))
+    w.control(ship, throttle=1.0)
+    w.step(1)
+    assert w.get(ship).vel.tolist() == [0.0, 0.0]
+    w.set_fuel(ship, 1.0)
+    w.step(1)
+    assert w.get(ship).vel[0] > 0.0
+    for spec in (sp.MissileSpec(turn_rate=0.0), sp.MissileSpec(),
+                 sp.MissileSpec(lifetime=2.5, arming_delay=2.0)):
+        assert w.launch(ship, spec, heading=0.0) in w
+    assert sp.ShipSpec(turn_rate=0.0).turn_rate == 0.0
+
+
+# ----------------------------------------------------------------------------- found by fuzzing
+
+@pytest.mark.filterwarnings("ignore::spacephys.PrecisionWarning")
+@pytest.mark.parametrize("case", ["denormal radii", "a long sweep", "far from the origin",
+                                  "a huge periodic box"])
+def test_the_broad_phase_survives_cells_far_too_small(case):
+    """The collision grid's cell comes from the radii; radii of 1e-271 made every box cover
+    ~1e270 cells (a negative allocation, or a crash without bounds checks), found by the
+    stateful fuzzer. Each case must step and find the one contact it has."""
+    w = sp.World(2, dt=0.01, gravity="none")
+    r, speed, where = 1e-3, 1.0, 0.0
+    if case == "denormal radii":
+        r = 4.060521181948921e-271
+    elif case == "a long sweep":
+        speed = 1e6
+    elif case == "far from the origin":
+        where = 1e9
+    w.set_collision("body", "body", "elastic")
+    if case == "a huge periodic box":
+        w.set_boundary("periodic", lo=(-1e12, -1e12), hi=(1e12, 1e12))
+    d = 2.0 * r + 0.5 * speed * w.dt          # they meet within the step
+    a = w.add_body(1.0, (where, 0.0), (speed, 0.0), radius=r)
+    b = w.add_body(1.0, (where + d, 0.0), (-speed, 0.0), radius=r)
+    w.add_bodies(np.ones(20), np.c_[np.linspace(-5, 5, 20) + where, np.full(20, 7.0)],
+                 radius=r)
+    w.step(1)
+    assert np.all(np.isfinite(w.pos)) and np.all(np.isfinite(w.vel))
+    hits = w.events[w.events["kind"] == ev.BOUNCE]
+    assert len(hits) == 1 and {int(hits["a"][0]), int(hits["b"][0])} == {a, b}
+    assert w.get(a).vel[0] < 0 < w.get(b).vel[0]
+
+
+# ----------------------------------------------------------------------------- logs that fit
+
+def test_a_run_recorded_without_an_interval_takes_about_1000_frames(tmp_path, capsys):
+    """spacephys run --out without [log] every: a frame every total // 1000 steps, said on
+    stderr with the expected size, and the log holds that many frames."""
+    from spacephys.cli import main
+    out = tmp_path / "kepler.h5"
+    assert main(["run", "kepler", "--duration", "6.0", "--out", str(out), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert f"recording {out}: a frame every 6 steps, 1002 frames, about 1.2 MB" in err, err
+    with sp.open_run(out) as run:
+        assert 1000 <= len(run) <= 1002 and run.steps[1] == 6
+    assert 0.5e6 < out.stat().st_size < 2.4e6          # the estimate, within 2x
+
+
+REFUSED = r"""
+import resource, sys
+resource.setrlimit(resource.RLIMIT_FSIZE, (8 << 20, 8 << 20))
+from spacephys.cli import main
+sys.exit(main(["run", "star_system", "--out", sys.argv[1], "--quiet"]))
+"""
+
+
+def test_a_recording_that_would_not_fit_is_refused_before_it_starts(tmp_path):
+    """star_system's default run recorded (1 000 frames of 2 007 bodies: about 66 MB) where
+    only 8 MB may be written (the process's file size limit): exit 2 before anything runs,
+    naming the size, the room and the fix; no file."""
+    out = tmp_path / "big.h5"
+    child = subprocess.run([sys.executable, "-c", REFUSED, str(out)], capture_output=True,
+                           text=True, timeout=600)
+    assert child.returncode == 2, child.stderr
+    assert "makes a log of about 66 MB, and 8 MB are free" in child.stderr, child.stderr
+    assert "[log] every" in child.stderr and not out.exists()
+    assert list(tmp_path.iterdir()) == []
+
+
+# ----------------------------------------------------------------------------- far from the origin
+
+def _orbit_error(D, shift=False):
+    """A circular orbit of radius 1 about a unit mass at (D, 0), one period of leapfrog at
+    dt = 1e-3: (its end error, the warnings given)."""
+    w = sp.World(2, dt=1e-3)
+    w.add_body(1.0, (D, 0.0))
+    w.add_body(0.0, (D + 1.0, 0.0), (0.0, 1.0))
+    with warnings.catch_warnings(record=True) as given:
+        warnings.simplefilter("always")
+        if shift:
+            w.shift_origin(w.center_of_mass())
+        w.step(6283)
+    rel = w.pos[1] - w.pos[0]
+    return float(np.hypot(*(rel - [np.cos(w.t), np.sin(w.t)]))), given
+
+
+@pytest.mark.parametrize("D", [1e9, 1e12, 1e15])
+def test_a_scene_far_from_the_origin_is_warned_of_once_and_the_fix_works(D):
+    """Positions at 1e12 keep 4 digits of an orbit of radius 1: the World says so once
+    (PrecisionWarning, with the digits and the fix), and the fix it names brings the error
+    back to the origin's."""
+    at_origin, none = _orbit_error(0.0)
+    far, given = _orbit_error(D)
+    assert not none and at_origin < 3e-6
+    assert len(given) == 1 and given[0].category is sp.PrecisionWarning
+    assert given[0].filename == __file__              # it points at the caller's line
+    text = str(given[0].message)
+    assert f"{D:.3g} from the origin" in text and "w.shift_origin(w.center_of_mass())" in text
+    assert far > 5 * at_origin                        # the precision it warns of is lost
+    fixed, quiet = _orbit_error(D, shift=True)
+    assert not quiet and fixed < 1.2 * at_origin
+
+
+def test_no_precision_warning_for_a_wide_scene_or_a_near_one():
+    """The solar system in AU, a scene 1e6 times its size away: no warning."""
+    for D in (0.0, 1e6):
+        _, given = _orbit_error(D)
+        assert not given
+    w = sp.World(3, dt=1e-3)
+    w.add_bodies([1.0, 1e-3, 1e-6], [[0, 0, 0], [30.0, 0, 0], [0.4, 0, 0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        w.step(1)

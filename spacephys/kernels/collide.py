@@ -316,19 +316,36 @@ def candidate_pairs(A, B, tb, alive, rules, lo, hi):
     radius, kind = rules.radius, rules.kind
     n = A.shape[0]
     L = _periods(rules)
+    _bounds(A, B, tb, radius, alive, lo, hi, rules.giants[:0])
+    gridded = rules.gridded
+    # A cell too small for the boxes (radii near 0, a long sweep) would make one box cover
+    # millions of cells, or cell indices overflow: at most 1024 cells along the widest box
+    # and 2^40 across the span of all of them, counted from their low corner when the
+    # coordinates are that far from the origin
+    size = rules.cell
+    low, high = np.full(3, np.inf), np.full(3, -np.inf)
+    for i in range(n):
+        if alive[i] and gridded[i]:
+            for c in range(rules.dim):
+                low[c] = min(low[c], lo[i, c])
+                high[c] = max(high[c], hi[i, c])
+                size = max(size, (hi[i, c] - lo[i, c]) * (1.0 / 1024.0))
     origin = np.zeros(3)
-    cell = np.full(3, rules.cell)
+    for c in range(rules.dim):
+        if high[c] > low[c]:
+            size = max(size, (high[c] - low[c]) * 2.0 ** -40)
+            if max(abs(low[c]), abs(high[c])) > size * 2.0 ** 50:
+                origin[c] = low[c]
+    cell = np.full(3, size)
     ncell = np.zeros(3, np.int64)
     for c in range(3):
         if L[c] > 0.0:
             origin[c] = rules.box[0, c]
-            ncell[c] = max(1, int(L[c] // rules.cell))
+            ncell[c] = max(1, int(L[c] // max(size, L[c] * 2.0 ** -40)))
             cell[c] = L[c] / ncell[c]                  # whole cells around the period
     cell = 1.0 / cell                                  # multiplied below: no divisions
     for c in range(rules.dim, 3):
         cell[c] = 0.0                                  # a flat axis: every box in layer 0
-    _bounds(A, B, tb, radius, alive, lo, hi, rules.giants[:0])
-    gridded = rules.gridded
     # the entries (body, cell): counted, then written in body order (sequentially)
     total = 0
     for i in range(n):
