@@ -230,8 +230,7 @@ class RunLog(_Schedule):
         self._counts = dict.fromkeys(COUNTS, 0)
         self._image_end = self._text_end = 0       # bytes used in checkpoints/image, inputs/text
         # made whole under another name, then renamed: a kill leaves no half-made log
-        part = os.path.join(os.path.dirname(os.path.abspath(self.path)),
-                            f".{os.path.basename(self.path)}.{os.getpid()}.part")
+        part = _part(self.path)
         try:
             self._file = h5py.File(part, "w", libver=LIBVER, rdcc_nbytes=0)
         except (OSError, RuntimeError) as e:
@@ -565,6 +564,13 @@ class RunLog(_Schedule):
         return int(self._file["frames/step"][n - 1]) if n else -1
 
 
+def _part(path):
+    """Where a file for `path` is made before it is renamed into place (a kill leaves the
+    old file or the new one, never half of one)."""
+    return os.path.join(os.path.dirname(os.path.abspath(path)),
+                        f".{os.path.basename(path)}.{os.getpid()}.part")
+
+
 def room(path, size=0):
     """Bytes a file at `path`, now `size` bytes long, may still grow by: the free disk
     space, or the process's file size limit if that is less."""
@@ -760,8 +766,7 @@ def save_state(state, path):
     """Write a World's state (World.save) to an HDF5 world file: written under another name
     and renamed into place, so a kill leaves the old file or the new one."""
     path = os.fspath(path)
-    part = os.path.join(os.path.dirname(os.path.abspath(path)),
-                        f".{os.path.basename(path)}.{os.getpid()}.part")
+    part = _part(path)
     try:
         with open(part, "wb") as out:
             out.write(world_image(state).tobytes())

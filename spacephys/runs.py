@@ -111,12 +111,10 @@ class Run:
         return self._n["frames"]
 
     @property
-    @_reading
     def times(self):
         return self._read("frames/t", "frames")
 
     @property
-    @_reading
     def steps(self):
         return self._read("frames/step", "frames")
 
