@@ -343,6 +343,27 @@ def test_the_broad_phase_survives_cells_far_too_small(case):
     assert w.get(a).vel[0] < 0 < w.get(b).vel[0]
 
 
+@pytest.mark.parametrize("integrator", ["leapfrog", "rk4", "gauss_radau", "wisdom_holman",
+                                        "wisdom_holman_corrected"])
+def test_time_goes_on_when_every_body_is_gone_within_a_call(integrator, tmp_path):
+    """Every body expiring inside one step(n) call crashed Wisdom-Holman's kernel (it stepped
+    on with no body to take Jacobi coordinates of), found by the long fuzzing profile: a star
+    exploded and its last debris expired. The rest of the call must pass, recorded."""
+    w = sp.World(3, dt=0.05)
+    w.add_body(10.0, (0.0, 0.0, 0.0), lifetime=0.06)
+    w.add_body(0.001, (1.0, 0.0, 0.0), (0.0, 3.0, 0.0), lifetime=0.06)
+    w.integrator = integrator
+    with w.record(tmp_path / "r.h5") as log:
+        w.step(5)
+    assert w.n == 0 and w.t == pytest.approx(0.25, rel=1e-15)
+    assert np.sum(w.events["kind"] == ev.EXPIRY) == 2
+    run = sp.open_run(tmp_path / "r.h5")
+    assert len(run.times) == 6 and run.times[-1] == w.t
+    assert [run.frame(k).ids.size for k in range(6)] == [2, 2, 0, 0, 0, 0]
+    w.step(2)                                   # and calls on an empty World go on too
+    assert w.t == pytest.approx(0.35, rel=1e-15)
+
+
 # ----------------------------------------------------------------------------- logs that fit
 
 def test_a_run_recorded_without_an_interval_takes_about_1000_frames(tmp_path, capsys):

@@ -430,19 +430,20 @@ def wisdom_holman_steps(state, forces, rules, actors, frames, method, dt, nsteps
             dv = thrust_dv(burn, q, dt) if burn[q, F] != 0.0 else 0.0
             for c in range(3):
                 thrust[q, c] = dv / dt * burn[q, c]
-        _to_jacobi(pos, vel, order, m, xj, vj)
-        kicks = steps + (4 if corrector else 0)
-        tau = 0.0
-        for q in range(kicks):
-            d, k = _schedule(q, steps, dt, corrector)
-            ok = _drift_all(xj, vj, M, G, d) & ok
-            tau += d
-            # the step's own kick carries the thrust and the drag, the corrector's do not
-            main = not corrector or 2 <= q < steps + 2
-            _kick(xj, vj, order, m, M, forces, t + tau, pos, vel, acc, k, movers,
-                  thrust if main else none, main)
-        ok = _drift_all(xj, vj, M, G, _CORRECTOR_A * dt if corrector else 0.5 * dt) & ok
-        _from_jacobi(xj, vj, order, m, M, pos, vel)
+        if n > 0:      # no body left (all expired or destroyed in this call): time still passes
+            _to_jacobi(pos, vel, order, m, xj, vj)
+            kicks = steps + (4 if corrector else 0)
+            tau = 0.0
+            for q in range(kicks):
+                d, k = _schedule(q, steps, dt, corrector)
+                ok = _drift_all(xj, vj, M, G, d) & ok
+                tau += d
+                # the step's own kick carries the thrust and the drag, the corrector's do not
+                main = not corrector or 2 <= q < steps + 2
+                _kick(xj, vj, order, m, M, forces, t + tau, pos, vel, acc, k, movers,
+                      thrust if main else none, main)
+            ok = _drift_all(xj, vj, M, G, _CORRECTOR_A * dt if corrector else 0.5 * dt) & ok
+            _from_jacobi(xj, vj, order, m, M, pos, vel)
         for i in range(pos.shape[0]):
             for c in range(3):
                 if not (abs(pos[i, c]) < np.inf and abs(vel[i, c]) < np.inf):
