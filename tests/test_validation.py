@@ -1,13 +1,18 @@
 """`spacephys validate`: every integrator of the registry on every reference problem, against
 REBOUND's IAS15 on the same initial conditions, at stated tolerances.
 
-Each bound is 10x the value measured when it was set (comment: measured position error,
-energy error), with floors of 1e-14 and 5e-15: many entries are round-off accumulated over up
-to 5e5 steps, which moves by a few times with any change in the order of operations. A
-method that loses an order, a wrong coefficient or a broken kernel misses by orders of
-magnitude. FAILS: the method refuses the problem with a clear error (Wisdom-Holman needs a
-dominant mass). DIVERGES: the fixed step cannot resolve the encounters; the table in
-docs/validation.md says so, and this checks that it still does rather than quietly passing.
+EXPECTED holds the (position error, energy error) measured when the table was set, and the
+test derives the bounds from them. Below SATURATED (1e-2 of the system's size) a value must
+stay within 10x of its measurement, with floors of 1e-14 and 5e-15: many entries are round-off
+accumulated over up to 5e5 steps, which moves by a few times with any change in the order of
+operations; a method that loses an order, a wrong coefficient or a broken kernel misses by
+orders of magnitude. At or above it the error is of the order of the system's size (Euler's
+planet 240 sizes away), where an upper bound cannot fail: such a value must stay within a
+factor of 2 of its measurement, both ways (it is deterministic, and a method changed in any
+real way moves it far more). FAILS: the method refuses the problem with a clear error
+(Wisdom-Holman needs a dominant mass). DIVERGES: the fixed step cannot resolve the
+encounters; the table in docs/validation.md says so, and this checks that it still does
+rather than quietly passing.
 """
 import pytest
 
@@ -15,79 +20,80 @@ from spacephys.integrators import INTEGRATORS
 from spacephys.study.validate import PROBLEMS, format_markdown, validate
 
 FAILS, DIVERGES = "fails", "diverges"
+SATURATED = 1e-2
 
 EXPECTED = {
     'kepler_e0': {
-        'euler': (2.4e+01, 5.8e+00),  # 2.3e+00, 5.8e-01
-        'symplectic_euler': (4.4e-01, 2.0e-06),  # 4.4e-02, 2.0e-07
-        'leapfrog': (2.1e-01, 4.0e-12),  # 2.1e-02, 4.0e-13
-        'rk4': (4.0e-05, 5.4e-07),  # 3.9e-06, 5.3e-08
-        'yoshida4': (5.0e-04, 7.2e-14),  # 4.9e-05, 7.1e-15
-        'yoshida6': (4.6e-08, 1.3e-13),  # 4.6e-09, 1.3e-14
-        'yoshida8': (2.6e-10, 1.3e-13),  # 2.5e-11, 1.2e-14
-        'gauss_radau': (9.4e-13, 8.9e-15),  # 9.3e-14, 8.9e-16
-        'wisdom_holman': (3.4e-11, 6.2e-13),  # 3.4e-12, 6.1e-14
-        'wisdom_holman_corrected': (3.4e-11, 6.2e-13),  # 3.4e-12, 6.2e-14
+        'euler': (2.34e+00, 5.77e-01),
+        'symplectic_euler': (4.39e-02, 1.99e-07),
+        'leapfrog': (2.07e-02, 3.96e-13),
+        'rk4': (3.92e-06, 5.34e-08),
+        'yoshida4': (4.95e-05, 7.11e-15),
+        'yoshida6': (4.58e-09, 1.25e-14),
+        'yoshida8': (2.50e-11, 1.23e-14),
+        'gauss_radau': (4.28e-14, 8.88e-16),
+        'wisdom_holman': (3.31e-12, 6.12e-14),
+        'wisdom_holman_corrected': (3.33e-12, 6.14e-14),
     },
     'kepler_e0.5': {
-        'euler': (1.2e+02, 6.8e+00),  # 1.2e+01, 6.8e-01
-        'symplectic_euler': (3.5e+00, 9.0e-02),  # 3.4e-01, 9.0e-03
-        'leapfrog': (3.9e-01, 5.5e-07),  # 3.8e-02, 5.4e-08
-        'rk4': (2.5e-04, 9.6e-07),  # 2.5e-05, 9.5e-08
-        'yoshida4': (8.4e-04, 8.7e-14),  # 8.4e-05, 8.7e-15
-        'yoshida6': (5.6e-08, 5.4e-13),  # 5.6e-09, 5.4e-14
-        'yoshida8': (5.2e-10, 2.6e-13),  # 5.2e-11, 2.5e-14
-        'gauss_radau': (3.1e-12, 8.9e-15),  # 3.1e-13, 8.9e-16
-        'wisdom_holman': (9.6e-11, 4.5e-13),  # 9.6e-12, 4.5e-14
-        'wisdom_holman_corrected': (9.6e-11, 4.5e-13),  # 9.6e-12, 4.5e-14
+        'euler': (1.15e+01, 6.77e-01),
+        'symplectic_euler': (3.44e-01, 9.00e-03),
+        'leapfrog': (3.84e-02, 5.44e-08),
+        'rk4': (2.48e-05, 9.50e-08),
+        'yoshida4': (8.37e-05, 8.66e-15),
+        'yoshida6': (5.57e-09, 5.37e-14),
+        'yoshida8': (5.13e-11, 2.52e-14),
+        'gauss_radau': (3.90e-14, 1.33e-15),
+        'wisdom_holman': (9.92e-12, 4.46e-14),
+        'wisdom_holman_corrected': (8.72e-12, 4.46e-14),
     },
     'kepler_e0.9': {
-        'euler': (2.5e+03, 1.7e+01),  # 2.4e+02, 1.7e+00
-        'symplectic_euler': (1.1e+02, 6.7e-02),  # 1.0e+01, 6.7e-03
-        'leapfrog': (5.3e+00, 3.2e-03),  # 5.3e-01, 3.1e-04
-        'rk4': (4.0e-02, 1.2e-05),  # 4.0e-03, 1.1e-06
-        'yoshida4': (4.7e-02, 4.2e-10),  # 4.6e-03, 4.1e-11
-        'yoshida6': (6.8e-06, 1.5e-12),  # 6.8e-07, 1.4e-13
-        'yoshida8': (5.7e-08, 2.0e-12),  # 5.6e-09, 2.0e-13
-        'gauss_radau': (1.9e-11, 3.5e-14),  # 1.9e-12, 3.4e-15
-        'wisdom_holman': (2.5e-10, 9.8e-13),  # 2.5e-11, 9.7e-14
-        'wisdom_holman_corrected': (8.4e-10, 4.6e-13),  # 8.4e-11, 4.5e-14
+        'euler': (2.43e+02, 1.69e+00),
+        'symplectic_euler': (1.04e+01, 6.65e-03),
+        'leapfrog': (5.28e-01, 3.14e-04),
+        'rk4': (3.96e-03, 1.14e-06),
+        'yoshida4': (4.62e-03, 4.10e-11),
+        'yoshida6': (6.79e-07, 1.42e-13),
+        'yoshida8': (5.61e-09, 1.98e-13),
+        'gauss_radau': (7.29e-12, 3.44e-15),
+        'wisdom_holman': (1.93e-11, 9.70e-14),
+        'wisdom_holman_corrected': (1.93e-11, 9.02e-14),
     },
     'kepler_e0.99': {
-        'euler': (2.5e+05, 2.1e+02),  # 2.5e+04, 2.0e+01
-        'symplectic_euler': (1.6e+03, 7.9e+00),  # 1.6e+02, 7.9e-01
-        'leapfrog': (2.8e+02, 8.0e-03),  # 2.7e+01, 8.0e-04
-        'rk4': (5.6e+02, 4.5e-02),  # 5.5e+01, 4.5e-03
-        'yoshida4': (3.1e+02, 9.5e-03),  # 3.0e+01, 9.4e-04
-        'yoshida6': (2.4e+00, 5.0e-07),  # 2.4e-01, 4.9e-08
-        'yoshida8': (1.4e-01, 2.5e-10),  # 1.4e-02, 2.4e-11
-        'gauss_radau': (8.0e-09, 2.8e-13),  # 7.9e-10, 2.8e-14
-        'wisdom_holman': (7.5e-07, 1.2e-11),  # 7.5e-08, 1.1e-12
-        'wisdom_holman_corrected': (7.5e-07, 1.3e-11),  # 7.5e-08, 1.3e-12
+        'euler': (2.48e+04, 2.03e+01),
+        'symplectic_euler': (1.60e+02, 7.87e-01),
+        'leapfrog': (2.72e+01, 7.97e-04),
+        'rk4': (5.52e+01, 4.46e-03),
+        'yoshida4': (3.01e+01, 9.42e-04),
+        'yoshida6': (2.35e-01, 4.91e-08),
+        'yoshida8': (1.35e-02, 2.43e-11),
+        'gauss_radau': (5.85e-09, 2.78e-14),
+        'wisdom_holman': (6.82e-08, 1.11e-12),
+        'wisdom_holman_corrected': (6.82e-08, 1.08e-12),
     },
     'hyperbolic': {
-        'euler': (4.1e-02, 6.5e-02),  # 4.1e-03, 6.4e-03
-        'symplectic_euler': (3.5e-05, 6.2e-05),  # 3.5e-06, 6.1e-06
-        'leapfrog': (9.1e-06, 5.8e-14),  # 9.0e-07, 5.8e-15
-        'rk4': (2.5e-11, 5.5e-13),  # 2.5e-12, 5.5e-14
-        'yoshida4': (3.2e-11, 4.5e-14),  # 3.2e-12, 4.4e-15
-        'yoshida6': (1.1e-12, 1.4e-14),  # 1.0e-13, 1.3e-15
-        'yoshida8': (1.2e-12, 3.2e-13),  # 1.2e-13, 3.1e-14
-        'gauss_radau': (1.0e-14, 5.0e-15),  # 5.2e-16, 4.4e-16
-        'wisdom_holman': (1.9e-13, 5.0e-15),  # 1.8e-14, 4.4e-16
-        'wisdom_holman_corrected': (1.6e-13, 1.3e-13),  # 1.5e-14, 1.2e-14
+        'euler': (4.09e-03, 6.41e-03),
+        'symplectic_euler': (3.50e-06, 6.14e-06),
+        'leapfrog': (9.04e-07, 5.77e-15),
+        'rk4': (2.48e-12, 5.46e-14),
+        'yoshida4': (3.17e-12, 4.44e-15),
+        'yoshida6': (9.96e-14, 1.33e-15),
+        'yoshida8': (1.17e-13, 3.12e-14),
+        'gauss_radau': (1.29e-15, 4.44e-16),
+        'wisdom_holman': (1.89e-14, 4.44e-16),
+        'wisdom_holman_corrected': (1.42e-14, 1.34e-14),
     },
     'outer_solar_system': {
-        'euler': (2.4e+01, 8.2e+00),  # 2.3e+00, 8.1e-01
-        'symplectic_euler': (3.9e+00, 4.7e-03),  # 3.8e-01, 4.7e-04
-        'leapfrog': (8.6e-01, 4.5e-04),  # 8.5e-02, 4.5e-05
-        'rk4': (6.0e-03, 5.6e-05),  # 6.0e-04, 5.6e-06
-        'yoshida4': (6.5e-03, 3.9e-06),  # 6.5e-04, 3.9e-07
-        'yoshida6': (1.7e-06, 1.0e-09),  # 1.7e-07, 9.9e-11
-        'yoshida8': (2.3e-08, 1.7e-11),  # 2.3e-09, 1.7e-12
-        'gauss_radau': (3.4e-12, 6.7e-15),  # 3.4e-13, 6.7e-16
-        'wisdom_holman': (9.5e-06, 1.7e-07),  # 9.5e-07, 1.7e-08
-        'wisdom_holman_corrected': (6.4e-08, 3.5e-10),  # 6.4e-09, 3.4e-11
+        'euler': (2.31e+00, 8.10e-01),
+        'symplectic_euler': (3.80e-01, 4.67e-04),
+        'leapfrog': (8.55e-02, 4.48e-05),
+        'rk4': (5.96e-04, 5.59e-06),
+        'yoshida4': (6.48e-04, 3.89e-07),
+        'yoshida6': (1.66e-07, 9.92e-11),
+        'yoshida8': (2.30e-09, 1.70e-12),
+        'gauss_radau': (1.20e-13, 6.66e-16),
+        'wisdom_holman': (9.49e-07, 1.65e-08),
+        'wisdom_holman_corrected': (6.38e-09, 3.44e-11),
     },
     'pythagorean': {
         'euler': DIVERGES,  # energy error 3.7e+01
@@ -97,33 +103,33 @@ EXPECTED = {
         'yoshida4': DIVERGES,  # energy error 3.8e+03
         'yoshida6': DIVERGES,  # energy error 1.9e+03
         'yoshida8': DIVERGES,  # energy error 5.2e+02
-        'gauss_radau': (2.2e-03, 1.1e-10),  # 2.2e-04, 1.1e-11
+        'gauss_radau': (1.25e-03, 1.07e-11),
         'wisdom_holman': DIVERGES,  # energy error 9.3e+02
         'wisdom_holman_corrected': DIVERGES,  # energy error 9.3e+02
     },
     'figure_eight': {
-        'euler': (3.1e+01, 4.9e+00),  # 3.1e+00, 4.8e-01
-        'symplectic_euler': (3.2e-02, 8.3e-05),  # 3.1e-03, 8.2e-06
-        'leapfrog': (2.0e-02, 1.9e-09),  # 1.9e-03, 1.9e-10
-        'rk4': (1.9e-06, 2.7e-08),  # 1.9e-07, 2.7e-09
-        'yoshida4': (3.0e-06, 6.7e-14),  # 2.9e-07, 6.7e-15
-        'yoshida6': (5.1e-11, 6.7e-14),  # 5.0e-12, 6.7e-15
-        'yoshida8': (2.7e-11, 5.2e-13),  # 2.7e-12, 5.2e-14
-        'gauss_radau': (5.8e-13, 5.6e-15),  # 5.7e-14, 5.6e-16
+        'euler': (3.06e+00, 4.80e-01),
+        'symplectic_euler': (3.15e-03, 8.24e-06),
+        'leapfrog': (1.92e-03, 1.88e-10),
+        'rk4': (1.88e-07, 2.66e-09),
+        'yoshida4': (2.93e-07, 6.66e-15),
+        'yoshida6': (5.04e-12, 6.66e-15),
+        'yoshida8': (2.68e-12, 5.20e-14),
+        'gauss_radau': (4.85e-14, 5.55e-16),
         'wisdom_holman': FAILS,
         'wisdom_holman_corrected': FAILS,
     },
     'close_encounter': {
-        'euler': (1.8e+01, 7.4e-01),  # 1.7e+00, 7.3e-02
-        'symplectic_euler': (8.1e-02, 4.0e-04),  # 8.1e-03, 4.0e-05
-        'leapfrog': (7.3e-02, 1.4e-09),  # 7.2e-03, 1.4e-10
-        'rk4': (2.9e-03, 1.3e-04),  # 2.9e-04, 1.2e-05
-        'yoshida4': (2.8e-03, 1.3e-10),  # 2.7e-04, 1.2e-11
-        'yoshida6': (2.7e-05, 7.1e-12),  # 2.7e-06, 7.1e-13
-        'yoshida8': (5.1e-06, 4.5e-11),  # 5.0e-07, 4.4e-12
-        'gauss_radau': (7.3e-13, 2.3e-14),  # 7.3e-14, 2.2e-15
-        'wisdom_holman': (7.3e-02, 1.3e-08),  # 7.3e-03, 1.2e-09
-        'wisdom_holman_corrected': (7.3e-02, 5.2e-09),  # 7.3e-03, 5.2e-10
+        'euler': (1.72e+00, 7.31e-02),
+        'symplectic_euler': (8.09e-03, 4.00e-05),
+        'leapfrog': (7.25e-03, 1.38e-10),
+        'rk4': (2.85e-04, 1.21e-05),
+        'yoshida4': (2.71e-04, 1.20e-11),
+        'yoshida6': (2.70e-06, 7.10e-13),
+        'yoshida8': (5.01e-07, 4.42e-12),
+        'gauss_radau': (7.94e-14, 2.22e-15),
+        'wisdom_holman': (7.25e-03, 1.23e-09),
+        'wisdom_holman_corrected': (7.25e-03, 5.19e-10),
     },
 }
 
@@ -151,9 +157,13 @@ def test_against_rebound_ias15(results, problem, integrator):
     if expected == DIVERGES:
         assert row["energy_error"] > 10, row
         return
-    position_bound, energy_bound = expected
-    assert row["position_error"] <= position_bound, row
-    assert row["energy_error"] <= energy_bound, row
+    for name, measured, floor in zip(("position_error", "energy_error"), expected,
+                                     (1e-14, 5e-15)):
+        value = row[name]
+        if measured >= SATURATED:
+            assert measured / 2 <= value <= 2 * measured, (name, row)
+        else:
+            assert value <= max(10 * measured, floor), (name, row)
 
 
 def test_rebound_reference_is_accurate(results):
