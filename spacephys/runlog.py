@@ -43,7 +43,7 @@ import zlib
 import h5py
 import numpy as np
 
-from . import h5writer, statefile
+from . import checksums, h5writer, statefile
 from .events import EVENT_DTYPE, EVENT_KINDS
 from .journal import encode
 
@@ -222,6 +222,7 @@ class RunLog(_Schedule):
             n = self._counts["inputs"]
             self._text_end = int(self._file["inputs/first"][n - 1] +
                                  self._file["inputs/size"][n - 1]) if n else 0
+            self._resume_checksums()        # before SWMR mode: it cuts /flushes back
             self._start_writing()
             self._commit()                  # the tables cut back to the checkpoint
             return
@@ -229,6 +230,9 @@ class RunLog(_Schedule):
         self._next_time = world.t        # the first frame: now
         self._counts = dict.fromkeys(COUNTS, 0)
         self._image_end = self._text_end = 0       # bytes used in checkpoints/image, inputs/text
+        # the CRC-32s of the rows appended since the last flush row (checksums.py), the
+        # flush rows written and the lengths the last one recorded
+        self._crc, self._flush_rows, self._sealed = {}, 0, None
         # made whole under another name, then renamed: a kill leaves no half-made log
         part = _part(self.path)
         try:
@@ -305,6 +309,7 @@ class RunLog(_Schedule):
         table(checkpoints, "table", (), CHECKPOINT_DTYPE, 64)
         # world files, whose arrays statefile compresses already
         table(checkpoints, "image", (), np.uint8, 1 << 16, compress=False)
+        checksums.create(f)
         f.create_dataset("commit", (), COMMIT_DTYPE, data=np.zeros((), COMMIT_DTYPE))
         f.create_dataset("writer", (2,), np.int64, data=np.array(h5writer.writer_id()))
 
@@ -409,9 +414,10 @@ class RunLog(_Schedule):
         row["extra_frame"], row["first"], row["size"] = extra_frame, self._image_end, image.size
         self._append(f["checkpoints/image"], self._image_end, image)
         self._append(f["checkpoints/table"], c["checkpoints"], row[None])
-        f.flush()
         c["checkpoints"] += 1
         self._image_end += image.size
+        self._seal()
+        f.flush()
         self._commit()
 
     def _maybe_flush(self):
@@ -509,8 +515,42 @@ class RunLog(_Schedule):
             self._text_end += int(size.sum())
             c["inputs"] += len(self._inputs)
             self._inputs = []
+        self._seal()
         f.flush()
         self._commit()
+
+    def _lengths(self):
+        return np.array([self._counts[name] for name in COUNTS] +
+                        [self._text_end, self._image_end], np.int64)
+
+    def _seal(self):
+        """A flush row (checksums.py) for the rows appended since the last one, if any."""
+        lengths = self._lengths()
+        if self._sealed is not None and np.array_equal(lengths, self._sealed):
+            return
+        g, k = self._file["flushes"], self._flush_rows
+        crcs = np.array([self._crc.get(name, 0) for name, _ in checksums.CHECKED], np.int64)
+        for name, row in (("lengths", lengths), ("crc", crcs)):
+            g[name].resize(k + 1, axis=0)
+            g[name][k] = row
+        self._flush_rows, self._crc, self._sealed = k + 1, {}, lengths
+
+    def _resume_checksums(self):
+        """Resumed at a checkpoint: keep the flush rows within its lengths (the others
+        checked rows that are being replaced), and carry the CRC-32s of the rows after the
+        last kept one into the next. A log written before checksums gets them from here."""
+        f = self._file
+        if "flushes" not in f:
+            checksums.create(f)
+        lengths = self._lengths()
+        kept, _ = checksums.valid(f, dict(zip(checksums.LENGTHS, lengths)))
+        for name in ("lengths", "crc"):
+            f["flushes"][name].resize(kept.shape[0], axis=0)
+        start = kept[-1] if kept.shape[0] else np.zeros_like(lengths)
+        self._crc = checksums.carry(f, start, lengths)
+        self._flush_rows = kept.shape[0]
+        self._sealed = start
+        self._seal()                 # every commit has its flush row
 
     def _commit(self, closed=False):
         """The rows written and flushed so far become the log's: one write of /commit, then
@@ -523,11 +563,13 @@ class RunLog(_Schedule):
         self._file["commit"][()] = commit
         self._file.flush()
 
-    @staticmethod
-    def _append(dataset, at, data):
-        """Write rows from `at` on (rows past it, left by a killed writer, are replaced)."""
+    def _append(self, dataset, at, data):
+        """Write rows from `at` on (rows past it, left by a killed writer, are replaced),
+        and carry them into the table's CRC-32 as they will read back."""
         dataset.resize(at + len(data), axis=0)
         dataset[at:] = data
+        name = dataset.name[1:]
+        self._crc[name] = checksums.crc(np.asarray(data, dataset.dtype), self._crc.get(name, 0))
 
     def __enter__(self):
         return self

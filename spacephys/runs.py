@@ -9,6 +9,7 @@ from collections import namedtuple
 import h5py
 import numpy as np
 
+from . import checksums
 from .events import EVENT_KINDS
 from .journal import decode
 from .runlog import (COUNTS, DAMAGE, FORMAT, LAYOUT, RunLog, RunLogError, _Schedule,
@@ -48,7 +49,7 @@ def _reading(method):
     def read(self, *args, **kwargs):
         try:
             return method(self, *args, **kwargs)
-        except (RunLogError, IndexError):
+        except RunLogError:
             raise
         except DAMAGE as e:
             raise RunLogError(f"{self.path!r}: corrupt ({type(e).__name__}: {e})") from None
@@ -118,12 +119,14 @@ class Run:
     def steps(self):
         return self._read("frames/step", "frames")
 
-    @_reading
     def frame(self, index):
         n = len(self)
         if not -n <= index < n:
             raise IndexError(f"frame {index}: the log holds {n} frames")
-        index %= n
+        return self._frame(index % n)
+
+    @_reading
+    def _frame(self, index):
         fr, lay = self._f["frames"], self._f["layouts"]
         first, count = int(fr["first"][index]), int(fr["count"][index])
         k = int(fr["layout"][index])
@@ -132,7 +135,6 @@ class Run:
         return Frame(index, int(fr["step"][index]), float(fr["t"][index]), who[0],
                      fr["pos"][first:first + count], fr["vel"][first:first + count], *who[1:])
 
-    @_reading
     def frame_at(self, t):
         """The last frame taken at or before time t."""
         times = self.times
@@ -217,6 +219,13 @@ class Run:
     def checkpoints(self):
         """(step, t) of each checkpoint."""
         return [(int(row["step"]), float(row["t"])) for row in checkpoint_table(self._f)]
+
+    @_reading
+    def verify(self):
+        """Check every committed row against the CRC-32s written with it (reads the whole
+        log); a mismatch raises RunLogError naming the table and the rows. Returns the
+        number of flushes checked (0 for a log written before spacephys kept them)."""
+        return checksums.verify(self._f, self.path, self._n, RunLogError)
 
     @_reading
     def world(self, checkpoint=-1):
@@ -322,6 +331,7 @@ def replay(path):
     and the final state (the last checkpoint of a closed log) bit for bit. Returns a
     ReplayResult naming the first frame that differs, if one does."""
     with Run(path) as run:
+        run.verify()                     # a damaged log is an error, not a divergence
         world, attrs = _world(run._f, run.path, 0)
         # checkpoint 0 is taken just after frame 0, at the same step
         rep = _Replayer(run, int(attrs["step"]), world.t)

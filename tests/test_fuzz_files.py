@@ -8,10 +8,13 @@ import sys
 import tomllib
 from pathlib import Path
 
+import h5py
+import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import spacephys as sp
+from spacephys import checksums
 from spacephys import scenario as schema
 from spacephys.cli import main
 
@@ -184,6 +187,7 @@ def read(path):
             run.world(k)
         if n and len(frame.ids):
             run.trajectory(int(frame.ids[0]))
+        run.verify()                 # after reading it all: damaged rows must not crash
     sp.World.load(path)
     w = sp.resume(path)              # and write into it
     w.step(3)
@@ -201,22 +205,43 @@ for path in sys.argv[1:]:
 """
 
 
-def _damaged_copies(source, folder, rng, flips, cuts):
-    """Copies of source with one byte or a burst of bytes flipped, or cut short."""
+def _damaged_copies(source, folder, rng, flips, cuts, aim=()):
+    """Copies of source with one byte or a burst of bytes flipped, or cut short; `aim`:
+    (start, end) byte ranges to flip inside (one copy each, in turn), else anywhere.
+    Returns (path, (first, last + 1) byte flipped or None for a cut) pairs."""
     data = source.read_bytes()
     out = []
     for k in range(flips):
         raw = bytearray(data)
-        at = rng.randrange(len(raw))
-        for j in range(at, min(at + rng.choice([1, 1, 1, 4, 16]), len(raw))):
+        lo, hi = aim[k % len(aim)] if aim else (0, len(raw))
+        at = rng.randrange(lo, hi)
+        end = min(at + rng.choice([1, 1, 1, 4, 16]), len(raw))
+        for j in range(at, end):
             raw[j] ^= rng.randrange(1, 256)
-        path = folder / f"flip{k}-{source.name}"
+        path = folder / f"flip{k}{'-aimed' if aim else ''}-{source.name}"
         path.write_bytes(bytes(raw))
-        out.append(path)
+        out.append((path, (at, end)))
     for k in range(cuts):
         path = folder / f"cut{k}-{source.name}"
         path.write_bytes(data[:rng.randrange(len(data))])
-        out.append(path)
+        out.append((path, None))
+    return out
+
+
+def _committed_bytes(path):
+    """(start, end) byte ranges of a run log's committed rows, table by table (its raw
+    chunks hold rows whole, in order)."""
+    out = []
+    with h5py.File(path, "r") as f:
+        lengths = dict(zip(checksums.LENGTHS, f["flushes/lengths"][-1]))
+        for name, count in checksums.CHECKED:
+            d = f[name]
+            row = d.dtype.itemsize * int(np.prod(d.shape[1:], dtype=np.int64))
+            for i in range(d.id.get_num_chunks()):
+                info = d.id.get_chunk_info(i)
+                used = min(d.chunks[0], int(lengths[count]) - info.chunk_offset[0])
+                if used > 0:
+                    out.append((info.byte_offset, info.byte_offset + used * row))
     return out
 
 
@@ -237,9 +262,15 @@ def test_damaged_logs_and_world_files_are_refused_never_crash(tmp_path):
     log.close()
     w.save(tmp_path / "world.h5")
     rng = random.Random(2026)
-    paths = []
+    copies = []
     for source, flips, cuts in ((tmp_path / "log.h5", 140, 30), (tmp_path / "world.h5", 50, 20)):
-        paths += _damaged_copies(source, tmp_path, rng, flips, cuts)
+        copies += _damaged_copies(source, tmp_path, rng, flips, cuts)
+    # and flips aimed at the rows the log holds (raw tables: no HDF5 checksum covers them)
+    data = _committed_bytes(tmp_path / "log.h5")
+    aimed = _damaged_copies(tmp_path / "log.h5", tmp_path, rng, 3 * len(data), 0, data)
+    inside = {p for p, flipped in copies + aimed if flipped and p.name.endswith("log.h5")
+              and any(a < flipped[1] and flipped[0] < b for a, b in data)}
+    paths = [p for p, _ in copies + aimed]
     child = subprocess.run([sys.executable, "-c", READ_EVERYTHING, *map(str, paths)],
                            capture_output=True, text=True, timeout=600)
     lines = child.stdout.splitlines()
@@ -250,8 +281,13 @@ def test_damaged_logs_and_world_files_are_refused_never_crash(tmp_path):
         assert word in ("ok", "refused"), (begin, result)
         if word == "refused":
             assert result == "refused True", (begin, "the error does not name the file")
+        elif Path(begin.split(" ", 1)[1]) in inside:
+            raise AssertionError(f"{begin}: a flipped row read as if whole")
         outcomes[word] = outcomes.get(word, 0) + 1
     assert sum(outcomes.values()) == len(paths)
     # cuts always lose something the reader needs; most flips land in metadata (checksummed)
-    assert outcomes["refused"] >= 60, outcomes
-    print(f"{len(paths)} damaged files: {outcomes}")
+    # or in the rows (CRC-32 per flush); the others in unused bytes
+    assert outcomes["refused"] >= 60 + len(inside) // 2, outcomes
+    assert len(inside) >= 3 * len(data) and len(data) >= 20, (len(inside), len(data))
+    print(f"{len(paths)} damaged files: {outcomes}; {len(inside)} flipped committed rows, "
+          f"every one refused")

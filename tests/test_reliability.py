@@ -81,7 +81,8 @@ def test_a_log_survives_100_kills_at_random_moments(tmp_path):
     """100 SIGKILLs at random moments of a recording (its creation, steps, flushes and
     checkpoints): each file opens with sp.open_run and with h5py (SWMR read at once; a plain
     open after spacephys cleared the dead writer's flags), holds every frame committed before
-    the kill, its frames are right, and sp.resume continues it."""
+    the kill, its committed rows match their CRC-32s, its frames are right, and sp.resume
+    continues it (and its checksums)."""
     server = subprocess.Popen([sys.executable, "-c", KILL_SERVER, str(tmp_path)],
                               stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE, text=True)
@@ -125,6 +126,7 @@ def _check_killed_log(path, committed):
         assert f["frames/pos"].shape[0] >= committed * 4000
     with sp.open_run(path) as run:
         assert not run.meta["closed"]
+        assert run.verify() >= 1          # every committed row checks against its CRC-32
         F = len(run)
         assert F >= committed
         assert run.steps.tolist() == list(range(F))
@@ -141,6 +143,7 @@ def _check_killed_log(path, committed):
     w.recording.close()
     with sp.open_run(path) as run:
         assert run.meta["closed"] and run.steps.tolist() == list(range(saved_step + 3))
+        run.verify()                      # the flush rows cut back and carried on resume
 
 
 FOLLOWED = r"""
@@ -195,6 +198,73 @@ def test_a_reader_follows_a_log_while_it_is_written(tmp_path):
         writer.communicate(timeout=60)
     with h5py.File(path, "r") as f:               # closed by its writer: plain h5py opens it
         assert f["frames/step"].shape == (9,)
+
+
+# ----------------------------------------------------------------------------- checksums
+
+def _recorded(path, steps=30):
+    w = sp.World(2, dt=0.01, gravity="none")
+    w.add_bodies(np.ones(50), np.c_[np.arange(50.0), np.zeros(50)], np.ones((50, 2)))
+    with w.record(path, every=1, flush_seconds=0.0, checkpoint_every=10):
+        for _ in range(3):
+            w.step(steps // 3)
+            w.set_body(w.ids[0], vel=(2.0, 0.0))
+
+
+def test_every_row_is_checked_and_a_flipped_one_is_named(tmp_path):
+    """The CRC-32 per flush: a clean log verifies; one bit flipped in a committed position
+    (a raw table, which HDF5 does not check) still reads, as a wrong number, but verify()
+    and replay name the table and the rows."""
+    path = tmp_path / "log.h5"
+    _recorded(path)
+    with sp.open_run(path) as run:
+        flushes = run.verify()
+        assert flushes >= 6 and sp.replay(path).ok
+        x = run.frame(20).pos[7, 0]
+        row = run._f["frames/first"][20] + 7
+    with h5py.File(path, "r") as f:
+        start = f["frames/pos"].id.get_chunk_info(0).byte_offset
+    raw = bytearray(path.read_bytes())
+    raw[start + 16 * row + 7] ^= 0x01                       # x's last byte: 1 ulp... and more
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(bytes(raw))
+    with sp.open_run(bad) as run:
+        assert run.frame(20).pos[7, 0] != x
+        with pytest.raises(sp.RunLogError, match=r"bad\.h5.*frames/pos rows \d+ to \d+ do not "
+                                                 r"match the CRC-32"):
+            run.verify()
+    with pytest.raises(sp.RunLogError, match="frames/pos"):
+        sp.replay(bad)
+
+
+def test_flush_rows_that_stop_short_of_the_commit_are_damage(tmp_path):
+    """A flipped length in the last flush row takes it out of the checked prefix: the rows
+    it covered would go unchecked, so verify() refuses that too."""
+    path = tmp_path / "log.h5"
+    _recorded(path)
+    with h5py.File(path, "r+") as f:
+        lengths = f["flushes/lengths"]
+        last = lengths[-1]
+        last[0] += 1000                                     # frames: past the commit
+        lengths[-1] = last
+    with sp.open_run(path) as run, pytest.raises(sp.RunLogError, match="flush rows reach"):
+        run.verify()
+
+
+def test_a_log_without_checksums_gets_them_when_resumed(tmp_path):
+    """A format-3 log written before the flush rows existed: verify() checks nothing and
+    says so (0); resumed, the whole log is checked from then on."""
+    path = tmp_path / "log.h5"
+    _recorded(path)
+    with h5py.File(path, "r+") as f:
+        del f["flushes"]
+    with sp.open_run(path) as run:
+        assert run.verify() == 0
+    w = sp.resume(path)
+    w.step(5)
+    w.recording.close()
+    with sp.open_run(path) as run:
+        assert run.verify() >= 2 and sp.replay(path).ok
 
 
 # ----------------------------------------------------------------------------- the superblock
