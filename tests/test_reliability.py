@@ -423,7 +423,7 @@ def test_time_goes_on_when_every_body_is_gone_within_a_call(integrator, tmp_path
     w.add_body(10.0, (0.0, 0.0, 0.0), lifetime=0.06)
     w.add_body(0.001, (1.0, 0.0, 0.0), (0.0, 3.0, 0.0), lifetime=0.06)
     w.integrator = integrator
-    with w.record(tmp_path / "r.h5") as log:
+    with w.record(tmp_path / "r.h5"):
         w.step(5)
     assert w.n == 0 and w.t == pytest.approx(0.25, rel=1e-15)
     assert np.sum(w.events["kind"] == ev.EXPIRY) == 2
