@@ -66,6 +66,15 @@ LIBVER = ("v110", "v110")
 _CHUNK_ROWS = 8192
 
 
+def event_rows(events, step):
+    """(E,) LOG_EVENT_DTYPE: a step's events (EVENT_DTYPE) with the step they happened in."""
+    rows = np.zeros(len(events), LOG_EVENT_DTYPE)
+    for name in EVENT_DTYPE.names:
+        rows[name] = events[name]
+    rows["step"] = step
+    return rows
+
+
 def _next_multiple(t, every_time, dt):
     """The first multiple of every_time after t (a hair of dt of slack for rounding)."""
     return (math.floor((t + 1e-9 * dt) / every_time) + 1) * every_time
@@ -339,11 +348,7 @@ class RunLog(_Schedule):
 
     def record_events(self, events):
         if len(events):
-            rows = np.zeros(len(events), LOG_EVENT_DTYPE)
-            for name in EVENT_DTYPE.names:
-                rows[name] = events[name]
-            rows["step"] = self.steps
-            self._events.append(rows)
+            self._events.append(event_rows(events, self.steps))
 
     # -- frames, checkpoints, flushing
     def frame_buffers(self, F, n):

@@ -12,8 +12,9 @@ import numpy as np
 from . import checksums
 from .events import EVENT_KINDS
 from .journal import decode
-from .runlog import (COUNTS, DAMAGE, FORMAT, LAYOUT, RunLog, RunLogError, _Schedule,
-                     checkpoint_state, checkpoint_table, committed, open_file)
+from .runlog import (COUNTS, DAMAGE, FORMAT, LAYOUT, LOG_EVENT_DTYPE, RunLog, RunLogError,
+                     _Schedule, checkpoint_state, checkpoint_table, committed, event_rows,
+                     open_file)
 from .world import World
 
 Frame = namedtuple("Frame", "index step t ids pos vel mass radius kind")
@@ -23,9 +24,10 @@ Trajectory = namedtuple("Trajectory", "t pos vel alive")
 Trajectory.__doc__ = ("One body through the frames: (F,) times, (F, dim) pos and vel (NaN "
                       "where it was not alive), (F,) alive.")
 ReplayResult = namedtuple("ReplayResult", "ok frames diverged_at max_difference world message")
-ReplayResult.__doc__ = ("ok: every frame and the final state equal, bit for bit; frames: "
-                        "frames compared; diverged_at: the first frame that differs (None); "
-                        "max_difference: its largest |difference|; world: the replayed World.")
+ReplayResult.__doc__ = ("ok: every frame, every event and the final state equal, bit for "
+                        "bit; frames: frames compared; diverged_at: the first frame that "
+                        "differs (None); max_difference: its largest |difference|; world: the "
+                        "replayed World; message: what differs, where.")
 
 
 def _same(a, b):
@@ -292,6 +294,7 @@ class _Replayer(_Schedule):
         self.frame_index = 0
         self.depth = 0
         self.diverged = None            # (frame, max difference)
+        self.events = []                # the replay's own, as the log holds them
 
     def call(self, world, name, method, args, kwargs):
         self.depth += 1
@@ -319,7 +322,8 @@ class _Replayer(_Schedule):
             self.diverged = (k, diff)
 
     def record_events(self, events):
-        pass
+        if len(events):
+            self.events.append(event_rows(events, self.steps))
 
     @staticmethod
     def frame_buffers(F, n):
@@ -327,9 +331,9 @@ class _Replayer(_Schedule):
 
 
 def replay(path):
-    """Re-run a log from its first checkpoint and its recorded calls; compare every frame
-    and the final state (the last checkpoint of a closed log) bit for bit. Returns a
-    ReplayResult naming the first frame that differs, if one does."""
+    """Verify a log's checksums, re-run it from its first checkpoint and its recorded calls,
+    and compare every frame, every event and the whole final state (the last checkpoint of a
+    closed log) bit for bit. Returns a ReplayResult naming the first difference, if any."""
     with Run(path) as run:
         run.verify()                     # a damaged log is an error, not a divergence
         world, attrs = _world(run._f, run.path, 0)
@@ -361,11 +365,52 @@ def replay(path):
         if frames != len(run):
             return ReplayResult(False, frames, None, None, world,
                                 f"the replay made {frames} frames, the log holds {len(run)}")
+        made = np.concatenate(rep.events) if rep.events else np.zeros(0, LOG_EVENT_DTYPE)
+        where = _difference(run.events(), made, "events")
+        if where is not None:
+            return ReplayResult(False, frames, None, None, world,
+                                f"the replay's events differ from the log's: {where}")
         if closed:
-            final = run.world(-1)
-            for name in ("ids", "pos", "vel", "mass", "radius", "kind"):
-                if not _same(getattr(final, name), getattr(world, name)) or final.t != world.t:
-                    return ReplayResult(False, frames, None, None, world,
-                                        f"the final state differs in {name}")
+            where = _difference(run.world(-1).state(), world.state(), "")
+            if where is not None:
+                return ReplayResult(False, frames, None, None, world,
+                                    f"the final state differs in {where}")
         return ReplayResult(True, frames, None, None, world,
-                            f"{frames} frames and the final state equal, bit for bit")
+                            f"{frames} frames, the events and the final state equal, bit "
+                            f"for bit")
+
+
+def _difference(a, b, path):
+    """Where two states (nested dicts of arrays, numbers, text) or tables differ, bit for bit
+    (-0.0 is not 0.0; NaN is NaN): a path like "bodies/vel" or "events[3].t"; None if
+    nowhere."""
+    if isinstance(a, dict) or isinstance(b, dict):
+        if not (isinstance(a, dict) and isinstance(b, dict)) or a.keys() != b.keys():
+            return path or "/"
+        for key in a:
+            where = _difference(a[key], b[key], f"{path}/{key}" if path else key)
+            if where is not None:
+                return where
+        return None
+    a, b = np.asarray(a), np.asarray(b)
+    if a.shape != b.shape:
+        return f"{path} (shape {a.shape} and {b.shape})"
+    if a.dtype.names or b.dtype.names:
+        if a.dtype.names != b.dtype.names:
+            return f"{path} (fields)"
+        for name in a.dtype.names:
+            if _difference(a[name], b[name], "") is not None:
+                row = np.flatnonzero(_unequal(a[name], b[name]))
+                return f"{path}[{row[0] if row.size else '?'}].{name}"
+        return None
+    return f"{path}" if _unequal(a, b).any() else None
+
+
+def _unequal(a, b):
+    """Elementwise: not the same bits (floats), not equal (the rest)."""
+    if a.dtype.kind == "f" and b.dtype.kind == "f":
+        a64, b64 = a.astype(np.float64), b.astype(np.float64)
+        return a64.view(np.uint64) != b64.view(np.uint64)
+    if a.dtype.kind in "biu" and b.dtype.kind in "biu" or a.dtype == b.dtype:
+        return np.asarray(a != b)
+    return np.ones(a.shape, bool)

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 import spacephys as sp
+from spacephys import checksums
 from spacephys import events as ev
 
 ENGINE = dict(dry_mass=1.0, fuel_mass=1.0, max_thrust=2.0, exhaust_speed=3.0)
@@ -451,6 +452,21 @@ def test_replay_with_every_time(tmp_path):
     _assert_same_world(result.world, w)
 
 
+def _reseal(path):
+    """Rewrite a log's per-flush CRC-32s (spacephys/checksums.py) to match its rows."""
+    with h5py.File(path, "r+") as f:
+        lengths, crcs = f["flushes/lengths"][:], f["flushes/crc"]
+        start = np.zeros(lengths.shape[1], np.int64)
+        for k in range(lengths.shape[0]):
+            row = crcs[k]
+            for j, (name, _) in enumerate(checksums.CHECKED):
+                a, b = start[checksums.COLUMN[name]], lengths[k, checksums.COLUMN[name]]
+                if b > a:
+                    row[j] = checksums.crc(f[name][a:b])
+            crcs[k] = row
+            start = lengths[k]
+
+
 @pytest.mark.parametrize("where", ["first", "middle", "last"])
 def test_replay_finds_the_first_frame_that_differs(tmp_path, skirmish_log, where):
     path = tmp_path / "tampered.h5"
@@ -461,6 +477,9 @@ def test_replay_finds_the_first_frame_that_differs(tmp_path, skirmish_log, where
         row = int(f["frames/first"][k]) + int(f["frames/count"][k]) - 1
         assert f["frames/count"][k] > 0
         f["frames/pos"][row, 1] += 1.0
+    with pytest.raises(sp.RunLogError, match="frames/pos rows"):
+        sp.replay(path)                          # the rows' CRC-32 sees it first
+    _reseal(path)                                # a forgery replay's comparison must see
     result = sp.replay(path)
     assert not result.ok
     assert result.diverged_at == k
