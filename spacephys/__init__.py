@@ -12,7 +12,8 @@ from .errors import InstabilityError, PrecisionWarning
 from .events import EVENT_DTYPE, EVENT_KINDS
 from .geometry import polygon_center_of_mass
 from .integrators import INTEGRATORS, Integrator, get_integrator
-from .orbits import elements_to_state, kepler_state, period, solve_kepler
+from .orbits import (Elements, elements_to_state, kepler_state, period, solve_kepler,
+                     state_from_elements, state_to_elements, true_anomaly)
 from .steppers import STEPPERS, Capabilities, capabilities
 from .units import UNITS, UnitSystem, get_units
 from .world import BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, RESPONSES, Body, World
@@ -38,7 +39,8 @@ __all__ = [
     "RunLog", "Run", "RunLogError", "open_run", "replay", "resume",
     "Scenario", "ScenarioError", "load_scenario", "run_scenario", "RunResult",
     "recommend", "Recommendation",
-    "elements_to_state", "kepler_state", "period", "solve_kepler",
+    "Elements", "elements_to_state", "state_from_elements", "state_to_elements",
+    "true_anomaly", "kepler_state", "period", "solve_kepler",
     "set_threads", "get_threads",
     "__version__",
 ]

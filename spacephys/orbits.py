@@ -1,9 +1,17 @@
-"""Orbital elements <-> state vectors for bound (elliptic) two-body orbits, and Kepler's equation.
+"""Orbital elements <-> state vectors for two-body orbits (elliptic, parabolic, hyperbolic),
+and Kepler's equation.
 
-Conventions as in Murray & Dermott, Solar System Dynamics (1999), ch. 2: a semi-major axis,
-e eccentricity, i inclination, Omega longitude of the ascending node, omega argument of
-pericentre, f true anomaly, M mean anomaly; angles in radians; mu = G (m_parent + m).
+Conventions as in Murray & Dermott, Solar System Dynamics (1999), ch. 2: a semi-major axis
+(negative for a hyperbola, inf for a parabola), e eccentricity, i inclination, Omega longitude
+of the ascending node, omega argument of pericentre, f true anomaly, M mean anomaly (elliptic:
+E - e sin E, in (-pi, pi]; hyperbolic: e sinh F - F; parabolic: Barker's D + D^3/3 with D = tan(f/2));
+angles in radians; mu = G (m_parent + m). Where an angle is undefined it is set so that the
+state still round-trips: an equatorial orbit has Omega = 0 (omega then counts from the x axis,
+clockwise seen from +z when i = pi), a circular one omega = 0 (f counts from the node).
 """
+import math
+from dataclasses import dataclass
+
 import numpy as np
 
 from . import _validate as check
@@ -15,15 +23,28 @@ def solve_kepler(M, e):
     Newton's method from the start E = M + 0.85 e sign(sin M) (Danby 1988), which converges for
     every M and e < 1; M is reduced to [-pi, pi] first.
     """
-    M = float(np.remainder(M + np.pi, 2 * np.pi) - np.pi)
+    if not -np.pi <= M <= np.pi:            # (M + pi) - pi would cost a small M its digits
+        M = float(np.remainder(M + np.pi, 2 * np.pi) - np.pi)
     E = M + 0.85 * e * np.sign(np.sin(M))
     for _ in range(50):
-        f = E - e * np.sin(E) - M
+        f = mean_anomaly(E, e) - M
         step = f / (1.0 - e * np.cos(E))
         E -= step
         if abs(step) <= 4e-16 * max(1.0, abs(E)):
             break
     return E
+
+
+def mean_anomaly(E, e):
+    """E - e sin E, as (1 - e) E + e (E - sin E): near e = 1 and E = 0 the plain form loses
+    the digits that (1 - e) E keeps (E - sin E by its series below |E| = 0.5)."""
+    if abs(E) < 0.5:
+        E2, term, rest = E * E, E, 0.0
+        for k in range(3, 26, 2):                # E^3/3! - E^5/5! + ...: 1e-19 at k = 25
+            term *= -E2 / ((k - 1) * k) if k > 3 else E2 / 6.0
+            rest += term
+        return (1.0 - e) * E + e * rest
+    return E - e * math.sin(E)
 
 
 def _rotation(i, Omega, omega):
@@ -34,28 +55,151 @@ def _rotation(i, Omega, omega):
     return P, Q
 
 
-def elements_to_state(mu, a, e, i=0.0, Omega=0.0, omega=0.0, *, f=None, M=None):
-    """Position and velocity (3,) relative to the parent for an elliptic orbit.
+def elements_to_state(mu, a=None, e=0.0, i=0.0, Omega=0.0, omega=0.0, *, f=None, M=None,
+                      q=None):
+    """Position and velocity (3,) relative to the parent, for any conic.
 
-    mu > 0 [length^3 / time^2]; a > 0 [length]; 0 <= e < 1; give exactly one of f or M.
+    mu > 0 [length^3 / time^2]; e >= 0; the size as a [length] (a > 0 for e < 1, a < 0 for
+    e > 1) or as the pericentre distance q > 0 (the only way for e = 1); give exactly one of
+    f (true anomaly) or M (mean anomaly). sp.state_from_elements is the same function.
     """
     mu = check.scalar("mu", mu, positive=True)
-    a = check.scalar("a", a, positive=True)
     e = check.scalar("e", e, minimum=0.0)
-    if e >= 1.0:
-        raise ValueError(f"e = {e}: elements_to_state handles bound orbits, e < 1")
+    if (a is None) == (q is None):
+        raise ValueError("give exactly one of a (semi-major axis) or q (pericentre distance)")
+    if q is not None:
+        q = check.scalar("q", q, positive=True)
+    else:
+        a = check.scalar("a", a)
+        if e == 1.0 or not (a > 0.0 if e < 1.0 else a < 0.0):
+            raise ValueError(f"a = {a} with e = {e}: a > 0 for an ellipse (e < 1), a < 0 for "
+                             f"a hyperbola (e > 1); give q, the pericentre distance, for a "
+                             f"parabola (e = 1)")
+        q = a * (1.0 - e)
     if (f is None) == (M is None):
         raise ValueError("give exactly one of f (true anomaly) or M (mean anomaly)")
     if f is None:
-        E = solve_kepler(check.scalar("M", M), e)
-        f = 2.0 * np.arctan2(np.sqrt(1 + e) * np.sin(E / 2), np.sqrt(1 - e) * np.cos(E / 2))
+        f = true_anomaly(check.scalar("M", M), e)
     f = check.scalar("f", f)
-    p = a * (1.0 - e * e)
+    p = q * (1.0 + e)
+    if e >= 1.0 and 1.0 + e * np.cos(f) <= 0.0:
+        limit = np.arccos(-1.0 / e)
+        raise ValueError(f"f = {f}: an orbit of e = {e} has no point there (|f| < {limit:.6g})")
     r = p / (1.0 + e * np.cos(f))
     P, Q = _rotation(check.scalar("i", i), check.scalar("Omega", Omega), check.scalar("omega", omega))
     pos = r * (np.cos(f) * P + np.sin(f) * Q)
     vel = np.sqrt(mu / p) * (-np.sin(f) * P + (e + np.cos(f)) * Q)
     return pos, vel
+
+
+state_from_elements = elements_to_state
+
+
+def true_anomaly(M, e):
+    """f from the mean anomaly M for any e >= 0 (see the module for M's definitions)."""
+    if e < 1.0:
+        E = solve_kepler(M, e)
+        return 2.0 * math.atan2(math.sqrt(1 + e) * math.sin(E / 2),
+                                math.sqrt(1 - e) * math.cos(E / 2))
+    if e == 1.0:
+        # Barker: D + D^3/3 = M, the real root of the cubic
+        w = math.cbrt(1.5 * M + math.sqrt(2.25 * M * M + 1.0))
+        return 2.0 * math.atan(w - 1.0 / w)
+    # e sinh F - F = M by Newton from asinh(M / e) (monotonic and convex on each side)
+    F = math.asinh(M / e)
+    for _ in range(100):
+        step = (e * math.sinh(F) - F - M) / (e * math.cosh(F) - 1.0)
+        F -= step
+        if abs(step) <= 4e-16 * max(1.0, abs(F)):
+            break
+    return 2.0 * math.atan2(math.sqrt(e + 1) * math.sinh(F / 2),
+                            math.sqrt(e - 1) * math.cosh(F / 2))
+
+
+@dataclass(frozen=True)
+class Elements:
+    """Osculating elements of a two-body orbit (see the module for the conventions; f and
+    M in (-pi, pi]).
+
+    a [length] (< 0 hyperbolic, inf parabolic), e, i, Omega, omega, f, M [rad]; period
+    [time] (inf unless bound); pericentre, apocentre [length] (apocentre inf unless bound);
+    time_to_pericentre [time] (the next passage; for an unbound orbit negative once it is
+    past), time_to_apocentre [time] (inf unless bound); mu [length^3 / time^2]; about: the
+    id of the body the orbit is about (None: a central field or a given mu).
+    """
+    a: float
+    e: float
+    i: float
+    Omega: float
+    omega: float
+    f: float
+    M: float
+    period: float
+    pericentre: float
+    apocentre: float
+    time_to_pericentre: float
+    time_to_apocentre: float
+    mu: float
+    about: object = None
+
+
+def state_to_elements(mu, pos, vel, about=None):
+    """Elements of the orbit of relative position pos and velocity vel ((2,) or (3,)) about a
+    mass with mu = G (m_parent + m) [length^3 / time^2]. Refuses a radial (h = 0) orbit."""
+    mu = check.scalar("mu", mu, positive=True)
+    r = np.zeros(3)
+    v = np.zeros(3)
+    r[:len(pos)], v[:len(vel)] = pos, vel
+    rn = float(np.linalg.norm(r))
+    h = np.cross(r, v)
+    hn = float(np.linalg.norm(h))
+    if not (rn > 0.0 and hn > 0.0 and np.all(np.isfinite(h))):
+        raise ValueError(f"pos = {list(pos)}, vel = {list(vel)}: no orbital plane (the body "
+                         f"sits on the parent or moves straight toward or away from it)")
+    ev = ((v @ v - mu / rn) * r - (r @ v) * v) / mu
+    e = float(np.linalg.norm(ev))
+    p = hn * hn / mu
+    energy = float(0.5 * (v @ v) - mu / rn)
+    hat = h / hn
+    i = math.atan2(math.hypot(h[0], h[1]), h[2])      # not acos(h_z): exact near 0 and pi
+    node = np.array([-h[1], h[0], 0.0])
+    nn = float(np.linalg.norm(node))
+    if nn <= 1e-15 * hn:                       # equatorial: the node is the x axis
+        Omega, node = 0.0, np.array([1.0, 0.0, 0.0])
+    else:
+        Omega = math.atan2(node[1], node[0]) % (2 * math.pi)
+        node /= nn
+    ahead = np.cross(hat, node)                # 90 degrees ahead of the node, in the plane
+    if e <= 1e-15:                             # circular: pericentre at the node
+        omega, e, ev = 0.0, 0.0, node
+    else:
+        omega = math.atan2(ev @ ahead, ev @ node) % (2 * math.pi)
+    ehat = ev / np.linalg.norm(ev)
+    f = math.atan2(r @ np.cross(hat, ehat), r @ ehat)
+    q = p / (1.0 + e)
+    if e < 1.0:
+        a = -mu / (2.0 * energy)
+        E = 2.0 * math.atan2(math.sqrt(1 - e) * math.sin(f / 2), math.sqrt(1 + e) * math.cos(f / 2))
+        M = mean_anomaly(E, e)            # in (-pi, pi]: wrapped to [0, 2 pi) it would
+        n = math.sqrt(mu / a ** 3)        # lose digits just before pericentre
+        period, apocentre = 2 * math.pi / n, a * (1.0 + e)
+        to_peri = (-M if M <= 0.0 else 2 * math.pi - M) / n
+        to_apo = (math.pi - M) / n
+    else:
+        if e == 1.0:
+            a = math.inf
+            D = math.tan(f / 2)
+            M = D + D ** 3 / 3
+            n = math.sqrt(mu / (2.0 * q ** 3))
+        else:
+            a = -mu / (2.0 * energy) if energy > 0.0 else -q / (e - 1.0)
+            F = 2.0 * math.atanh(math.sqrt((e - 1) / (e + 1)) * math.tan(f / 2))
+            M = e * math.sinh(F) - F
+            n = math.sqrt(mu / (-a) ** 3)
+        period = apocentre = to_apo = math.inf
+        to_peri = -M / n
+    return Elements(float(a), e, i, Omega, omega, f, float(M), float(period), float(q),
+                    float(apocentre), float(to_peri), float(to_apo), mu, about)
 
 
 def period(mu, a):
@@ -67,3 +211,57 @@ def kepler_state(mu, a, e, t, *, i=0.0, Omega=0.0, omega=0.0, M0=0.0):
     """Exact two-body position and velocity (3,) at time t for an orbit with mean anomaly M0 at t=0."""
     n = np.sqrt(mu / a ** 3)
     return elements_to_state(mu, a, e, i, Omega, omega, M=M0 + n * t)
+
+
+def _parent(world, body_id, about):
+    """(row of the body, mu, parent position, parent velocity (3,), about id or None)."""
+    i = world.index_of(body_id, "id")
+    G, m = world.G, float(world.mass[i])
+    if about is None and world.gravity == "central":
+        c = np.zeros(3)
+        c[:world.dim] = world.central_pos
+        return i, G * (world.central_mass + m), c, np.zeros(3), None
+    if world.gravity not in ("direct", "central"):
+        raise ValueError(f"no orbit to report with gravity={world.gravity!r}: give gravity "
+                         f"'direct' or 'central'")
+    if about is None:
+        # the body pulling on it hardest (G m_j / d^2)
+        d2 = np.sum((world.pos - world.pos[i]) ** 2, axis=1)
+        pull = np.where(world.pulls, world.mass, 0.0) / np.where(d2 > 0.0, d2, np.inf)
+        pull[i] = 0.0
+        if not np.any(pull > 0.0):
+            raise ValueError(f"id = {body_id}: no body pulls on it, so it has no orbit")
+        j = int(np.argmax(pull))
+    else:
+        j = world.index_of(about, "about")
+        if j == i:
+            raise ValueError(f"about = {about}: a body does not orbit itself")
+    if world.mass[j] <= 0.0:
+        raise ValueError(f"about = {int(world.ids[j])}: a massless body has no orbit about it")
+    parent = np.zeros((2, 3))
+    parent[0, :world.dim], parent[1, :world.dim] = world.pos[j], world.vel[j]
+    return i, G * (float(world.mass[j]) + m), parent[0], parent[1], int(world.ids[j])
+
+
+def orbit_of(world, body_id, about=None):
+    """World.elements: the Elements of a body's orbit about `about` (an id) or the body
+    pulling on it hardest; about the field's centre with gravity="central"."""
+    i, mu, x, v, about = _parent(world, body_id, about)
+    return state_to_elements(mu, world.pos[i] - x[:world.dim], world.vel[i] - v[:world.dim],
+                             about)
+
+
+def put_on_orbit(world, body_id, about, elements):
+    """World.set_orbit: place a body on the orbit the elements (keywords of
+    elements_to_state) describe about `about` (see orbit_of for None)."""
+    unknown = set(elements) - {"a", "e", "i", "Omega", "omega", "f", "M", "q"}
+    if unknown:
+        raise ValueError(f"{sorted(unknown)[0]}: not an orbital element; give a or q, e, i, "
+                         f"Omega, omega, f or M")
+    i, mu, x, v, _ = _parent(world, body_id, about)
+    pos, vel = elements_to_state(mu, **elements)
+    if world.dim == 2 and (abs(pos[2]) > 1e-12 * np.linalg.norm(pos) or
+                           abs(vel[2]) > 1e-12 * np.linalg.norm(vel)):
+        raise ValueError(f"i = {elements.get('i')}: a 2D World's orbits lie in its plane "
+                         f"(i = 0, or pi for clockwise)")
+    world.set_body(int(world.ids[i]), pos=(x + pos)[:world.dim], vel=(v + vel)[:world.dim])

@@ -24,7 +24,7 @@ from .errors import InstabilityError, PrecisionWarning
 from .events import EVENT_DTYPE
 from .forces import HELD, ForceField
 from .integrators import get_integrator
-from . import journal
+from . import journal, orbits
 from .journal import journaled_setter
 from .kernels import diagnostics
 from .kernels import forces as kforces
@@ -1425,6 +1425,19 @@ class World:
         if M <= 0:
             raise ValueError("center_of_mass_velocity: the total mass is 0 (only test particles)")
         return self.momentum() / M
+
+    def elements(self, body_id, about=None):
+        """The osculating orbital elements (sp.Elements: a, e, i, Omega, omega, f, M,
+        period, pericentre, apocentre, the times to them) of a body about the body `about`
+        (an id), by default the one pulling on it hardest, or the field's centre with
+        gravity="central"; mu = G (m_about + m). 2D: i is 0, or pi for a clockwise orbit."""
+        return orbits.orbit_of(self, body_id, about)
+
+    def set_orbit(self, body_id, about=None, **elements):
+        """Put a body on an orbit about `about` (as in elements()): a= (or q=, the
+        pericentre distance), e=, i=, Omega=, omega=, f= or M= (sp.state_from_elements);
+        a set_body of its position and velocity, so recorded and replayed as that."""
+        orbits.put_on_orbit(self, body_id, about, elements)
 
     def move_to_center_of_mass(self):
         """Shift every body so that the centre of mass rests at the origin."""
