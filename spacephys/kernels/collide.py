@@ -319,17 +319,21 @@ def candidate_pairs(A, B, tb, alive, rules, lo, hi):
     _bounds(A, B, tb, radius, alive, lo, hi, rules.giants[:0])
     gridded = rules.gridded
     # A cell too small for the boxes (radii near 0, a long sweep) would make one box cover
-    # millions of cells, or cell indices overflow: at most 1024 cells along the widest box
-    # and 2^40 across the span of all of them, counted from their low corner when the
-    # coordinates are that far from the origin
+    # millions of cells, or cell indices overflow: at most 1024 cells along the widest box,
+    # about 4096 in its whole volume (a diagonal sweep would otherwise fill 1024^3), and 2^40
+    # across the span of all of them, counted from their low corner when the coordinates
+    # are that far from the origin
     size = rules.cell
     low, high = np.full(3, np.inf), np.full(3, -np.inf)
     for i in range(n):
         if alive[i] and gridded[i]:
+            volume = 1.0
             for c in range(rules.dim):
                 low[c] = min(low[c], lo[i, c])
                 high[c] = max(high[c], hi[i, c])
                 size = max(size, (hi[i, c] - lo[i, c]) * (1.0 / 1024.0))
+                volume *= hi[i, c] - lo[i, c]
+            size = max(size, (volume * (1.0 / 4096.0)) ** (1.0 / rules.dim))
     origin = np.zeros(3)
     for c in range(rules.dim):
         if high[c] > low[c]:
