@@ -81,7 +81,8 @@ def elements_to_state(mu, a=None, e=0.0, i=0.0, Omega=0.0, omega=0.0, *, f=None,
     if f is None:
         f = true_anomaly(check.scalar("M", M), e)
     f = check.scalar("f", f)
-    p = q * (1.0 + e)
+    # a (1 - e^2) as before q existed: the scenes built on it keep their bits
+    p = q * (1.0 + e) if a is None else a * (1.0 - e * e)
     if e >= 1.0 and 1.0 + e * np.cos(f) <= 0.0:
         limit = np.arccos(-1.0 / e)
         raise ValueError(f"f = {f}: an orbit of e = {e} has no point there (|f| < {limit:.6g})")
