@@ -312,7 +312,11 @@ class WorldMachine(RuleBasedStateMachine):
                 self._tmp.rmdir()
 
 
-pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")   # numpy's, from legal calls
+# numpy's RuntimeWarnings from legal calls are errors; the World's own warning that Gauss-Radau
+# held substeps at min_step (a scene it cannot resolve, found by the long profile: a body of
+# mass 5e-79 born on a missile) is what the World should say there
+pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning",
+                                        "ignore:.*substeps were held at min_step:RuntimeWarning")
 
 WorldMachine.TestCase.settings = settings(
     deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
