@@ -79,12 +79,20 @@ def verify(f, path, counts, error):
     if not np.array_equal(reach, want):
         raise error(f"{path!r}: corrupt: the flush rows reach {reach.tolist()} rows "
                     f"({', '.join(LENGTHS[:-2])}), the commit counts {want}")
+    for k, j, name, a, b in blocks(lengths):
+        if crc(f[name][a:b]) != crcs[k, j]:
+            raise error(f"{path!r}: corrupt: {name} rows {a} to {b - 1} do not match "
+                        f"the CRC-32 written with them (flush {k})")
+    return lengths.shape[0]
+
+
+def blocks(lengths):
+    """(flush k, table index j in CHECKED, table name, first row, end row) of every
+    non-empty run of rows the flush rows `lengths` (K, 9) cover, in order."""
     start = np.zeros(len(LENGTHS), np.int64)
     for k in range(lengths.shape[0]):
         for j, (name, _) in enumerate(CHECKED):
             a, b = int(start[COLUMN[name]]), int(lengths[k, COLUMN[name]])
-            if b > a and crc(f[name][a:b]) != crcs[k, j]:
-                raise error(f"{path!r}: corrupt: {name} rows {a} to {b - 1} do not match "
-                            f"the CRC-32 written with them (flush {k})")
+            if b > a:
+                yield k, j, name, a, b
         start = lengths[k]
-    return lengths.shape[0]

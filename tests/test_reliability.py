@@ -49,11 +49,12 @@ def recorder(path):
     log._write_buffers = timed(log._write_buffers)
     log._write_checkpoint = timed(log._write_checkpoint)
     start, frames = time.perf_counter(), 1
-    print("f", frames, 0.0, flush=True)
+    # whole lines in one write each (atomic on a pipe): a kill never leaves half of one
+    os.write(1, f"f {frames} 0.0\n".encode())
     while True:
         w.step(1)
         frames += 1
-        print("f", frames, inside[0] / (time.perf_counter() - start), flush=True)
+        os.write(1, f"f {frames} {inside[0] / (time.perf_counter() - start)}\n".encode())
 
 warm = os.path.join(sys.argv[1], "warm.h5")
 w = sp.World(2, dt=0.01, gravity="none")

@@ -455,16 +455,10 @@ def test_replay_with_every_time(tmp_path):
 def _reseal(path):
     """Rewrite a log's per-flush CRC-32s (spacephys/checksums.py) to match its rows."""
     with h5py.File(path, "r+") as f:
-        lengths, crcs = f["flushes/lengths"][:], f["flushes/crc"]
-        start = np.zeros(lengths.shape[1], np.int64)
-        for k in range(lengths.shape[0]):
-            row = crcs[k]
-            for j, (name, _) in enumerate(checksums.CHECKED):
-                a, b = start[checksums.COLUMN[name]], lengths[k, checksums.COLUMN[name]]
-                if b > a:
-                    row[j] = checksums.crc(f[name][a:b])
-            crcs[k] = row
-            start = lengths[k]
+        crcs = f["flushes/crc"][:]
+        for k, j, name, a, b in checksums.blocks(f["flushes/lengths"][:]):
+            crcs[k, j] = checksums.crc(f[name][a:b])
+        f["flushes/crc"][:] = crcs
 
 
 @pytest.mark.parametrize("where", ["first", "middle", "last"])
