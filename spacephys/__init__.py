@@ -14,6 +14,7 @@ from .geometry import polygon_center_of_mass
 from .integrators import INTEGRATORS, Integrator, get_integrator
 from .orbits import (Elements, elements_to_state, kepler_state, period, solve_kepler,
                      state_from_elements, state_to_elements, true_anomaly)
+from .plans import Burn, hohmann
 from .steppers import STEPPERS, Capabilities, capabilities
 from .units import UNITS, UnitSystem, get_units
 from .world import BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, RESPONSES, Body, World
@@ -27,6 +28,7 @@ _LAZY = {
     "RunResult": "runner", "run_scenario": "runner",
     "Scenario": "scenario", "ScenarioError": "scenario", "load_scenario": "scenario",
     "Recommendation": "study.recommend", "recommend": "study.recommend",
+    "lambert": "lambert", "Prediction": "predict",
 }
 
 __all__ = [
@@ -41,6 +43,7 @@ __all__ = [
     "recommend", "Recommendation",
     "Elements", "elements_to_state", "state_from_elements", "state_to_elements",
     "true_anomaly", "kepler_state", "period", "solve_kepler",
+    "Burn", "hohmann", "lambert", "Prediction",
     "set_threads", "get_threads",
     "__version__",
 ]

@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from . import _validate as check
+from . import plans
 from .entities import G0_SI, ExplosionSpec, MissileSpec, ShipSpec
 from .kernels.codes import GUIDANCE
 from .events import EVENT_DTYPE
@@ -103,6 +104,8 @@ class Actors:
         self.specs = []                       # ExplosionSpecs, indexed by the explosion column
         self.curves = np.zeros((0, 2))        # thrust curve rows (speed, factor)
         self.queued = []                      # launch events waiting for the next step
+        self.plans = {}                       # ship id -> plan rows (k, plans.PLAN_WIDTH)
+        self.clock = np.zeros(2)              # [time base, steps]: World sets it per call
 
     @property
     def b(self):
@@ -272,6 +275,41 @@ class Actors:
         i = self._actor_row(body, "body")
         b = self.b
         return float(b.exhaust[i] * math.log1p(b.fuel[i] / b.dry[i]))
+
+    def engine(self, body):
+        """World.engine (the docstring is there)."""
+        i = self._actor_row(body, "body")
+        return float(self.b.thrust[i]), float(self.b.exhaust[i])
+
+    def is_ship(self, body):
+        i = self.w.index_of(body, "id")
+        b = self.b
+        return "actor" in b.columns and bool(b.actor[i]) and b.launcher[i] < 0
+
+    # ------------------------------------------------------------ plans
+    def plan(self, ship, burns):
+        """World.plan (the docstring is there)."""
+        new = plans.rows(self.w, ship, burns)
+        if new.shape[0]:
+            self.plans[int(ship)] = new
+        else:
+            self.plans.pop(int(ship), None)
+        self.w._invalidate()
+
+    def check_step(self, step, field):
+        """Refuse a step longer than the shortest gap between two burns of a plan (a step
+        flies one burn)."""
+        gap, ship = plans.min_gap(self.plans)
+        if step > gap and ship in self.w:
+            raise ValueError(f"{field} = {step}: longer than the {gap:g} between two burns of "
+                             f"ship {ship}'s plan (a step flies one burn)")
+
+    def planned(self, ship):
+        """World.planned (the docstring is there)."""
+        if not self.is_ship(ship):
+            raise ValueError(f"ship = {ship}: not a ship")
+        rows = self.plans.get(int(ship))
+        return [] if rows is None else plans.burns_of(rows, self.w.dim)
 
     # ------------------------------------------------------------ missiles
     def launch(self, parent, spec, target=None, heading=None):
@@ -468,7 +506,9 @@ class Actors:
             target = np.zeros(0, np.int64)             # actors is empty too
             cols = _EMPTY
         expires = b.expires[:n] if has_life else _EMPTY["expires"]
-        return control.make(cols, actors, target, self.curves, expires, self.w.dim)
+        plan, planned = plans.table(self.plans, b.lookup, b.ids[actors].tolist())
+        return control.make(cols, actors, target, self.curves, expires, self.w.dim, plan,
+                            self.clock, planned)
 
     def write_queued(self, events, count):
         """Launches made since the last step open this step's events: written into events
@@ -484,19 +524,27 @@ class Actors:
         return True
 
     def shift(self, delta):
-        """The origin moved by delta (dim,): launches not yet reported move with it."""
+        """The origin moved by delta (dim,): launches not yet reported and the fixed points
+        planned burns are taken about move with it."""
         for ev in self.queued:
             for c, name in enumerate("xyz"[:len(delta)]):
                 ev[name] -= delta[c]
+        for rows in self.plans.values():
+            rows[:, 9:9 + len(delta)] -= delta
 
     # ------------------------------------------------------------ state
     def state(self):
+        live = [rows for ship, rows in sorted(self.plans.items()) if ship in self.w]
         return {"seed": self.seed, "explosions": list(self.specs),
                 "curves": self.curves.copy(),
-                "queued": np.array(self.queued, EVENT_DTYPE).reshape(-1)}
+                "queued": np.array(self.queued, EVENT_DTYPE).reshape(-1),
+                "plans": np.concatenate(live) if live else np.zeros((0, plans.PLAN_WIDTH))}
 
     def load(self, s):
         self.seed = int(s["seed"])
         self.specs = list(s["explosions"])
         self.curves = np.array(s["curves"], np.float64).reshape(-1, 2)
         self.queued = list(np.array(s["queued"], EVENT_DTYPE).reshape(-1))
+        rows = np.array(s.get("plans", np.zeros((0, plans.PLAN_WIDTH))), np.float64)
+        rows = rows.reshape(-1, plans.PLAN_WIDTH)
+        self.plans = {int(ship): rows[rows[:, 0] == ship] for ship in np.unique(rows[:, 0])}

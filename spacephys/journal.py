@@ -9,8 +9,10 @@ import numpy as np
 from numba.core.registry import CPUDispatcher
 
 from .entities import ExplosionSpec, MissileSpec, ShipSpec
+from .plans import Burn
 
-_SPECS = {"ShipSpec": ShipSpec, "MissileSpec": MissileSpec, "ExplosionSpec": ExplosionSpec}
+_SPECS = {"ShipSpec": ShipSpec, "MissileSpec": MissileSpec, "ExplosionSpec": ExplosionSpec,
+          "Burn": Burn}
 
 
 def encode(value):

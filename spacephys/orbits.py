@@ -194,7 +194,9 @@ def state_to_elements(mu, pos, vel, about=None):
             n = math.sqrt(mu / (2.0 * q ** 3))
         else:
             a = -mu / (2.0 * energy) if energy > 0.0 else -q / (e - 1.0)
-            F = 2.0 * math.atanh(math.sqrt((e - 1) / (e + 1)) * math.tan(f / 2))
+            # on a near-radial hyperbola rounding can put f a hair past the asymptote
+            x = math.sqrt((e - 1) / (e + 1)) * math.tan(f / 2)
+            F = 2.0 * math.atanh(math.copysign(min(abs(x), math.nextafter(1.0, 0.0)), x))
             M = e * math.sinh(F) - F
             n = math.sqrt(mu / (-a) ** 3)
         period = apocentre = to_apo = math.inf
@@ -217,7 +219,8 @@ def kepler_state(mu, a, e, t, *, i=0.0, Omega=0.0, omega=0.0, M0=0.0):
 def _parent(world, body_id, about):
     """(row of the body, mu, parent position, parent velocity (3,), about id or None)."""
     i = world.index_of(body_id, "id")
-    G, m = world.G, float(world.mass[i])
+    # a body that does not pull (a passive ship) is pulled without pulling back: mu = G m_parent
+    G, m = world.G, float(world.mass[i]) if world.pulls[i] else 0.0
     if about is None and world.gravity == "central":
         c = np.zeros(3)
         c[:world.dim] = world.central_pos

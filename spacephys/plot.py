@@ -77,10 +77,34 @@ def _title(run, path):
     return text.get("title") or str(path), text.get("description", "")
 
 
+def predicted_paths(run, most_points=2000):
+    """[(ship id, t_planned, positions (P, dim))]: for each plan set in the run (a "plan"
+    input; the run log checkpoints the World as it is set), the ship's path predicted then
+    to the end of the run, made again from that checkpoint."""
+    out = []
+    checkpoints = run.checkpoints
+    end = float(run.times[-1])
+    for entry in run.inputs():
+        if entry["call"] != "plan" or "raised" in entry:
+            continue
+        at = [k for k, (step, _) in enumerate(checkpoints) if step == entry["step"]]
+        ship = int(entry["args"][0] if entry["args"] else entry["kwargs"]["ship"])
+        if not at:
+            continue                  # a log written before plans were checkpointed
+        w = run.world(at[-1])
+        if ship not in w or end <= w.t:
+            continue
+        steps = (end - w.t) / w.dt
+        pred = w.predict(ship, end - w.t, points=int(min(most_points, steps + 1)))
+        out.append((ship, w.t, pred.pos[0]))
+    return out
+
+
 def plot_run(path, out, *, most_frames=1500):
     """Write a PNG: the trajectories (2D; x-y and x-z projections in 3D) of up to 60 of the
-    heaviest bodies, the others' last positions as dots, and the relative energy error of
-    the bodies with mass over time."""
+    heaviest bodies, the others' last positions as dots, a ship's path predicted when its
+    plan was set (dashed) beside the path it flew, and the relative energy error of the
+    bodies with mass over time."""
     plt = _matplotlib()
     with Run(path) as run:
         dim = int(run.meta["dim"])
@@ -89,6 +113,7 @@ def plot_run(path, out, *, most_frames=1500):
         tracks, last = _tracks(data)
         times = run.times[frames]
         energies = np.array([_energy(run, fr) for fr in data])
+        predicted = predicted_paths(run)
         views = [(0, 1)] if dim == 2 else [(0, 1), (0, 2)]
         fig, axes = plt.subplots(1, len(views) + 1, figsize=(6 * (len(views) + 1), 5.5))
         names = "xyz"
@@ -97,6 +122,9 @@ def plot_run(path, out, *, most_frames=1500):
             for i, (t, p) in tracks.items():
                 ax.plot(p[:, a], p[:, b], lw=0.8)
                 ax.plot(p[-1, a], p[-1, b], "o", ms=3, color=ax.lines[-1].get_color())
+            for ship, t_plan, p in predicted:
+                ax.plot(p[:, a], p[:, b], "--", lw=1.2, color="k", alpha=0.6,
+                        label=f"body {ship}: predicted at t = {t_plan:g} (plan)")
             others = ~np.isin(last.ids, list(tracks))
             # the view: the tracked paths and most of the others (a few bodies flung far
             # away would shrink everything else to a dot)
@@ -112,6 +140,7 @@ def plot_run(path, out, *, most_frames=1500):
             if others.any():
                 ax.plot(last.pos[others, a], last.pos[others, b], ".", ms=1.5, color="0.5",
                         label=f"{int(others.sum())} more bodies (last frame)")
+            if others.any() or predicted:
                 ax.legend(loc="upper right", fontsize=8)
             ax.set_xlabel(names[a])
             ax.set_ylabel(names[b])

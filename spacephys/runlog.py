@@ -340,7 +340,9 @@ class RunLog(_Schedule):
             if error:
                 entry["raised"] = error
             self._inputs.append((step, t, json.dumps(entry)))
-            due = self._checkpoint_due or \
+            # a plan is checkpointed as it is set: its prediction can be made again from
+            # there (spacephys plot draws it beside the flown path)
+            due = self._checkpoint_due or name == "plan" or \
                 time.monotonic() - self._last_checkpoint >= self.checkpoint_seconds
             if due and not error:
                 self._checkpoint(world)

@@ -17,6 +17,7 @@ from .entities import ExplosionSpec, MissileSpec, ShipSpec
 from .integrators import INTEGRATORS
 from .steppers import capabilities
 from .orbits import elements_to_state
+from .plans import Burn, hohmann
 from .units import UNITS
 from .world import BOUNDARIES, DEFAULT_KINDS, GRAVITY_MODELS, PASSIVE_KINDS, RESPONSES, World
 
@@ -53,8 +54,14 @@ _CONTROL = {"ship": ("str", REQUIRED), "throttle": ("float", None), "turn": ("an
             "strafe": ("any", None), "heading": ("any", None), "fuel": ("float", None)}
 _LAUNCH = {"from": ("str", REQUIRED), "missile": ("str", REQUIRED), "target": ("str", None),
            "heading": ("any", None), "name": ("str", None)}
+_BURN = {"start": ("float", REQUIRED), "duration": ("float", REQUIRED),
+         "direction": ("any", "prograde"), "frame": ("str", None), "throttle": ("float", 1.0)}
+_PLAN = {"ship": ("str", REQUIRED), "burns": ("tables", REQUIRED)}
+_HOHMANN = {"ship": ("str", REQUIRED), "radius": ("float", REQUIRED), "about": ("str", None)}
+_ACTIONS = ("control", "launch", "spawn", "remove", "explode", "plan", "hohmann")
 _EVENT = {"t": ("float", REQUIRED), "control": ("table", None), "launch": ("table", None),
-          "spawn": ("table", None), "remove": ("str", None), "explode": ("str", None)}
+          "spawn": ("table", None), "remove": ("str", None), "explode": ("str", None),
+          "plan": ("table", None), "hohmann": ("table", None)}
 _LOG = {"path": ("str", REQUIRED), "every": ("int", None), "every_time": ("float", None)}
 _TOP = {"title": ("str", ""), "description": ("str", ""), "world": ("table", REQUIRED),
         "bodies": ("tables", []), "rings": ("tables", []), "ships": ("tables", []), "missiles": ("table", {}),
@@ -359,10 +366,9 @@ def _check_timeline(chk, entries, names, missiles):
         t = chk.table(path, item, _EVENT)
         if t is None:
             continue
-        actions = [a for a in ("control", "launch", "spawn", "remove", "explode")
-                   if t[a] is not None]
+        actions = [a for a in _ACTIONS if t[a] is not None]
         if len(actions) != 1:
-            chk.bad(path, "give exactly one of control, launch, spawn, remove, explode")
+            chk.bad(path, f"give exactly one of {', '.join(_ACTIONS)}")
             continue
         chk.minimum(f"{path}.t", t["t"], 0.0)
         action = actions[0]
@@ -383,6 +389,13 @@ def _check_timeline(chk, entries, names, missiles):
                     chk.bad(f"{path}.launch.target", f"{value['target']!r} names no body")
                 if value["name"] is not None:
                     names[value["name"]] = f"{path}.launch"
+        elif action == "plan":
+            value = _check_plan(chk, f"{path}.plan", value, names)
+        elif action == "hohmann":
+            value = chk.table(f"{path}.hohmann", value, _HOHMANN)
+            if value:
+                _check_names(chk, f"{path}.hohmann", value, ("ship", "about"), names)
+                chk.minimum(f"{path}.hohmann.radius", value["radius"], 0.0, strict=True)
         elif action == "spawn":
             value = chk.table(f"{path}.spawn", value, _BODY)
             if value:
@@ -394,6 +407,34 @@ def _check_timeline(chk, entries, names, missiles):
             out.append((t["t"], action, value, path))
     out.sort(key=lambda e: e[0])          # stable: same-time entries keep their order
     return out
+
+
+def _check_names(chk, path, value, keys, names):
+    for key in keys:
+        if value[key] is not None and value[key] not in names:
+            chk.bad(f"{path}.{key}", f"{value[key]!r} names no body")
+
+
+def _check_plan(chk, path, value, names):
+    """A plan's ship and burns (each as sp.Burn checks it; the World checks the rest when the
+    plan is set: order, start times, a ship)."""
+    value = chk.table(path, value, _PLAN)
+    if not value:
+        return value
+    _check_names(chk, path, value, ("ship",), names)
+    burns = []
+    for j, b in enumerate(value["burns"] or []):
+        b = chk.table(f"{path}.burns[{j}]", b, _BURN)
+        if not b:
+            continue
+        _check_names(chk, f"{path}.burns[{j}]", b, ("frame",), names)
+        try:
+            Burn(b["start"], b["duration"], b["direction"], None, b["throttle"])
+        except ValueError as e:
+            chk.bad(f"{path}.burns[{j}]", str(e))
+        burns.append(b)
+    value["burns"] = burns
+    return value
 
 
 # ----------------------------------------------------------------------------- building
@@ -532,6 +573,15 @@ def _apply(w, ids, missiles, action, value):
                         heading=_heading(value["heading"]))
         if value["name"] is not None:
             ids[value["name"]] = body
+    elif action == "plan":
+        w.plan(ids[value["ship"]], [
+            Burn(b["start"], b["duration"], b["direction"],
+                 None if b["frame"] is None else ids[b["frame"]], b["throttle"])
+            for b in value["burns"]])
+    elif action == "hohmann":
+        ship = ids[value["ship"]]
+        about = None if value["about"] is None else ids[value["about"]]
+        w.plan(ship, hohmann(w, ship, value["radius"], about))
     elif action == "spawn":
         _add_body(w, value, ids)
     elif action == "remove":

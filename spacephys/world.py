@@ -216,6 +216,7 @@ class World:
     @journaled_setter("dt")
     def dt(self, value):
         value = check.scalar("dt", value, positive=True)
+        self._actors.check_step(value, "dt")
         self._t_base, self._steps = self.t, 0
         self._dt = value
 
@@ -689,6 +690,7 @@ class World:
         state["_plan"] = None                          # kernel tables: rebuilt on demand
         state["_scratch"] = None
         state["_log"] = None                           # a copy is not recorded
+        state.pop("_shadows", None)                    # predictions' copies (predict.py)
         for name in JOURNALED:
             state.pop(name, None)
         return state
@@ -974,6 +976,29 @@ class World:
         (Tsiolkovsky) [length/time]."""
         return self._actors.delta_v(body)
 
+    def engine(self, body):
+        """(max_thrust [mass length/time^2], exhaust_speed [length/time]) of a ship's or
+        missile's main engine."""
+        return self._actors.engine(body)
+
+    def is_ship(self, body_id):
+        """True for a ship (add_ship), False for a missile or any other body."""
+        return self._actors.is_ship(body_id)
+
+    def plan(self, ship, burns):
+        """Give a ship a manoeuvre plan: burns, a list of sp.Burn in time order, each starting
+        now or later and at least one step (dt) after the one before stops; [] clears it.
+        While a burn covers a step the autopilot flies the ship: heading held along the
+        burn's direction in its frame (taken at each step's start), the burn's throttle,
+        thrust from its start to its stop to the exact time (fuel and the ship's burn time
+        still limit it: a fuel_empty event says so). Between burns the ship's own controls
+        fly it. Replaces the ship's earlier plan; checked whole before anything changes."""
+        self._actors.plan(ship, burns)
+
+    def planned(self, ship):
+        """The ship's plan: a list of sp.Burn, frames resolved to ids."""
+        return self._actors.planned(ship)
+
     def launch(self, parent, spec, target=None, heading=None):
         """Launch a missile from any live body; returns its id.
 
@@ -1141,7 +1166,7 @@ class World:
                 room = self._frame_room()
                 at = log.frame_offsets(self, n, room)
                 k = int(at[-1]) if at.size == room else n
-                status = self._run(k, at)
+                status = self._run(k, at, log)
             else:
                 k = n if log is None else min(n, log.until_frame(self))
                 if self._b.n:
@@ -1153,18 +1178,20 @@ class World:
             n -= k
         return status
 
-    def _run(self, nsteps, frame_at=None):
+    def _run(self, nsteps, frame_at=None, sink=None):
         """Take nsteps steps; a kernel call ends early after a collision removed or merged
         bodies (or a detonation, an expiry), and is resumed once World has caught up.
-        frame_at : sorted step counts (from now) after which the recording takes a frame.
-        Returns the last call's status."""
+        frame_at : sorted step counts (from now) after which `sink` (the recording, or a
+        prediction) takes a frame: it gives the buffers (frame_buffers) and takes what the
+        kernel captured (captured, captured_last). Returns the last call's status."""
         consumed = 0
         status = 0
         while nsteps:
             plan = self._plan or self.tables()
             first = self._event_count[0]
-            frames = None if frame_at is None else self._frame_buffers(frame_at, consumed)
+            frames = None if frame_at is None else self._frame_buffers(frame_at, consumed, sink)
             timing = self._threads.begin(plan.work, nsteps)
+            self._actors.clock[:] = self._t_base, self._steps      # a plan's clock
             done, status = self._stepper.run(plan, frames, self._dt, nsteps,
                                              self._t_base + self._steps * self._dt)
             if timing is not None:
@@ -1173,7 +1200,7 @@ class World:
                 self._events = kstate.events_of(plan.state)        # the kernel grew it
                 self._plan = None
             if frames is not None:
-                self._log.captured(self, *frames, done)
+                sink.captured(self, *frames, done)
             self._steps += done
             if status & REMOVED:
                 # bodies destroyed or merged away leave, at the end of the step they died in;
@@ -1186,7 +1213,7 @@ class World:
                 self._invalidate()
                 self._actors.spawn_debris(blasts)
             if frames is not None:
-                self._log.captured_last(self, frames[0], done)
+                sink.captured_last(self, frames[0], done)
             if status & FAILED:
                 self._b.prev[:self._b.n] = self._b.pos[:self._b.n]   # nothing to interpolate
                 self._stepper.failed(self, done)
@@ -1206,11 +1233,11 @@ class World:
         """Frames one kernel call may capture: buffers of at most 8 MB."""
         return max(1, min(256, (8 << 20) // (56 * self._b.capacity)))
 
-    def _frame_buffers(self, frame_at, consumed):
+    def _frame_buffers(self, frame_at, consumed, sink):
         """(at, fpos, fvel, fmass) for a kernel call starting `consumed` steps into the run:
-        the frame step counts relative to it, and the recording's buffers to capture into."""
+        the frame step counts relative to it, and the sink's buffers to capture into."""
         at = frame_at[frame_at > consumed] - consumed
-        return (at,) + self._log.frame_buffers(at.size, self._b.n)
+        return (at,) + sink.frame_buffers(at.size, self._b.n)
 
     def advance(self, frame_time):
         """Fixed-step accumulator for variable frame time; returns alpha in [0, 1).
@@ -1430,7 +1457,8 @@ class World:
         """The osculating orbital elements (sp.Elements: a, e, i, Omega, omega, f, M,
         period, pericentre, apocentre, the times to them) of a body about the body `about`
         (an id), by default the one pulling on it hardest, or the field's centre with
-        gravity="central"; mu = G (m_about + m). 2D: i is 0, or pi for a clockwise orbit."""
+        gravity="central"; mu = G (m_about + m), m = 0 for a passive body (it does not pull
+        back). 2D: i is 0, or pi for a clockwise orbit."""
         return orbits.orbit_of(self, body_id, about)
 
     def set_orbit(self, body_id, about=None, **elements):
@@ -1438,6 +1466,29 @@ class World:
         pericentre distance), e=, i=, Omega=, omega=, f= or M= (sp.state_from_elements);
         a set_body of its position and velocity, so recorded and replayed as that."""
         orbits.put_on_orbit(self, body_id, about, elements)
+
+    def predict(self, ids, duration, *, points=256, integrator=None, dt=None, tolerance=None,
+                target=None, about=None):
+        """The predicted paths of the bodies `ids` (an id or a list) over `duration` [time]:
+        a copy of this World is stepped (this one is unchanged), every body pulling, held
+        controls, plans and collisions as here, with `integrator` (default this World's) and
+        dt (default this World's; fixed-step) or tolerance (gauss_radau, points evenly
+        spaced). With this World's integrator and dt the path is the one it will fly, bit
+        for bit, when nothing else acts. Returns an sp.Prediction: t (P,), pos and vel (k, P,
+        dim), sampled at `points` times from now (at whole steps), and the markers: apsides
+        about the dominant body (or `about`), the closest approach to `target`, changes of
+        the dominant body (the one pulling hardest), impacts (a path ends at its first
+        contact, or when its body is destroyed, merged away or expires)."""
+        from .predict import predict
+        return predict(self, ids, duration, points, integrator, dt, tolerance, target, about)
+
+    def predict_async(self, ids, duration, **options):
+        """predict() on a worker thread: the World is copied now (its state now is what is
+        predicted), checked now, and stepped beside the caller's own steps (the kernels
+        release the GIL, and the copy's force loops stay on one thread). Returns a handle:
+        done(), result(timeout=None) -> sp.Prediction, cancel()."""
+        from .predict import predict
+        return predict(self, ids, duration, background=True, **options)
 
     def move_to_center_of_mass(self):
         """Shift every body so that the centre of mass rests at the origin."""
@@ -1467,5 +1518,5 @@ _PACKAGE = os.path.dirname(os.path.abspath(__file__))
 JOURNALED = ("step", "advance", "watch_energy", "shift_origin", "move_to_center_of_mass",
              "add_kind", "add_body", "add_bodies", "set_body", "remove", "set_collision",
              "add_plane", "add_segment", "clear_walls", "set_boundary", "add_ship", "control",
-             "set_heading", "set_fuel", "launch", "explode", "apply_force",
+             "set_heading", "set_fuel", "plan", "launch", "explode", "apply_force",
              "apply_acceleration", "add_force", "set_force_params", "remove_force")

@@ -40,6 +40,15 @@ EVENT_KINDS = {EV_BOUNCE: "bounce", EV_MERGE: "merge", EV_DESTROY: "destroy",
 NO_GUIDANCE, PURSUIT, PROPORTIONAL = 0, 1, 2
 GUIDANCE = {"none": NO_GUIDANCE, "pursuit": PURSUIT, "pn": PROPORTIONAL}
 
+# planned burns' directions (kernels/control.py): along a fixed vector, or relative to the
+# burn's frame body: its velocity, the orbit's normal r x v, r's part normal to v
+BURN_VECTOR, BURN_PROGRADE, BURN_RETROGRADE, BURN_NORMAL, BURN_ANTINORMAL = 0, 1, 2, 3, 4
+BURN_RADIAL_IN, BURN_RADIAL_OUT = 5, 6
+BURN_DIRECTIONS = {"vector": BURN_VECTOR, "prograde": BURN_PROGRADE,
+                   "retrograde": BURN_RETROGRADE, "normal": BURN_NORMAL,
+                   "antinormal": BURN_ANTINORMAL, "radial_in": BURN_RADIAL_IN,
+                   "radial_out": BURN_RADIAL_OUT}
+
 # what a step kernel's call reports, as bits of its status
 REMOVED = 1        # bodies were destroyed or merged: the call stopped so World can catch up
 NONFINITE = 2      # a position or velocity is NaN or infinite after the call

@@ -71,6 +71,12 @@ structref.define_proxy(Rules, RulesType, list(FIELDS))
 
 
 @kernel
+def owners_of(rules):
+    """The table's owner array (shared): a prediction's copy takes the World's."""
+    return rules.owner
+
+
+@kernel
 def _make(kind, radius, category, mask, fixed, response, restitution, walls, boundary, box,
           box_restitution, cell, dim, owner, giants, gridded, A, B, D, lo, hi, tb, ever,
           touched, in_focus, is_giant, merged, partners):

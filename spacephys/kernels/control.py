@@ -3,15 +3,21 @@
 Per step (per output interval for Gauss-Radau) the controls are held: begin_step turns every
 actor (ship or missile) for the whole step, takes its thrust direction at mid-step, and fills
 one row of `burn` per actor:
-    burn[q] = [dx, dy, dz, F, mdot, m0, t_stop, ve]
+    burn[q] = [dx, dy, dz, F, mdot, m0, t_stop, ve, t_start, limit]
 a thrust of magnitude F [mass length/time^2] along the unit vector d, burning mdot
-[mass/time] from the mass m0 at the step's start, until t_stop [time after the step's start]
-when the fuel or the burn time runs out (inf if not within reach); ve = F / mdot.
-Within the step the thrust acceleration is exact for that burn: a(tau) = d F / (m0 - mdot tau),
-whose integrals are
-    dv(tau) = -ve log(1 - mdot tau / m0)                (Tsiolkovsky)
-    p(tau)  = ve m0 / mdot g(mdot tau / m0),  g(x) = x + (1 - x) log(1 - x)
-(the velocity and the displacement the thrust adds by tau; constant / linear after t_stop).
+[mass/time] from the mass m0, from t_start (0 but for a planned burn starting within the step)
+until t_stop [times after the step's start] when the fuel, the burn time or the planned burn
+runs out (inf if not within reach); ve = F / mdot; limit is t_stop but for the fuel.
+Within the step the thrust acceleration is exact for that burn: with s = tau - t_start,
+a(tau) = d F / (m0 - mdot s), whose integrals are
+    dv(tau) = -ve log(1 - mdot s / m0)                (Tsiolkovsky)
+    p(tau)  = ve m0 / mdot g(mdot s / m0),  g(x) = x + (1 - x) log(1 - x)
+(the velocity and the displacement the thrust adds by tau; zero before t_start, constant /
+linear after t_stop).
+
+A ship with a plan (rows of `plan`, see FIELDS) is flown by the autopilot while a planned burn
+covers the step: heading held along the burn's direction in its frame (taken at the step's
+start), the planned throttle, thrust from the burn's start to its stop to the exact time.
 Splitting methods drift with these exactly, Runge-Kutta and Gauss-Radau sample a(tau) at their
 stages, Wisdom-Holman kicks with dv(dt) / dt. After the integration end_burn books the fuel,
 after the collisions after_step fires proximity fuses and ends lifetimes.
@@ -23,15 +29,18 @@ import numpy as np
 from numba.experimental import structref
 
 from .._jit import TableType, kernel
-from .codes import (EV_BURNOUT, EV_DETONATION, EV_EXPIRY, EV_FUEL_EMPTY, NO_GUIDANCE,
-                    PURSUIT)
+from .codes import (BURN_ANTINORMAL, BURN_NORMAL, BURN_PROGRADE, BURN_RADIAL_IN,
+                    BURN_RETROGRADE, BURN_VECTOR, EV_BURNOUT, EV_DETONATION, EV_EXPIRY,
+                    EV_FUEL_EMPTY, NO_GUIDANCE, PURSUIT)
 from .collide import _wrap
 from .state import record
 
 # flags: what has been reported once
 _FLAG_EMPTY, _FLAG_BURNOUT = 1, 2
 # burn columns
-DX, DY, DZ, F, MDOT, M0, T_STOP, VE = range(8)
+DX, DY, DZ, F, MDOT, M0, T_STOP, VE, T_START, LIMIT = range(10)
+# plan columns (a row per planned burn; a ship's rows sorted by start, not overlapping)
+P_START, P_STOP, P_DIRECTION, P_FRAME, P_THROTTLE = range(5)   # then 5-7: vector, 8-10: point
 
 
 @structref.register
@@ -70,7 +79,12 @@ FIELDS = (
     "flags",       # (n,) int64: _FLAG_* already reported
     "expires",     # (n,) time of expiry (inf: never), or (0,) when no body has a lifetime
     "dim",         # 2 or 3
-    "burn",        # (A, 8) this step's burn per actor (see the module)
+    "plan",        # (P, 11) planned burns: start, stop [time], direction code (codes.py),
+                   # frame row (-1: the fixed point), throttle, vector (3,), fixed point (3,)
+    "clock",       # (2,) the World's time base and step count at this step's start (World
+                   # sets it before a call, end_burn counts): a plan is timed as World.t is
+    "planned",     # (A, 2) int64: first row and row count of each actor's burns in plan
+    "burn",        # (A, 10) this step's burn per actor (see the module)
     "saved",       # (A, 7) orientations and rates at the step's start, to undo a failed step
 )
 structref.define_proxy(Actors, ActorsType, list(FIELDS))
@@ -79,21 +93,24 @@ structref.define_proxy(Actors, ActorsType, list(FIELDS))
 @kernel
 def _make(actors, quat, omega, throttle, turn, strafe, dry, fuel, thrust, side, exhaust,
           turn_rate, inertia, torque, curve, curve_table, guidance, nav, target, burn_end,
-          armed_at, fuse, kill, flags, expires, dim, burn, saved):
+          armed_at, fuse, kill, flags, expires, dim, plan, clock, planned, burn, saved):
     return Actors(actors, quat, omega, throttle, turn, strafe, dry, fuel, thrust, side,
                   exhaust, turn_rate, inertia, torque, curve, curve_table, guidance, nav,
-                  target, burn_end, armed_at, fuse, kill, flags, expires, dim, burn, saved)
+                  target, burn_end, armed_at, fuse, kill, flags, expires, dim, plan, clock,
+                  planned, burn, saved)
 
 
-def make(columns, actors, target, curve_table, expires, dim):
+def make(columns, actors, target, curve_table, expires, dim, plan, clock, planned):
     """An Actors table: columns maps the per-body FIELDS (quat ... flags but target) to (n, ...)
-    arrays, shared, not copied; actors (A,) rows, target (n,) rows, expires (n,) or (0,)."""
+    arrays, shared, not copied; actors (A,) rows, target (n,) rows, expires (n,) or (0,);
+    plan (P, 11), the clock (2,) (shared) and planned (A, 2): the planned burns."""
     c = columns
     return _make(actors, c["quat"], c["omega"], c["throttle"], c["turn"], c["strafe"],
                  c["dry"], c["fuel"], c["thrust"], c["side"], c["exhaust"], c["turn_rate"],
                  c["inertia"], c["torque"], c["curve"], curve_table, c["guidance"], c["nav"],
                  target, c["burn_end"], c["armed_at"], c["fuse"], c["kill"], c["flags"],
-                 expires, int(dim), np.zeros((actors.size, 8)), np.zeros((actors.size, 7)))
+                 expires, int(dim), plan, clock, planned, np.zeros((actors.size, 10)),
+                 np.zeros((actors.size, 7)))
 
 
 # ---------------------------------------------------------------- rotations
@@ -226,16 +243,21 @@ def _g(x):
 @kernel
 def thrust_dv(burn, q, tau):
     """Speed the thrust has added along d by tau [time after the step's start]."""
-    tau = min(tau, burn[q, T_STOP])
-    return -burn[q, VE] * math.log1p(-burn[q, MDOT] * tau / burn[q, M0])
+    s = min(tau, burn[q, T_STOP]) - burn[q, T_START]
+    if s < 0.0 and burn[q, T_START] > 0.0:
+        return 0.0                       # not started (a burn on from the step's start is
+                                         # continued to the negative times of Yoshida's drifts)
+    return -burn[q, VE] * math.log1p(-burn[q, MDOT] * s / burn[q, M0])
 
 
 @kernel
 def thrust_p(burn, q, tau):
     """Displacement along d the thrust has added by tau (the integral of thrust_dv)."""
     t_stop = burn[q, T_STOP]
-    t = min(tau, t_stop)
-    x = burn[q, MDOT] * t / burn[q, M0]
+    s = min(tau, t_stop) - burn[q, T_START]
+    if s < 0.0 and burn[q, T_START] > 0.0:
+        return 0.0
+    x = burn[q, MDOT] * s / burn[q, M0]
     p = burn[q, VE] * burn[q, M0] / burn[q, MDOT] * _g(x)
     if tau > t_stop:
         p += thrust_dv(burn, q, t_stop) * (tau - t_stop)
@@ -263,12 +285,13 @@ def add_thrust(actors, burn, acc, tau, mask, want):
     """acc += the thrust acceleration at tau [time after the step's start], for every actor
     (want = -1) or for those whose row has mask[i] == want (0 or 1)."""
     for q in range(actors.size):
-        if burn[q, F] == 0.0 or not tau < burn[q, T_STOP]:
+        if burn[q, F] == 0.0 or not tau < burn[q, T_STOP] or \
+                (tau < burn[q, T_START] and burn[q, T_START] > 0.0):
             continue
         i = actors[q]
         if want >= 0 and mask[i] != (want == 1):
             continue
-        a = burn[q, F] / (burn[q, M0] - burn[q, MDOT] * tau)
+        a = burn[q, F] / (burn[q, M0] - burn[q, MDOT] * (tau - burn[q, T_START]))
         for c in range(3):
             acc[i, c] += a * burn[q, c]
 
@@ -286,8 +309,9 @@ def rk_thrust_fix(actors, burn, vel, a, b, dt):
             for j in range(s):
                 tau += a[s, j]
             tau *= dt
-            if tau < burn[q, T_STOP]:
-                quad += b[s] * burn[q, F] / (burn[q, M0] - burn[q, MDOT] * tau)
+            if tau < burn[q, T_STOP] and (tau >= burn[q, T_START] or burn[q, T_START] == 0.0):
+                quad += b[s] * burn[q, F] / (burn[q, M0]
+                                             - burn[q, MDOT] * (tau - burn[q, T_START]))
         dv = thrust_dv(burn, q, dt) - dt * quad
         i = actors[q]
         for c in range(3):
@@ -296,20 +320,26 @@ def rk_thrust_fix(actors, burn, vel, a, b, dt):
 
 @kernel
 def snap_stops(actors, burn, now, eps):
-    """Burns stopping within eps of now stop now (exactly: a step starting there sees them
-    off, instead of on at its first node and off at the next)."""
+    """Burns starting or stopping within eps of now do so now (exactly: a step starting there
+    sees them on (off), instead of off (on) at its first node and on (off) at the next)."""
     for q in range(actors.size):
-        if burn[q, F] != 0.0 and abs(burn[q, T_STOP] - now) <= eps:
-            burn[q, T_STOP] = now
+        if burn[q, F] != 0.0:
+            if burn[q, T_START] > 0.0 and abs(burn[q, T_START] - now) <= eps:
+                burn[q, T_START] = now
+            if abs(burn[q, T_STOP] - now) <= eps:
+                burn[q, T_STOP] = now
 
 
 @kernel
 def next_stop(actors, burn, after):
-    """The earliest t_stop later than `after` (inf if none): where thrust switches off."""
+    """The earliest t_start or t_stop later than `after` (inf if none): where thrust jumps."""
     best = np.inf
     for q in range(actors.size):
-        if burn[q, F] != 0.0 and burn[q, T_STOP] > after:
-            best = min(best, burn[q, T_STOP])
+        if burn[q, F] != 0.0:
+            if burn[q, T_START] > after:
+                best = min(best, burn[q, T_START])
+            if burn[q, T_STOP] > after:
+                best = min(best, burn[q, T_STOP])
     return best
 
 
@@ -329,14 +359,17 @@ def begin_step(act, rules, state, t0, dt, L):
             act.saved[q, 4 + k] = act.omega[i, k]
     for q in range(actors.size):
         i = actors[q]
-        for k in range(8):
+        for k in range(10):
             burn[q, k] = 0.0
         burn[q, T_STOP] = np.inf
+        burn[q, LIMIT] = np.inf
         burn[q, M0] = 1.0
         if not alive[i]:
             continue
         if rules is not None and rules.owner[i] >= 0 and t0 >= act.armed_at[i]:
             rules.owner[i] = -1                      # armed: its launcher can be hit now
+        if act.planned[q, 1] and _fly_plan(act, q, i, state, t0, dt):
+            continue
         q0, q1, q2, q3 = act.quat[i, 0], act.quat[i, 1], act.quat[i, 2], act.quat[i, 3]
         hx, hy, hz = _rotate(q0, q1, q2, q3, 1.0, 0.0, 0.0)
         speed = math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2 + vel[i, 2] ** 2)
@@ -400,13 +433,105 @@ def begin_step(act, rules, state, t0, dt, L):
         burn[q, F] = force
         burn[q, MDOT] = mdot
         burn[q, M0] = mass[i]
-        burn[q, T_STOP] = min(act.fuel[i] / mdot, act.burn_end[i] - t0)
+        burn[q, LIMIT] = act.burn_end[i] - t0
+        burn[q, T_STOP] = min(act.fuel[i] / mdot, burn[q, LIMIT])
         burn[q, VE] = force / mdot
 
 
 @kernel
+def _plan_direction(act, k, i, pos, vel):
+    """The unit direction of planned burn k for the body in row i, from its state relative to
+    the burn's frame now; (0, 0, 0) when the direction is undefined (no motion relative to
+    the frame)."""
+    plan = act.plan
+    code = int(plan[k, P_DIRECTION])
+    if code == BURN_VECTOR:
+        return plan[k, 5], plan[k, 6], plan[k, 7]
+    j = int(plan[k, P_FRAME])
+    rx, ry, rz = pos[i, 0] - plan[k, 8], pos[i, 1] - plan[k, 9], pos[i, 2] - plan[k, 10]
+    vx, vy, vz = vel[i, 0], vel[i, 1], vel[i, 2]
+    if j >= 0:
+        rx, ry, rz = pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1], pos[i, 2] - pos[j, 2]
+        vx, vy, vz = vx - vel[j, 0], vy - vel[j, 1], vz - vel[j, 2]
+    hx, hy, hz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
+    if code == BURN_PROGRADE or code == BURN_RETROGRADE:
+        dx, dy, dz = vx, vy, vz
+    elif code == BURN_NORMAL or code == BURN_ANTINORMAL:
+        dx, dy, dz = hx, hy, hz
+    else:                        # radial out: r's part normal to v, in the orbit's plane
+        dx, dy, dz = vy * hz - vz * hy, vz * hx - vx * hz, vx * hy - vy * hx
+    norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if norm == 0.0:
+        return 0.0, 0.0, 0.0
+    if code == BURN_RETROGRADE or code == BURN_ANTINORMAL or code == BURN_RADIAL_IN:
+        norm = -norm
+    return dx / norm, dy / norm, dz / norm
+
+
+@kernel
+def _fly_plan(act, q, i, state, t0, dt):
+    """The autopilot: when one of actor q's planned burns covers part of the step from t0,
+    hold the heading along its direction (rates zeroed), set the burn from its start to its
+    stop and return True; False when none does (the ship's own controls fly the step)."""
+    plan = act.plan
+    first, count = act.planned[q, 0], act.planned[q, 1]
+    # the step's start as World.t computes it, whatever the steps' grouping into calls: a
+    # prediction in one call and the game's step(1) calls then time a burn to the same bit
+    t0 = act.clock[0] + act.clock[1] * dt
+    t1 = t0 + dt
+    k = -1
+    for r in range(first, first + count):
+        if plan[r, P_START] < t1 and plan[r, P_STOP] > t0:
+            k = r
+            break
+    if k < 0:
+        return False
+    dx, dy, dz = _plan_direction(act, k, i, state.pos, state.vel)
+    if dx == 0.0 and dy == 0.0 and dz == 0.0:
+        return False
+    # the heading's quaternion: the shortest rotation taking body x to d (2D: about z)
+    c = dx
+    if c < -1.0 + 1e-15:
+        q0, q1, q2, q3 = 0.0, 0.0, 0.0, 1.0
+    else:
+        q0, q1, q2, q3 = _normalised(1.0 + c, 0.0, -dz, dy)
+    act.quat[i, 0] = q0
+    act.quat[i, 1] = q1
+    act.quat[i, 2] = q2
+    act.quat[i, 3] = q3
+    for c3 in range(3):
+        act.omega[i, c3] = 0.0
+    if not (act.fuel[i] > 0.0 and t0 < act.burn_end[i]):
+        return True
+    speed = math.sqrt(state.vel[i, 0] ** 2 + state.vel[i, 1] ** 2 + state.vel[i, 2] ** 2)
+    force = plan[k, P_THROTTLE] * act.thrust[i] * _curve_factor(act, i, speed)
+    mass = state.mass[i]
+    if force == 0.0 or mass <= 0.0:
+        return True
+    burn = act.burn
+    mdot = force / act.exhaust[i]
+    start = max(plan[k, P_START] - t0, 0.0)
+    limit = min(plan[k, P_STOP] - t0, act.burn_end[i] - t0)
+    if not limit > start:
+        return True                      # the ship's burn time ends first
+    burn[q, DX] = dx
+    burn[q, DY] = dy
+    burn[q, DZ] = dz
+    burn[q, F] = force
+    burn[q, MDOT] = mdot
+    burn[q, M0] = mass
+    burn[q, T_START] = start
+    burn[q, LIMIT] = limit
+    burn[q, T_STOP] = min(start + act.fuel[i] / mdot, burn[q, LIMIT])
+    burn[q, VE] = act.exhaust[i]
+    return True
+
+
+@kernel
 def end_burn(act, state, t0, dt):
-    """Book the fuel the step burned; report fuel running out and burn times ending."""
+    """Book the fuel the step burned; report fuel running out and burn times ending; count
+    the step on the clock."""
+    act.clock[1] += 1.0
     actors = act.actors
     pos, mass, burn = state.pos, state.mass, act.burn
     for q in range(actors.size):
@@ -415,11 +540,11 @@ def end_burn(act, state, t0, dt):
             continue
         if burn[q, F] != 0.0:
             t_burn = min(dt, burn[q, T_STOP])
-            fuel = act.fuel[i] - burn[q, MDOT] * t_burn
+            fuel = act.fuel[i] - burn[q, MDOT] * (t_burn - burn[q, T_START])
             # empty within the step, or left with the rounding of the subtractions (which
             # would burn for a sliver of the next step)
-            empty = act.fuel[i] / burn[q, MDOT] <= min(dt, act.burn_end[i] - t0) or \
-                fuel <= 1e-9 * burn[q, MDOT] * dt
+            empty = burn[q, T_START] + act.fuel[i] / burn[q, MDOT] <= min(dt, burn[q, LIMIT]) \
+                or fuel <= 1e-9 * burn[q, MDOT] * dt
             if empty:
                 fuel = 0.0
                 if act.flags[i] & _FLAG_EMPTY == 0:

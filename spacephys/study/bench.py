@@ -584,6 +584,9 @@ def format_table(results):
     if results["benchmark"] == "overhead":
         from .overhead import format_overhead
         return format_overhead(results)
+    if results["benchmark"] == "predict":
+        from .prediction import format_predict
+        return format_predict(results)
     lines = [f"{results['benchmark']} benchmark on {results['machine']} "
              f"({results['numba_threads']} numba threads; {results['versions']})",
              f"{'case':40s} {'spacephys':>14s} {'REBOUND':>14s} {'speed-up':>9s} "
@@ -703,6 +706,11 @@ def _overhead(quick=False):
     return overhead(quick)
 
 
+def _predict(quick=False):
+    from .prediction import predict_bench
+    return predict_bench(quick)
+
+
 BENCHMARKS = {"gravity": gravity, "integrators": integrators, "collisions": collisions,
               "fleet": fleet, "log": log, "memory": memory, "models": models,
-              "overhead": _overhead}
+              "overhead": _overhead, "predict": _predict}

@@ -1,0 +1,214 @@
+"""A predicted path's markers (spacephys/predict.py): the dominant body at each sample, and the
+extrema of the distance between two paths (apsides, closest approaches), refined between
+samples on the cubic Hermite interpolant of the relative motion (positions and velocities at
+both ends of an interval: error O(h^4) in position).
+"""
+import math
+
+
+from .._jit import kernel
+
+
+@kernel
+def dominant(pos, cpos, cmass, same, out):
+    """out[k, j] = the candidate pulling hardest (largest m_c / d^2) on path k at sample j, -1
+    where the path has ended (NaN); pos (K, P, 3), cpos (C, P, 3), cmass (C,), same (K,) the
+    candidate that is path k itself (-1: none)."""
+    K, P = pos.shape[0], pos.shape[1]
+    for k in range(K):
+        for j in range(P):
+            best, pick = 0.0, -1
+            if pos[k, j, 0] == pos[k, j, 0]:
+                for c in range(cmass.size):
+                    if c == same[k]:
+                        continue
+                    d2 = 0.0
+                    for x in range(3):
+                        d = cpos[c, j, x] - pos[k, j, x]
+                        d2 += d * d
+                    if d2 > 0.0 and cmass[c] / d2 > best:
+                        best, pick = cmass[c] / d2, c
+            out[k, j] = pick
+
+
+@kernel(inline=True)
+def _hermite(p0, v0, p1, v1, h, s):
+    """Position and velocity at s in [0, 1] of the cubic through (p0, v0) and (p1, v1) over an
+    interval of length h (one component)."""
+    s2 = s * s
+    s3 = s2 * s
+    p = ((2 * s3 - 3 * s2 + 1) * p0 + (s3 - 2 * s2 + s) * h * v0 + (-2 * s3 + 3 * s2) * p1
+         + (s3 - s2) * h * v1)
+    v = ((6 * s2 - 6 * s) * p0 / h + (3 * s2 - 4 * s + 1) * v0 + (-6 * s2 + 6 * s) * p1 / h
+         + (3 * s2 - 2 * s) * v1)
+    return p, v
+
+
+@kernel
+def _radial(rp, rv, j, h, s):
+    """(r . v, |r|) of the interpolated relative motion at s in interval j."""
+    rr, rd = 0.0, 0.0
+    for x in range(3):
+        p, v = _hermite(rp[j, x], rv[j, x], rp[j + 1, x], rv[j + 1, x], h, s)
+        rr += p * p
+        rd += p * v
+    return rd, math.sqrt(rr)
+
+
+@kernel
+def extrema(t, rp, rv, use, out):
+    """The local minima and maxima of the distance |rp| of a relative motion sampled at t (P,),
+    rp, rv (P, 3), over the intervals j with use[j] (both ends valid and the same reference):
+    where r . v changes sign, refined by bisection on the Hermite interpolant. Writes rows
+    [kind (-1 minimum, +1 maximum), time, distance, interval, s] into out (M, 5); returns the
+    count (at most M)."""
+    count = 0
+    P = t.size
+    for j in range(P - 1):
+        if not use[j] or count >= out.shape[0]:
+            continue
+        g0 = rp[j, 0] * rv[j, 0] + rp[j, 1] * rv[j, 1] + rp[j, 2] * rv[j, 2]
+        g1 = (rp[j + 1, 0] * rv[j + 1, 0] + rp[j + 1, 1] * rv[j + 1, 1]
+              + rp[j + 1, 2] * rv[j + 1, 2])
+        if g0 < 0.0 <= g1:
+            kind = -1.0
+        elif g0 > 0.0 >= g1:
+            kind = 1.0
+        else:
+            continue
+        h = t[j + 1] - t[j]
+        lo, hi = 0.0, 1.0
+        for _ in range(60):               # 2^-60 of the interval: below rounding
+            mid = 0.5 * (lo + hi)
+            g, _r = _radial(rp, rv, j, h, mid)
+            if (g < 0.0) == (kind < 0.0):
+                lo = mid
+            else:
+                hi = mid
+            if mid == lo and mid == hi:
+                break
+        s = 0.5 * (lo + hi)
+        g, r = _radial(rp, rv, j, h, s)
+        out[count, 0] = kind
+        out[count, 1] = t[j] + s * h
+        out[count, 2] = r
+        out[count, 3] = j
+        out[count, 4] = s
+        count += 1
+    return count
+
+
+@kernel
+def interpolate(t, pos, vel, j, s, out_p, out_v):
+    """The Hermite-interpolated position and velocity of a path (P, 3) at s in interval j."""
+    h = t[j + 1] - t[j]
+    for x in range(3):
+        p, v = _hermite(pos[j, x], vel[j, x], pos[j + 1, x], vel[j + 1, x], h, s)
+        out_p[x] = p
+        out_v[x] = v
+
+
+@kernel
+def equal_pulls(t, pos, vel, apos, avel, ma, bpos, bvel, mb, j):
+    """The time in interval j where bodies a (mass ma) and b pull equally on a path (all
+    sampled (P, 3) with velocities): bisection on the Hermite-interpolated positions, the
+    pull of a the stronger at the interval's start."""
+    h = t[j + 1] - t[j]
+    lo, hi = 0.0, 1.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        da, db = 0.0, 0.0
+        for x in range(3):
+            p, _v = _hermite(pos[j, x], vel[j, x], pos[j + 1, x], vel[j + 1, x], h, mid)
+            q, _w = _hermite(apos[j, x], avel[j, x], apos[j + 1, x], avel[j + 1, x], h, mid)
+            r, _u = _hermite(bpos[j, x], bvel[j, x], bpos[j + 1, x], bvel[j + 1, x], h, mid)
+            da += (q - p) * (q - p)
+            db += (r - p) * (r - p)
+        if ma * db > mb * da:         # a still pulls harder
+            lo = mid
+        else:
+            hi = mid
+        if mid == lo and mid == hi:
+            break
+    return t[j] + 0.5 * (lo + hi) * h
+
+
+@kernel
+def _conic(rp, rv, j, mu, peri):
+    """The apsis (pericentre if peri) of the conic osculating at sample j of a relative
+    motion: (time from sample j, relative position (3,)); time NaN when it has none (near
+    circular, an apocentre of an open orbit, no angular momentum)."""
+    rx, ry, rz = rp[j, 0], rp[j, 1], rp[j, 2]
+    vx, vy, vz = rv[j, 0], rv[j, 1], rv[j, 2]
+    hx, hy, hz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
+    h2 = hx * hx + hy * hy + hz * hz
+    r = math.sqrt(rx * rx + ry * ry + rz * rz)
+    ex = (vy * hz - vz * hy) / mu - rx / r
+    ey = (vz * hx - vx * hz) / mu - ry / r
+    ez = (vx * hy - vy * hx) / mu - rz / r
+    e = math.sqrt(ex * ex + ey * ey + ez * ez)
+    if e < 1e-6 or (not peri and e >= 1.0) or h2 == 0.0:
+        return math.nan, 0.0, 0.0, 0.0
+    ux, uy, uz = ex / e, ey / e, ez / e
+    p = h2 / mu
+    # the true anomaly: the angle from u to r about h
+    cx, cy, cz = uy * rz - uz * ry, uz * rx - ux * rz, ux * ry - uy * rx
+    f = math.atan2((cx * hx + cy * hy + cz * hz) / math.sqrt(h2), ux * rx + uy * ry + uz * rz)
+    if e < 1.0:
+        E = 2.0 * math.atan2(math.sqrt(1.0 - e) * math.sin(0.5 * f),
+                             math.sqrt(1.0 + e) * math.cos(0.5 * f))
+        M = E - e * math.sin(E)
+        n = math.sqrt(mu / (p / (1.0 - e * e)) ** 3)
+        if peri:
+            dt = -M / n
+        else:
+            dt = ((math.pi if M >= 0.0 else -math.pi) - M) / n
+    else:
+        x = math.sqrt((e - 1.0) / (e + 1.0)) * math.tan(0.5 * f)
+        x = min(max(x, -0.9999999999999999), 0.9999999999999999)   # rounding past the asymptote
+        F = 2.0 * math.atanh(x)
+        n = math.sqrt(mu / (p / (e * e - 1.0)) ** 3)
+        dt = -(e * math.sinh(F) - F) / n
+    d = p / (1.0 + e) if peri else -p / (1.0 - e)      # along u at pericentre, -u at apocentre
+    return dt, d * ux, d * uy, d * uz
+
+
+@kernel
+def apsides(t, rp, rv, cpos, cvel, mu, rows, out):
+    """For each extremum row of `extrema` (M, 5) on the relative motion rp, rv (P, 3) about a
+    body sampled at cpos, cvel: out[m] = [time, distance, x, y, z], the apsis on the conic
+    osculating at the interval's nearer end (exact for two bodies), at the body's
+    interpolated position; the Hermite extremum where the conic has no apsis within an
+    interval of the one found."""
+    P = t.size
+    for m in range(rows.shape[0]):
+        j0 = int(rows[m, 3])
+        j = j0 + 1 if rows[m, 4] > 0.5 else j0
+        dt, ax, ay, az = _conic(rp, rv, j, mu, rows[m, 0] < 0.0)
+        when = t[j] + dt
+        if not (t[max(j0 - 1, 0)] <= when <= t[min(j0 + 2, P - 1)]):
+            when = rows[m, 1]
+            h = t[j0 + 1] - t[j0]
+            s = rows[m, 4]
+            for x in range(3):
+                p, _v = _hermite(rp[j0, x], rv[j0, x], rp[j0 + 1, x], rv[j0 + 1, x], h, s)
+                if x == 0:
+                    ax = p
+                elif x == 1:
+                    ay = p
+                else:
+                    az = p
+        # the body's position then (Hermite in the interval holding `when`)
+        k = j0
+        while k > 0 and when < t[k]:
+            k -= 1
+        while k < P - 2 and when > t[k + 1]:
+            k += 1
+        h = t[k + 1] - t[k]
+        s = (when - t[k]) / h
+        out[m, 0] = when
+        out[m, 1] = math.sqrt(ax * ax + ay * ay + az * az)
+        rel = (ax, ay, az)
+        for x in range(3):
+            c, _v = _hermite(cpos[k, x], cvel[k, x], cpos[k + 1, x], cvel[k + 1, x], h, s)
+            out[m, 2 + x] = c + rel[x]

@@ -1,0 +1,514 @@
+"""Trajectory prediction: `World.predict` and `World.predict_async`.
+
+A prediction runs a copy of the World (every body pulling, held controls, plans, collisions
+as in the World) and samples the chosen bodies inside the step kernel (the frames a recording
+takes), so `points` samples cost one kernel call, not one Python call each. With the World's
+own integrator and dt the predicted path is the path the World will fly, bit for bit, when
+nothing else acts. The markers (apsides, closest approach, change of dominant body, impact)
+are found on the samples and refined between them (kernels/markers.py).
+
+A part of World (like forces.py): it runs the copy's steps through World's own step loop.
+"""
+import concurrent.futures
+import math
+import threading
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from . import _validate as check
+from .events import EVENT_DTYPE, EVENT_KINDS
+from .integrators import get_integrator
+from .kernels import markers
+from .kernels.collide import owners_of
+from .kernels.codes import (EV_BOUNCE, EV_DESTROY, EV_DETONATION, EV_EXPIRY, EV_MERGE,
+                            EV_WALL, NONFINITE)
+
+# events that end a predicted path: a contact by the collision rules, a detonation, an expiry
+_ENDING = (EV_BOUNCE, EV_MERGE, EV_DESTROY, EV_WALL, EV_DETONATION, EV_EXPIRY)
+_IMPACTS = (EV_BOUNCE, EV_MERGE, EV_DESTROY, EV_WALL, EV_DETONATION)
+# candidates for the dominant body: the pulling bodies, at most this many (the strongest pulls
+# on the predicted bodies now)
+MAX_CANDIDATES = 64
+# frames one kernel call captures: buffers of at most 32 MB
+_FRAME_BYTES = 32 << 20
+
+
+class Apsis(NamedTuple):
+    """A pericentre or apocentre of body `id` about body `about` (-1: the field's centre):
+    time, position (dim,) [length], distance [length]."""
+    id: int
+    kind: str
+    t: float
+    pos: np.ndarray
+    distance: float
+    about: int
+
+
+class Approach(NamedTuple):
+    """The closest approach of body `id` to `target` over the prediction: time, distance
+    [length], relative speed [length/time]."""
+    id: int
+    target: int
+    t: float
+    distance: float
+    speed: float
+
+
+class Change(NamedTuple):
+    """Body `id`'s dominant body changes from `before` to `after` at about time t (-1: the
+    field's centre)."""
+    id: int
+    t: float
+    before: int
+    after: int
+
+
+class Impact(NamedTuple):
+    """Body `id`'s path ends at time t by `kind` (an event name: destroy, merge, bounce, wall,
+    detonation) with body `other` (-1: a wall) at point (dim,)."""
+    id: int
+    t: float
+    other: int
+    point: np.ndarray
+    kind: str
+
+
+@dataclass
+class Prediction:
+    """What World.predict returns. ids (k,); t (P,) the sample times [time]; pos, vel (k, P,
+    dim) [length], [length/time], NaN after a path ended; ended (k,) the time each path ended
+    (inf: it did not); about (k, P) the dominant body's id at each sample (-1: the field's
+    centre or none); the markers, each a list sorted by time; events: every event of the
+    prediction (EVENT_DTYPE), fuel running out included."""
+    ids: np.ndarray
+    t: np.ndarray
+    pos: np.ndarray
+    vel: np.ndarray
+    ended: np.ndarray
+    about: np.ndarray
+    apsides: list = field(default_factory=list)
+    approaches: list = field(default_factory=list)
+    changes: list = field(default_factory=list)
+    impacts: list = field(default_factory=list)
+    events: np.ndarray = field(default_factory=lambda: np.zeros(0, EVENT_DTYPE))
+
+    def path(self, body_id):
+        """(pos (P, dim), vel (P, dim)) of one predicted body."""
+        k = np.flatnonzero(self.ids == body_id)
+        if not k.size:
+            raise ValueError(f"id = {body_id}: not predicted (ids: {self.ids.tolist()})")
+        return self.pos[k[0]], self.vel[k[0]]
+
+
+class _Sampler:
+    """Takes the frames World's step loop captures (the RunLog's interface): the rows of the
+    watched ids into pos, vel (P, m, 3); NaN for a body gone."""
+
+    def __init__(self, ids, P):
+        self.ids = ids
+        self.pos = np.full((P, ids.size, 3), np.nan)
+        self.vel = np.full((P, ids.size, 3), np.nan)
+        self.next = 1                      # sample 0 is the state now
+        self._buffers = None
+
+    def take(self, world, j):
+        rows = world._b.lookup(self.ids)
+        ok = rows >= 0
+        self.pos[j, ok] = world._b.pos[rows[ok]]
+        self.vel[j, ok] = world._b.vel[rows[ok]]
+
+    def frame_buffers(self, F, n):
+        b = self._buffers
+        if b is None or b[0].shape[0] < F or b[0].shape[1] != n:
+            b = self._buffers = (np.empty((F, n, 3)), np.empty((F, n, 3)), np.empty((F, n)))
+        return b[0][:F], b[1][:F], b[2][:F]
+
+    def captured(self, world, at, fpos, fvel, fmass, done):
+        k = int(np.searchsorted(at, done))     # the one at the last step: captured_last
+        if k:
+            rows = world._b.lookup(self.ids)   # rows do not change within a kernel call
+            j = self.next
+            if rows.size == fpos.shape[1] and (rows == np.arange(rows.size)).all():
+                self.pos[j:j + k] = fpos[:k]          # every body watched: no gather
+                self.vel[j:j + k] = fvel[:k]
+            elif (rows >= 0).all():
+                self.pos[j:j + k] = fpos[:k, rows]
+                self.vel[j:j + k] = fvel[:k, rows]
+            else:
+                ok = np.flatnonzero(rows >= 0)
+                self.pos[j:j + k, ok] = fpos[:k, rows[ok]]
+                self.vel[j:j + k, ok] = fvel[:k, rows[ok]]
+            self.next += k
+
+    def captured_last(self, world, at, done):
+        if np.any(at == done):
+            self.take(world, self.next)
+            self.next += 1
+
+    def paths(self):
+        """(pos, vel) as (m, P, 3), contiguous."""
+        return (np.ascontiguousarray(self.pos.transpose(1, 0, 2)),
+                np.ascontiguousarray(self.vel.transpose(1, 0, 2)))
+
+
+def _schedule(world, duration, points, integrator, dt):
+    """(integrator name, dt, step counts (P,) from now at which to sample)."""
+    name = world.integrator if integrator is None else integrator
+    spec = get_integrator(name)
+    if spec.adaptive:
+        if dt is not None:
+            raise ValueError(f"dt = {dt}: the adaptive {name} sets its own substeps; give "
+                             f"tolerance instead")
+        return name, duration / (points - 1), np.arange(points, dtype=np.int64)
+    if dt is None:
+        dt = world.dt
+    dt = check.scalar("dt", dt, positive=True)
+    nsteps = max(1, math.ceil(duration / dt * (1.0 - 1e-12)))
+    counts = np.unique(np.round(np.linspace(0, nsteps, min(points, nsteps + 1))).astype(np.int64))
+    return name, dt, counts
+
+
+def predict(world, ids, duration, points=256, integrator=None, dt=None, tolerance=None,
+            target=None, about=None, background=False):
+    """World.predict and World.predict_async (the docstrings are there): everything is
+    checked and the World's state taken in the caller's thread; background: the run goes to
+    a worker thread (kernels release the GIL) and a PredictionHandle comes back."""
+    ids = np.atleast_1d(np.asarray(ids))
+    if ids.dtype.kind not in "iu" or ids.ndim != 1 or not ids.size:
+        raise ValueError(f"ids = {ids!r}: give one body id or a list of ids")
+    ids = ids.astype(np.int64)
+    world.index_of(ids, "ids")
+    duration = check.scalar("duration", duration, positive=True)
+    if not math.isfinite(duration):
+        raise ValueError(f"duration = {duration}: must be finite")
+    points = check.count("points", points, minimum=2)
+    if target is not None:
+        world.index_of(target, "target")
+    if about is not None and world.mass[world.index_of(about, "about")] <= 0.0:
+        raise ValueError(f"about = {about}: a massless body has no orbit about it")
+    name, step, counts = _schedule(world, duration, points, integrator, dt)
+    world._actors.check_step(step, "dt" if dt is not None or not get_integrator(name).adaptive
+                             else "the step duration / (points - 1)")
+    if tolerance is not None:
+        tolerance = check.scalar("tolerance", tolerance, positive=True)
+        if not get_integrator(name).adaptive:
+            raise ValueError(f"tolerance = {tolerance}: only the adaptive integrator takes a "
+                             f"tolerance ({name} is fixed-step; give dt)")
+    shadow = _shadow(world, name, step, tolerance, background)
+    cand, cmass, centre = _candidates(world, ids, about)
+    rows = world.index_of(ids)
+    G, own = world.G, np.where(world.pulls[rows], world.mass[rows], 0.0)
+    watched = np.unique(np.concatenate([ids, cand, [] if target is None else [target]])
+                        ).astype(np.int64)
+
+    def job():
+        try:
+            w = shadow.ready()
+            sampler = _Sampler(watched, counts.size)
+            sampler.take(w, 0)
+            t = w.time_after(counts.astype(np.float64))     # as World.t computes the time
+            events = _run(w, counts, sampler)
+            return _assemble(w, ids, watched, sampler, t, events, cand, cmass, centre,
+                             target, G, own)
+        finally:
+            shadow.release()
+
+    if not background:
+        return job()
+    return PredictionHandle(_pool().submit(job), shadow)
+
+
+class _Shadow:
+    """The copy of a World a prediction runs: made once (a copy, its settings, its tables)
+    and brought up to date from the World's arrays before each later prediction, so that a
+    prediction costs neither a copy nor a table build. Valid while the World's tables are
+    those it was made beside (any change to the bodies or to a setting the tables hold
+    rebuilds them) and its own run removed nobody; busy while a prediction runs on it."""
+
+    def __init__(self, world, key, name, step, tolerance, background):
+        self.world_plan = world._plan     # the World's tables it was made beside
+        w = world.copy()
+        w._watch = None
+        if name != w.integrator:
+            w.integrator = name           # refuses, here, a scene it cannot run
+        if step != w.dt:
+            w.dt = step
+        if tolerance is not None:
+            w.tolerance = tolerance
+        if background:
+            w.threads = "never"           # beside the game's own steps, on one thread
+        w.tables()
+        self.w, self.key, self.step, self.tolerance = w, key, step, tolerance
+        self.same_integrator = name == world.integrator
+        self.plan = w._plan
+        self.snap = None
+        self.busy = True
+
+    def usable(self, world, key):
+        return (not self.busy and self.key == key and world._plan is self.world_plan
+                and self.w._plan is self.plan)
+
+    def take(self, world):
+        """The World's state now (copies, in the caller's thread) for ready() to load."""
+        b = world._b
+        n = b.n
+        rules = world._plan.rules
+        self.snap = (n, {name: getattr(b, name)[:n].copy() for name in b.columns},
+                     world._forces.drag.copy(), world._t_base, world._steps, world._dt,
+                     world._stepper.state() if self.same_integrator else None,
+                     world._adaptive.copy(), list(world._actors.queued),
+                     None if rules is None else owners_of(rules).copy(), world._origin.copy())
+        self.busy = True
+
+    def ready(self):
+        """The copy, in the World's state when it was taken (as a fresh copy would be)."""
+        w = self.w
+        if self.snap is None:
+            return w                      # just made: the copy is the state
+        n, cols, drag, t_base, steps, dt, carried, adaptive, queued, owner, origin = self.snap
+        self.snap = None
+        b = w._b
+        for name in b.columns:
+            col = getattr(b, name)
+            col[:n] = cols[name] if name in cols else b.defaults.get(name, 0)
+        w._forces.drag[:] = drag
+        w._t_base, w._steps, w._dt = t_base, steps, dt
+        if self.step != dt:
+            w.dt = self.step              # rebased as the fresh copy's was
+        if carried is not None:
+            w._stepper.load(carried)
+        else:
+            w._stepper.reset(w)
+        w._adaptive[:] = adaptive
+        if self.tolerance is not None:
+            w.tolerance = self.tolerance
+        w._actors.queued = queued
+        if owner is not None:
+            owners_of(w._plan.rules)[:] = owner
+        w._origin[:] = origin
+        return w
+
+    def release(self):
+        self.busy = False
+
+
+def _shadow(world, name, step, tolerance, background):
+    """The World's shadow for these settings, up to date with it, marked busy; made anew
+    when there is none, it is busy, or the World's tables were rebuilt since."""
+    world.tables()
+    key = (name, step, tolerance)
+    shadows = world.__dict__.setdefault("_shadows", {})
+    shadow = shadows.get(background)
+    if shadow is not None and shadow.usable(world, key):
+        shadow.take(world)
+        return shadow
+    shadow = _Shadow(world, key, name, step, tolerance, background)
+    shadows[background] = shadow
+    return shadow
+
+
+def _run(w, counts, sampler):
+    """Step the copy to the last count, sampling at the others; returns its events."""
+    w._event_count[0] = 0
+    if w._actors.queued:
+        w._begin_events()
+    room = max(1, _FRAME_BYTES // (56 * max(w._b.capacity, 1)))
+    done = 0
+    at = counts[1:]
+    t0 = w.t
+    status = 0
+    while done < counts[-1]:
+        chunk = at[:room]
+        at = at[room:]
+        n = int(chunk[-1]) - done
+        if w._b.n:
+            status = w._run(n, chunk - done, sampler)
+        else:
+            w._steps += n
+            sampler.next += chunk.size
+        done += n
+    if status & NONFINITE:
+        w._check_health(t0, status)
+    return w._events[:w._event_count[0]].copy()
+
+
+def _candidates(world, ids, about):
+    """(ids (C,) of the bodies that may dominate, their masses, the field's centre (3,) or
+    None): the pulling bodies (the strongest MAX_CANDIDATES on the predicted bodies now), or
+    `about` alone."""
+    centre = None
+    if world.gravity == "central":
+        centre = np.zeros(3)
+        centre[:world.dim] = world.central_pos
+    if about is not None:
+        return np.array([about], np.int64), np.array([world.mass[world.index_of(about)]]), None
+    if world.gravity != "direct":
+        return np.zeros(0, np.int64), np.zeros(0), centre
+    rows = np.flatnonzero(world.pulls)
+    if rows.size > MAX_CANDIDATES:
+        p = world.pos[world.index_of(ids)]
+        d2 = ((world.pos[rows][:, None, :] - p[None]) ** 2).sum(axis=2)
+        pull = (world.mass[rows][:, None] / np.where(d2 > 0, d2, np.inf)).max(axis=1)
+        rows = rows[np.argsort(-pull, kind="stable")[:MAX_CANDIDATES]]
+    return world.ids[rows].astype(np.int64), world.mass[rows].astype(np.float64), centre
+
+
+def _enders(world, ev):
+    """(body, other) pairs whose path the event ends: the destroyed, the merged away, both
+    bodies of a bounce, a body at a wall, a detonated missile (its target too if it died),
+    an expired body."""
+    a, b, kind = int(ev["a"]), int(ev["b"]), int(ev["kind"])
+    if kind == EV_MERGE:
+        return ((b, a),)
+    if kind == EV_BOUNCE:            # the lighter body's path (both, if equal)
+        ma, mb = (world.mass[world.index_of(x)] if x in world else 0.0 for x in (a, b))
+        return tuple(pair for pair, light in (((a, b), ma <= mb), ((b, a), mb <= ma))
+                     if light)
+    if kind == EV_DETONATION and b not in world:
+        return ((a, b), (b, a))
+    return ((a, b),)
+
+
+def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, target, G, own):
+    """The Prediction from the samples and the events of the copy `world`; G and own (k,),
+    the predicted bodies' masses where they pull (0 elsewhere), make the apsides' mu."""
+    dim = world.dim
+    at = {int(i): k for k, i in enumerate(watched)}
+    sel = np.array([at[int(i)] for i in ids])
+    spos, svel = sampler.paths()
+    pos, vel = spos[sel], svel[sel]
+    ended = np.full(ids.size, np.inf)
+    impacts = []
+    for ev in events:
+        if ev["kind"] not in _ENDING:
+            continue
+        for me, other in _enders(world, ev):
+            k = np.flatnonzero(ids == me)
+            if k.size and ended[k[0]] == np.inf:
+                ended[k[0]] = ev["time"]
+                if ev["kind"] in _IMPACTS:
+                    impacts.append(Impact(me, float(ev["time"]), other,
+                                          np.array([ev["x"], ev["y"], ev["z"]])[:dim],
+                                          EVENT_KINDS[int(ev["kind"])]))
+    for k in range(ids.size):
+        pos[k, t > ended[k]] = np.nan
+        vel[k, t > ended[k]] = np.nan
+    # the candidates' paths (the field's centre last, fixed)
+    cpos = spos[[at[int(c)] for c in cand]] if cand.size else np.zeros((0, t.size, 3))
+    cvel = svel[[at[int(c)] for c in cand]] if cand.size else np.zeros((0, t.size, 3))
+    cids = cand
+    if centre is not None:
+        cpos = np.concatenate([cpos, np.broadcast_to(centre, (1, t.size, 3))])
+        cvel = np.concatenate([cvel, np.zeros((1, t.size, 3))])
+        cmass = np.append(cmass, world.central_mass)
+        cids = np.append(cids, -1)
+    dom = np.full((ids.size, t.size), -1, np.int64)
+    if cids.size:
+        same = np.array([np.flatnonzero(cids == i)[0] if np.any(cids == i) else -1
+                         for i in ids], np.int64)
+        markers.dominant(pos, np.ascontiguousarray(cpos), np.ascontiguousarray(cmass), same,
+                         dom)
+    about_ids = np.where(dom >= 0, cids[np.maximum(dom, 0)] if cids.size else -1, -1)
+    p = Prediction(ids, t, pos[:, :, :dim], vel[:, :, :dim], ended, about_ids, impacts=impacts,
+                   events=events)
+    out = np.empty((t.size, 5))
+    for k in range(ids.size):
+        valid = dom[k] >= 0
+        for j in np.flatnonzero(valid[:-1] & valid[1:] & (dom[k, :-1] != dom[k, 1:])):
+            p.changes.append(_change(int(ids[k]), t, np.ascontiguousarray(pos[k]),
+                                     np.ascontiguousarray(vel[k]), cpos, cvel, cmass, dom[k],
+                                     j, cids))
+        for c in np.unique(dom[k][valid]):
+            use = (dom[k, :-1] == c) & (dom[k, 1:] == c)
+            rp = np.ascontiguousarray(pos[k] - cpos[c])
+            rv = np.ascontiguousarray(vel[k] - cvel[c])
+            rows = out[:markers.extrema(t, rp, rv, use, out)]
+            found = np.empty((rows.shape[0], 5))
+            markers.apsides(t, rp, rv, cpos[c], cvel[c], G * (cmass[c] + own[k]), rows, found)
+            for row, (when, distance, *where) in zip(rows, found.tolist()):
+                p.apsides.append(Apsis(int(ids[k]), "pericentre" if row[0] < 0 else "apocentre",
+                                       when, np.array(where[:dim]), distance, int(cids[c])))
+        if target is not None and ids[k] != target:
+            p.approaches.append(_closest(int(ids[k]), target, t, pos[k], vel[k],
+                                         spos[at[int(target)]], svel[at[int(target)]],
+                                         out))
+    p.apsides.sort(key=lambda a: a.t)
+    p.changes.sort(key=lambda a: a.t)
+    p.approaches = [a for a in p.approaches if a is not None]
+    return p
+
+
+def _at(t, pos, vel, row):
+    """Position and velocity (3,) of a sampled path at a marker row's time."""
+    j, s = int(row[3]), row[4]
+    out_p, out_v = np.empty(3), np.empty(3)
+    markers.interpolate(t, np.ascontiguousarray(pos), np.ascontiguousarray(vel), j, s, out_p,
+                        out_v)
+    return out_p, out_v
+
+
+def _change(body, t, pos, vel, cpos, cvel, cmass, dom, j, cids):
+    """The dominant body's change in interval j: where the two pulls are equal."""
+    a, b = dom[j], dom[j + 1]
+    when = markers.equal_pulls(t, pos, vel, cpos[a], cvel[a], cmass[a], cpos[b], cvel[b],
+                               cmass[b], j)
+    return Change(body, float(when), int(cids[a]), int(cids[b]))
+
+
+def _closest(body, target, t, pos, vel, tpos, tvel, out):
+    """The smallest distance between the two paths: a refined minimum, or an end."""
+    rp = np.ascontiguousarray(pos - tpos)
+    rv = np.ascontiguousarray(vel - tvel)
+    ok = np.isfinite(rp).all(axis=1)
+    if not ok.any():
+        return None
+    use = ok[:-1] & ok[1:]
+    n = markers.extrema(t, rp, rv, use, out)
+    best = None
+    for row in out[:n]:
+        if row[0] < 0 and (best is None or row[2] < best[2]):
+            best = row.copy()
+    d = np.linalg.norm(rp, axis=1)
+    j = int(np.nanargmin(np.where(ok, d, np.inf)))
+    if best is None or d[j] < best[2]:
+        return Approach(body, int(target), float(t[j]), float(d[j]),
+                        float(np.linalg.norm(rv[j])))
+    p, v = _at(t, rp, rv, best)
+    return Approach(body, int(target), float(best[1]), float(best[2]), float(np.linalg.norm(v)))
+
+
+class PredictionHandle:
+    """What World.predict_async returns: done(), result(timeout=None) (the Prediction, or
+    the error the prediction raised), cancel() before it starts."""
+
+    def __init__(self, future, shadow):
+        self._future, self._shadow = future, shadow
+
+    def done(self):
+        return self._future.done()
+
+    def result(self, timeout=None):
+        return self._future.result(timeout)
+
+    def cancel(self):
+        """Cancel a prediction that has not started; True if it was."""
+        if self._future.cancel():
+            self._shadow.release()
+            return True
+        return False
+
+
+_POOL = None
+_POOL_LOCK = threading.Lock()
+
+
+def _pool():
+    """The one worker thread predictions run on (one at a time: the game's steps keep the
+    other core)."""
+    global _POOL
+    with _POOL_LOCK:
+        if _POOL is None:
+            _POOL = concurrent.futures.ThreadPoolExecutor(1, "spacephys-predict")
+    return _POOL
