@@ -12,6 +12,7 @@ A part of World (like forces.py): it runs the copy's steps through World's own s
 import concurrent.futures
 import math
 import threading
+import time
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -166,7 +167,9 @@ def _schedule(world, duration, points, integrator, dt):
         dt = world.dt
     dt = check.scalar("dt", dt, positive=True)
     nsteps = max(1, math.ceil(duration / dt * (1.0 - 1e-12)))
-    counts = np.unique(np.round(np.linspace(0, nsteps, min(points, nsteps + 1))).astype(np.int64))
+    P = min(points, nsteps + 1)
+    # round(j nsteps / (P - 1)) in integers: rising, distinct since P - 1 <= nsteps
+    counts = (2 * np.arange(P, dtype=np.int64) * nsteps + (P - 1)) // (2 * (P - 1))
     return name, dt, counts
 
 
@@ -179,7 +182,7 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
     if ids.dtype.kind not in "iu" or ids.ndim != 1 or not ids.size:
         raise ValueError(f"ids = {ids!r}: give one body id or a list of ids")
     ids = ids.astype(np.int64)
-    world.index_of(ids, "ids")
+    rows = world.index_of(ids, "ids")
     duration = check.scalar("duration", duration, positive=True)
     if not math.isfinite(duration):
         raise ValueError(f"duration = {duration}: must be finite")
@@ -198,20 +201,21 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
                              f"tolerance ({name} is fixed-step; give dt)")
     shadow = _shadow(world, name, step, tolerance, background)
     cand, cmass, centre = _candidates(world, ids, about)
-    rows = world.index_of(ids)
     G, own = world.G, np.where(world.pulls[rows], world.mass[rows], 0.0)
     watched = np.unique(np.concatenate([ids, cand, [] if target is None else [target]])
                         ).astype(np.int64)
 
     def job():
         try:
+            _yield(background)
             w = shadow.ready()
             sampler = _Sampler(watched, counts.size)
             sampler.take(w, 0)
             t = w.time_after(counts.astype(np.float64))     # as World.t computes the time
             events = _run(w, counts, sampler)
+            _yield(background)
             return _assemble(w, ids, watched, sampler, t, events, cand, cmass, centre,
-                             target, G, own)
+                             target, G, own, background)
         finally:
             shadow.release()
 
@@ -309,6 +313,14 @@ def _shadow(world, name, step, tolerance, background):
     return shadow
 
 
+def _yield(background):
+    """On the worker thread, let the game's thread take the GIL if it waits for it: it would
+    otherwise wait for Python's switch interval (5 ms) while this thread runs Python (the
+    kernels release the GIL; what comes before and after them does not)."""
+    if background:
+        time.sleep(0)
+
+
 def _run(w, counts, sampler):
     """Step the copy to the last count, sampling at the others; returns its events."""
     w._event_count[0] = 0
@@ -371,7 +383,8 @@ def _enders(world, ev):
     return ((a, b),)
 
 
-def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, target, G, own):
+def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, target, G, own,
+              background=False):
     """The Prediction from the samples and the events of the copy `world`; G and own (k,),
     the predicted bodies' masses where they pull (0 elsewhere), make the apsides' mu."""
     dim = world.dim
@@ -415,6 +428,7 @@ def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, targ
                    events=events)
     out = np.empty((t.size, 5))
     for k in range(ids.size):
+        _yield(background)
         valid = dom[k] >= 0
         for j in np.flatnonzero(valid[:-1] & valid[1:] & (dom[k, :-1] != dom[k, 1:])):
             p.changes.append(_change(int(ids[k]), t, np.ascontiguousarray(pos[k]),
@@ -480,14 +494,17 @@ def _closest(body, target, t, pos, vel, tpos, tvel, out):
 
 
 class PredictionHandle:
-    """What World.predict_async returns: done(), result(timeout=None) (the Prediction, or
-    the error the prediction raised), cancel() before it starts."""
+    """What World.predict_async returns: done(), running(), result(timeout=None) (the
+    Prediction, or the error the prediction raised), cancel() before it starts."""
 
     def __init__(self, future, shadow):
         self._future, self._shadow = future, shadow
 
     def done(self):
         return self._future.done()
+
+    def running(self):
+        return self._future.running()
 
     def result(self, timeout=None):
         return self._future.result(timeout)

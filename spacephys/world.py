@@ -1486,7 +1486,7 @@ class World:
         """predict() on a worker thread: the World is copied now (its state now is what is
         predicted), checked now, and stepped beside the caller's own steps (the kernels
         release the GIL, and the copy's force loops stay on one thread). Returns a handle:
-        done(), result(timeout=None) -> sp.Prediction, cancel()."""
+        done(), running(), result(timeout=None) -> sp.Prediction, cancel()."""
         from .predict import predict
         return predict(self, ids, duration, background=True, **options)
 

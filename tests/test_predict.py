@@ -2,6 +2,7 @@
 checked against closed forms, the path equal to the flown one, predict_async beside a
 stepping World, bad input."""
 import math
+import time
 
 import numpy as np
 import pytest
@@ -186,6 +187,8 @@ def test_predict_async_runs_beside_the_stepping_world_and_equals_predict():
     # a prediction queued behind a running one can be cancelled; its copy is freed
     first = w.predict_async(body, 2000.0, points=300)
     queued = w.predict_async(body, 2000.0, points=300)
+    while not (first.running() or first.done()):
+        time.sleep(1e-4)
     assert queued.cancel() and not first.cancel()
     first.result(timeout=60)
     last = w.predict_async(body, 20.0, points=30)

@@ -235,9 +235,9 @@ def test_projectile_without_drag_has_the_seeds_apex_and_range():
 def test_hohmann_transfer_by_plan_reaches_the_orbit_and_meets_the_station(tmp_path):
     """orbit_transfer.toml: sp.hohmann's plan flown by the autopilot. r1 = 1 -> r2 = 2 about
     mu = 1: apoapsis 2 after the first burn (the highest frame 7e-6 below it), then a circle
-    of 2 (measured: transfer a = 1.49999988, final e = 5.7e-6); from the second burn on the ship stays within 1e-3 of the
-    station the scenario phased to meet it (measured 2.5e-4 to 3.0e-4); the burns stop by
-    the plan, not by an empty tank."""
+    of 2 (measured: transfer a = 1.49999988, final e = 5.7e-6); from the second burn on the
+    ship stays within 1e-3 of the station the scenario phased to meet it (measured 2.5e-4 to
+    3.0e-4); the burns stop by the plan, not by an empty tank."""
     result, tr, events = _track(tmp_path, "orbit_transfer", 1)
     with sp.open_run(tmp_path / "orbit_transfer.h5") as run:
         station = run.trajectory(2)
