@@ -991,8 +991,10 @@ class World:
         While a burn covers a step the autopilot flies the ship: heading held along the
         burn's direction in its frame (taken at each step's start), the burn's throttle,
         thrust from its start to its stop to the exact time (fuel and the ship's burn time
-        still limit it: a fuel_empty event says so). Between burns the ship's own controls
-        fly it. Replaces the ship's earlier plan; checked whole before anything changes."""
+        still limit it: a fuel_empty event says so). Between burns, and at a step where the
+        burn's direction is undefined (no motion relative to its frame), the ship's own
+        controls fly it. Replaces the ship's earlier plan; checked whole before anything
+        changes."""
         self._actors.plan(ship, burns)
 
     def planned(self, ship):
