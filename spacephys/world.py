@@ -1477,17 +1477,20 @@ class World:
         dt (default this World's; fixed-step) or tolerance (gauss_radau, points evenly
         spaced). With this World's integrator and dt the path is the one it will fly, bit
         for bit, when nothing else acts. Returns an sp.Prediction: t (P,), pos and vel (k, P,
-        dim), sampled at `points` times from now (at whole steps), and the markers: apsides
-        about the dominant body (or `about`), the closest approach to `target`, changes of
-        the dominant body (the one pulling hardest), impacts (a path ends at its first
-        contact, or when its body is destroyed, merged away or expires)."""
+        dim), sampled at `points` times from now, the first now (fixed-step: at whole steps,
+        the last at or just past duration, at most one sample a step), and the markers:
+        apsides about the dominant body (or `about`), the closest approach to `target`,
+        changes of the dominant body (the one pulling hardest), impacts (a path ends where
+        its body is destroyed, merged away, detonates or expires, at its first wall, or at
+        its first bounce off a body at least as heavy)."""
         from .predict import predict
         return predict(self, ids, duration, points, integrator, dt, tolerance, target, about)
 
     def predict_async(self, ids, duration, **options):
-        """predict() on a worker thread: the World is copied now (its state now is what is
-        predicted), checked now, and stepped beside the caller's own steps (the kernels
-        release the GIL, and the copy's force loops stay on one thread). Returns a handle:
+        """predict() on a worker thread: the World's state is taken now (it is what is
+        predicted), the arguments checked now, and a copy stepped beside the caller's own
+        steps (the kernels release the GIL, and the copy's force loops stay on one thread).
+        Start the next when the last is done(). Returns a handle:
         done(), running(), result(timeout=None) -> sp.Prediction, cancel()."""
         from .predict import predict
         return predict(self, ids, duration, background=True, **options)
