@@ -288,7 +288,11 @@ def test_hohmann_refuses_what_it_cannot_do_and_planned_round_trips():
     burns = [sp.Burn(0.0, 0.1, [0.6, 0.8]), sp.Burn(1.0, 0.1, "radial_in", frame=p)]
     w.plan(s, burns)
     w.plan(s, w.planned(s))                      # what planned() gives, plan() takes
-    assert w.planned(s)[0].direction == (0.6, 0.8)
+    got = w.planned(s)
+    assert p == 0                                # a frame of id 0 is a frame, not None
+    assert [(b.start, b.direction, b.frame, b.throttle) for b in got] == \
+        [(b.start, b.direction, b.frame, b.throttle) for b in burns]
+    assert [b.duration for b in got] == pytest.approx([b.duration for b in burns], rel=1e-12)
     with pytest.raises(ValueError, match=r"burns\[0\].frame = 0: a vector direction"):
         w.plan(s, [sp.Burn(0.0, 0.1, [1.0, 0.0], frame=p)])
     free = sp.World(dim=2, G=1.0, dt=1e-3)

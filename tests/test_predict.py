@@ -281,3 +281,100 @@ def test_the_kept_copy_predicts_what_a_fresh_copy_predicts(options):
     for op in ops:
         op()
         check()
+
+
+def test_closest_approach_between_samples_and_the_sample_schedule():
+    """The closest approach of two straight lines falls between samples (t = 7.9 / 4.49,
+    samples 0.1 apart) and is still exact; samples fall on the nearest whole steps, the
+    first now and the last at the duration, and a middle row is read where it is."""
+    w = sp.World(dim=3, gravity="none", dt=0.01)
+    a = w.add_body(1.0, [0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    b = w.add_body(1.0, [5.0, 3.0, 1.0], [-1.0, 0.7, 0.0])
+    w.add_body(1.0, [9.0, 9.0, 9.0])
+    pred = w.predict(a, 10.0, points=101, target=b)
+    (ap,) = pred.approaches
+    r0, v = np.array([5.0, 3.0, 1.0]), np.array([-2.0, 0.7, 0.0])
+    t = -r0 @ v / (v @ v)
+    assert abs(t / 0.1 - round(t / 0.1)) > 0.1                 # between samples
+    assert ap.t == pytest.approx(t, rel=1e-13)
+    assert ap.distance == pytest.approx(np.linalg.norm(r0 + v * t), rel=1e-13)
+    coarse = sp.World(dim=2, gravity="none", dt=0.1)
+    coarse.add_body(1.0, [0.0, 0.0], [1.0, 0.0])
+    middle = coarse.add_body(1.0, [5.0, 1.0], [0.0, 2.0])
+    coarse.add_body(1.0, [9.0, 9.0])
+    pred = coarse.predict(middle, 1.0, points=4)
+    np.testing.assert_allclose(pred.t, [0.0, 0.3, 0.7, 1.0], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(pred.pos[0, :, 1], 1.0 + 2.0 * pred.t, atol=1e-14)
+    np.testing.assert_allclose(pred.pos[0, :, 0], 5.0, atol=0)
+
+
+def test_what_ends_a_path_and_what_is_an_impact():
+    """A merge ends the merged-away body's path, not the survivor's; an expiry ends a path
+    without an impact."""
+    w = sp.World(dim=2, G=1.0, dt=1e-3, gravity="none")
+    big = w.add_body(1.0, [0.0, 0.0], radius=0.1)
+    small = w.add_body(0.1, [1.0, 0.0], [-1.0, 0.0], radius=0.1)
+    w.set_collision("body", "body", "merge")
+    pred = w.predict([big, small], 2.0, points=201)
+    (ev,) = [e for e in pred.events if sp.EVENT_KINDS[e["kind"]] == "merge"]
+    assert (int(ev["a"]), int(ev["b"])) == (big, small)
+    assert pred.ended[0] == np.inf and pred.ended[1] == ev["time"]
+    assert [(i.id, i.other, i.kind) for i in pred.impacts] == [(small, big, "merge")]
+    w = sp.World(dim=2, gravity="none", dt=0.01)
+    b = w.add_body(1.0, [0.0, 0.0], [1.0, 0.0], lifetime=0.505)
+    pred = w.predict(b, 1.0, points=11)
+    assert pred.impacts == [] and 0.5 <= pred.ended[0] <= 0.52
+    assert np.isnan(pred.pos[0, pred.t > pred.ended[0]]).all()
+
+
+def test_apsides_of_a_massive_pair_take_both_masses():
+    """A moon of 0.2 about a star of 1: the relative orbit's mu is G (1 + 0.2); with the
+    moon's own mass left out the conic's pericentre would be off by 1e-2."""
+    w = sp.World(dim=2, G=1.0, integrator="gauss_radau")
+    star = w.add_body(1.0, [0.0, 0.0])
+    moon = w.add_body(0.2, [1.0, 0.0], [0.0, 1.3])
+    el = w.elements(moon, star)
+    assert el.mu == pytest.approx(1.2)
+    pred = w.predict(moon, 2.2 * el.period, points=129, tolerance=1e-12)
+    peri = [a for a in pred.apsides if a.kind == "pericentre" and a.about == star]
+    assert len(peri) >= 2
+    assert all(a.distance == pytest.approx(el.pericentre, rel=1e-10) for a in peri)
+
+
+def _kept_equals_fresh(w, *args, **kwargs):
+    got = w.predict(*args, **kwargs)
+    fresh = _fresh(w, *args, **kwargs)
+    assert np.array_equal(got.pos, fresh.pos, equal_nan=True)
+    assert got.events.tobytes() == fresh.events.tobytes()
+
+
+def _two_ships(integrator="leapfrog"):
+    w = sp.World(dim=2, G=1.0, integrator=integrator, dt=2e-3)
+    w.add_body(1.0, [0.0, 0.0], radius=0.2, kind="planet")
+    spec = sp.ShipSpec(dry_mass=1e-3, fuel_mass=1e-3, max_thrust=2e-3, exhaust_speed=2.0,
+                       turn_rate=2.0, radius=0.01)
+    return w, w.add_ship(spec, [1.0, 0.0], [0.0, 1.0]), w.add_ship(spec, [-1.5, 0.0],
+                                                                   [0.0, -0.8])
+
+
+def test_the_kept_copy_carries_the_adaptive_step_launches_and_the_origin():
+    """More cases for the kept copy, each reusing it (no rebuild between the two
+    predictions): a Gauss-Radau World's carried step, a launch not yet reported (the kept
+    copy must report it again), and plans about a shifted origin."""
+    w, a, b = _two_ships("gauss_radau")
+    w.predict(a, 1.5, points=40)
+    w.step(5)
+    _kept_equals_fresh(w, a, 1.5, points=40)
+    w, a, b = _two_ships()
+    w.launch(b, sp.MissileSpec(mass=1e-5, thrust=1e-4, fuel_mass=1e-5, exhaust_speed=1.0,
+                               guidance="pn", turn_rate=3.0, fuse_radius=0.05, radius=0.005),
+             target=a)
+    first = w.predict(a, 1.5, points=40)
+    assert any(sp.EVENT_KINDS[e["kind"]] == "launch" for e in first.events)
+    _kept_equals_fresh(w, a, 1.5, points=40)
+    w, a, b = _two_ships()
+    w.plan(a, [sp.Burn(0.1, 0.3, "prograde")])
+    w.plan(b, [sp.Burn(0.1, 0.3, [1.0, 0.0])])
+    w.predict(a, 1.5, points=40)
+    w.shift_origin([0.5, 0.25])
+    _kept_equals_fresh(w, [a, b], 1.5, points=40)
