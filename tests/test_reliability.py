@@ -123,7 +123,15 @@ def test_a_log_survives_100_kills_at_random_moments(tmp_path):
 
 
 def _check_killed_log(path, committed):
-    with h5py.File(path, "r", swmr=True) as f:            # plain h5py, before any repair
+    try:
+        f = h5py.File(path, "r", swmr=True)                # plain h5py, before any repair
+    except OSError as e:
+        # killed in the instant between the rename of the finished new log and its switch
+        # to SWMR writing: a complete file, closed, that a plain open reads (seen once in
+        # several hundred kills)
+        assert "not already open for SWMR writing" in str(e), e
+        f = h5py.File(path, "r")
+    with f:
         assert f["frames/pos"].shape[0] >= committed * 4000
     with sp.open_run(path) as run:
         assert not run.meta["closed"]
