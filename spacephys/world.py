@@ -1193,7 +1193,10 @@ class World:
             first = self._event_count[0]
             frames = None if frame_at is None else self._frame_buffers(frame_at, consumed, sink)
             timing = self._threads.begin(plan.work, nsteps)
-            self._actors.clock[:] = self._t_base, self._steps      # a plan's clock
+            if plan.actors is not None:        # a plan's clock (element-wise: a slice
+                clock = self._actors.clock     # assignment from a tuple costs a microsecond)
+                clock[0] = self._t_base
+                clock[1] = self._steps
             done, status = self._stepper.run(plan, frames, self._dt, nsteps,
                                              self._t_base + self._steps * self._dt)
             if timing is not None:

@@ -100,7 +100,7 @@ def predict_bench(quick=False):
         steps = (POINTS - 1) * (1 if integrator == "gauss_radau" else setting)
         cases.append({"case": f"{integrator}, " + (f"tolerance {setting:g}"
                       if integrator == "gauss_radau" else f"{steps // ORBITS} steps an orbit"),
-                      "options": {k: v for k, v in options.items()}, "steps": steps,
+                      "options": dict(options), "steps": steps,
                       "first_call_s": first, "warm_call_s": _best(call, repeats),
                       "error": error(pred.pos[0])})
     within = [c for c in cases if c["error"] <= 1e-6]
