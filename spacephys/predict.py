@@ -105,20 +105,20 @@ class Prediction:
 
 class _Sampler:
     """Takes the frames World's step loop captures (the RunLog's interface): the rows of the
-    watched ids into pos, vel (P, m, 3); NaN for a body gone."""
+    watched ids into pos, vel (m, P, 3); NaN for a body gone."""
 
     def __init__(self, ids, P):
         self.ids = ids
-        self.pos = np.full((P, ids.size, 3), np.nan)
-        self.vel = np.full((P, ids.size, 3), np.nan)
+        self.pos = np.full((ids.size, P, 3), np.nan)
+        self.vel = np.full((ids.size, P, 3), np.nan)
         self.next = 1                      # sample 0 is the state now
         self._buffers = None
 
     def take(self, world, j):
         rows = world._b.lookup(self.ids)
         ok = rows >= 0
-        self.pos[j, ok] = world._b.pos[rows[ok]]
-        self.vel[j, ok] = world._b.vel[rows[ok]]
+        self.pos[ok, j] = world._b.pos[rows[ok]]
+        self.vel[ok, j] = world._b.vel[rows[ok]]
 
     def frame_buffers(self, F, n):
         b = self._buffers
@@ -131,16 +131,9 @@ class _Sampler:
         if k:
             rows = world._b.lookup(self.ids)   # rows do not change within a kernel call
             j = self.next
-            if rows.size == fpos.shape[1] and (rows == np.arange(rows.size)).all():
-                self.pos[j:j + k] = fpos[:k]          # every body watched: no gather
-                self.vel[j:j + k] = fvel[:k]
-            elif (rows >= 0).all():
-                self.pos[j:j + k] = fpos[:k, rows]
-                self.vel[j:j + k] = fvel[:k, rows]
-            else:
-                ok = np.flatnonzero(rows >= 0)
-                self.pos[j:j + k, ok] = fpos[:k, rows[ok]]
-                self.vel[j:j + k, ok] = fvel[:k, rows[ok]]
+            ok = np.flatnonzero(rows >= 0)
+            self.pos[ok, j:j + k] = fpos[:k, rows[ok]].swapaxes(0, 1)
+            self.vel[ok, j:j + k] = fvel[:k, rows[ok]].swapaxes(0, 1)
             self.next += k
 
     def captured_last(self, world, at, done):
@@ -150,8 +143,7 @@ class _Sampler:
 
     def paths(self):
         """(pos, vel) as (m, P, 3), contiguous."""
-        return (np.ascontiguousarray(self.pos.transpose(1, 0, 2)),
-                np.ascontiguousarray(self.vel.transpose(1, 0, 2)))
+        return self.pos, self.vel
 
 
 def _schedule(world, duration, points, integrator, dt):
@@ -405,9 +397,9 @@ def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, targ
                     impacts.append(Impact(me, float(ev["time"]), other,
                                           np.array([ev["x"], ev["y"], ev["z"]])[:dim],
                                           EVENT_KINDS[int(ev["kind"])]))
-    for k in range(ids.size):
-        pos[k, t > ended[k]] = np.nan
-        vel[k, t > ended[k]] = np.nan
+    gone = t[None, :] > ended[:, None]
+    pos[gone] = np.nan
+    vel[gone] = np.nan
     # the candidates' paths (the field's centre last, fixed)
     cpos = spos[[at[int(c)] for c in cand]] if cand.size else np.zeros((0, t.size, 3))
     cvel = svel[[at[int(c)] for c in cand]] if cand.size else np.zeros((0, t.size, 3))
@@ -419,35 +411,33 @@ def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, targ
         cids = np.append(cids, -1)
     dom = np.full((ids.size, t.size), -1, np.int64)
     if cids.size:
-        same = np.array([np.flatnonzero(cids == i)[0] if np.any(cids == i) else -1
-                         for i in ids], np.int64)
+        match = cids[None, :] == ids[:, None]
+        same = np.where(match.any(axis=1), match.argmax(axis=1), -1).astype(np.int64)
         markers.dominant(pos, np.ascontiguousarray(cpos), np.ascontiguousarray(cmass), same,
                          dom)
     about_ids = np.where(dom >= 0, cids[np.maximum(dom, 0)] if cids.size else -1, -1)
     p = Prediction(ids, t, pos[:, :, :dim], vel[:, :, :dim], ended, about_ids, impacts=impacts,
                    events=events)
-    out = np.empty((t.size, 5))
-    for k in range(ids.size):
+    if cids.size:
+        for k, when, a, b in markers.changes(t, pos, vel, cpos, cvel, cmass, dom).tolist():
+            p.changes.append(Change(int(ids[int(k)]), when, int(cids[int(a)]),
+                                    int(cids[int(b)])))
         _yield(background)
-        valid = dom[k] >= 0
-        for j in np.flatnonzero(valid[:-1] & valid[1:] & (dom[k, :-1] != dom[k, 1:])):
-            p.changes.append(_change(int(ids[k]), t, np.ascontiguousarray(pos[k]),
-                                     np.ascontiguousarray(vel[k]), cpos, cvel, cmass, dom[k],
-                                     j, cids))
-        for c in np.unique(dom[k][valid]):
-            use = (dom[k, :-1] == c) & (dom[k, 1:] == c)
-            rp = np.ascontiguousarray(pos[k] - cpos[c])
-            rv = np.ascontiguousarray(vel[k] - cvel[c])
-            rows = out[:markers.extrema(t, rp, rv, use, out)]
-            found = np.empty((rows.shape[0], 5))
-            markers.apsides(t, rp, rv, cpos[c], cvel[c], G * (cmass[c] + own[k]), rows, found)
-            for row, (when, distance, *where) in zip(rows, found.tolist()):
-                p.apsides.append(Apsis(int(ids[k]), "pericentre" if row[0] < 0 else "apocentre",
-                                       when, np.array(where[:dim]), distance, int(cids[c])))
-        if target is not None and ids[k] != target:
-            p.approaches.append(_closest(int(ids[k]), target, t, pos[k], vel[k],
-                                         spos[at[int(target)]], svel[at[int(target)]],
-                                         out))
+        mu = G * (cmass[None, :] + own[:, None])
+        found = markers.all_apsides(t, pos, vel, cpos, cvel, mu, dom)
+        where = found[:, 4:4 + dim].copy()
+        for (k, kind, when, distance, c), point in zip(found[:, [0, 1, 2, 3, 7]].tolist(),
+                                                      where):
+            p.apsides.append(Apsis(int(ids[int(k)]), "pericentre" if kind < 0 else "apocentre",
+                                   when, point, distance, int(cids[int(c)])))
+    if target is not None:
+        out = np.empty((t.size, 5))
+        for k in range(ids.size):
+            _yield(background)
+            if ids[k] != target:
+                p.approaches.append(_closest(int(ids[k]), target, t, pos[k], vel[k],
+                                             spos[at[int(target)]], svel[at[int(target)]],
+                                             out))
     p.apsides.sort(key=lambda a: a.t)
     p.changes.sort(key=lambda a: a.t)
     p.approaches = [a for a in p.approaches if a is not None]
@@ -463,14 +453,6 @@ def _at(t, pos, vel, row):
     return out_p, out_v
 
 
-def _change(body, t, pos, vel, cpos, cvel, cmass, dom, j, cids):
-    """The dominant body's change in interval j: where the two pulls are equal."""
-    a, b = dom[j], dom[j + 1]
-    when = markers.equal_pulls(t, pos, vel, cpos[a], cvel[a], cmass[a], cpos[b], cvel[b],
-                               cmass[b], j)
-    return Change(body, float(when), int(cids[a]), int(cids[b]))
-
-
 def _closest(body, target, t, pos, vel, tpos, tvel, out):
     """The smallest distance between the two paths: a refined minimum, or an end."""
     rp = np.ascontiguousarray(pos - tpos)
@@ -479,7 +461,7 @@ def _closest(body, target, t, pos, vel, tpos, tvel, out):
     if not ok.any():
         return None
     use = ok[:-1] & ok[1:]
-    n = markers.extrema(t, rp, rv, use, out)
+    n = markers.extrema(t, rp, rv, use, out, 60)
     best = None
     for row in out[:n]:
         if row[0] < 0 and (best is None or row[2] < best[2]):

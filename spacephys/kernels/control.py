@@ -264,7 +264,7 @@ def thrust_p(burn, q, tau):
     return p
 
 
-@kernel
+@kernel(inline=True)
 def drift_thrust(actors, burn, pos, vel, ta, tb):
     """The thrust's exact share of a drift from ta to tb [time after the step's start]: call
     after pos += (tb - ta) vel, with vel still that at ta."""
@@ -577,13 +577,13 @@ def after_step(act, state, t0, dt, L):
     pos0, pos = state.pos0, state.pos
     died = False
     actors = act.actors
-    point = np.empty(3)
-    normal = np.empty(3)
     for q in range(actors.size):
         i = actors[q]
         j = act.target[i]
         if act.fuse[i] <= 0.0 or j < 0 or not alive[i] or not alive[j]:
             continue
+        point = np.empty(3)           # allocated only for a fuse: every step of every scene
+        normal = np.empty(3)          # with actors calls this
         d0 = np.empty(3)
         e = np.empty(3)
         for c in range(3):

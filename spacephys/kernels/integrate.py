@@ -33,6 +33,8 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
     everyone = forces.everyone
     wind = forces.drag[1:]
     frame = 0
+    if actors is not None:      # read once: a table's field read per drift costs ~40 ns
+        movers, burn = actors.actors, actors.burn
     for step in range(nsteps):
         t = t0 + step * dt
         begin(state, rules, actors, t, dt, False, step == nsteps - 1)
@@ -45,7 +47,7 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
                     pos[i, 1] += h * vel[i, 1]
                     pos[i, 2] += h * vel[i, 2]
                 if actors is not None:
-                    drift_thrust(actors.actors, actors.burn, pos, vel, tau, tau + h)
+                    drift_thrust(movers, burn, pos, vel, tau, tau + h)
                 tau += h
             h = kick[s] * dt
             if h != 0.0:

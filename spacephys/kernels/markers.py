@@ -5,6 +5,7 @@ both ends of an interval: error O(h^4) in position).
 """
 import math
 
+import numpy as np
 
 from .._jit import kernel
 
@@ -56,12 +57,29 @@ def _radial(rp, rv, j, h, s):
 
 
 @kernel
-def extrema(t, rp, rv, use, out):
+def _bisect(rp, rv, j, h, kind, bits):
+    """s in [0, 1] where r . v of interval j's Hermite interpolant changes sign (from
+    negative if kind < 0), to 2^-bits of the interval."""
+    lo, hi = 0.0, 1.0
+    for _ in range(bits):
+        mid = 0.5 * (lo + hi)
+        g, _r = _radial(rp, rv, j, h, mid)
+        if (g < 0.0) == (kind < 0.0):
+            lo = mid
+        else:
+            hi = mid
+        if mid == lo and mid == hi:
+            break
+    return 0.5 * (lo + hi)
+
+
+@kernel
+def extrema(t, rp, rv, use, out, bits):
     """The local minima and maxima of the distance |rp| of a relative motion sampled at t (P,),
     rp, rv (P, 3), over the intervals j with use[j] (both ends valid and the same reference):
-    where r . v changes sign, refined by bisection on the Hermite interpolant. Writes rows
-    [kind (-1 minimum, +1 maximum), time, distance, interval, s] into out (M, 5); returns the
-    count (at most M)."""
+    where r . v changes sign, refined by bisection on the Hermite interpolant to 2^-bits of
+    the interval (60: below rounding). Writes rows [kind (-1 minimum, +1 maximum), time,
+    distance, interval, s] into out (M, 5); returns the count (at most M)."""
     count = 0
     P = t.size
     for j in range(P - 1):
@@ -77,17 +95,7 @@ def extrema(t, rp, rv, use, out):
         else:
             continue
         h = t[j + 1] - t[j]
-        lo, hi = 0.0, 1.0
-        for _ in range(60):               # 2^-60 of the interval: below rounding
-            mid = 0.5 * (lo + hi)
-            g, _r = _radial(rp, rv, j, h, mid)
-            if (g < 0.0) == (kind < 0.0):
-                lo = mid
-            else:
-                hi = mid
-            if mid == lo and mid == hi:
-                break
-        s = 0.5 * (lo + hi)
+        s = _bisect(rp, rv, j, h, kind, bits)
         g, r = _radial(rp, rv, j, h, s)
         out[count, 0] = kind
         out[count, 1] = t[j] + s * h
@@ -178,8 +186,8 @@ def apsides(t, rp, rv, cpos, cvel, mu, rows, out):
     """For each extremum row of `extrema` (M, 5) on the relative motion rp, rv (P, 3) about a
     body sampled at cpos, cvel: out[m] = [time, distance, x, y, z], the apsis on the conic
     osculating at the interval's nearer end (exact for two bodies), at the body's
-    interpolated position; the Hermite extremum where the conic has no apsis within an
-    interval of the one found."""
+    interpolated position; the Hermite extremum (refined fully here: the rows' own s need only
+    tell the nearer end) where the conic has no apsis within an interval of the one found."""
     P = t.size
     for m in range(rows.shape[0]):
         j0 = int(rows[m, 3])
@@ -187,9 +195,9 @@ def apsides(t, rp, rv, cpos, cvel, mu, rows, out):
         dt, ax, ay, az = _conic(rp, rv, j, mu, rows[m, 0] < 0.0)
         when = t[j] + dt
         if not (t[max(j0 - 1, 0)] <= when <= t[min(j0 + 2, P - 1)]):
-            when = rows[m, 1]
             h = t[j0 + 1] - t[j0]
-            s = rows[m, 4]
+            s = _bisect(rp, rv, j0, h, rows[m, 0], 60)
+            when = t[j0] + s * h
             for x in range(3):
                 p, _v = _hermite(rp[j0, x], rv[j0, x], rp[j0 + 1, x], rv[j0 + 1, x], h, s)
                 if x == 0:
@@ -212,3 +220,75 @@ def apsides(t, rp, rv, cpos, cvel, mu, rows, out):
         for x in range(3):
             c, _v = _hermite(cpos[k, x], cvel[k, x], cpos[k + 1, x], cvel[k + 1, x], h, s)
             out[m, 2 + x] = c + rel[x]
+
+
+@kernel
+def changes(t, pos, vel, cpos, cvel, cmass, dom):
+    """Every change of dominant body on paths pos, vel (K, P, 3) with dom (K, P) from
+    `dominant`: rows [path k, time, candidate before, candidate after] (M, 4), by path then
+    time; the time where the two pulls are equal (equal_pulls)."""
+    K, P = dom.shape[0], dom.shape[1]
+    count = 0
+    for k in range(K):
+        for j in range(P - 1):
+            if dom[k, j] >= 0 and dom[k, j + 1] >= 0 and dom[k, j] != dom[k, j + 1]:
+                count += 1
+    out = np.empty((count, 4))
+    m = 0
+    for k in range(K):
+        for j in range(P - 1):
+            a, b = dom[k, j], dom[k, j + 1]
+            if a >= 0 and b >= 0 and a != b:
+                out[m, 0] = k
+                out[m, 1] = equal_pulls(t, pos[k], vel[k], cpos[a], cvel[a], cmass[a], cpos[b],
+                                        cvel[b], cmass[b], j)
+                out[m, 2] = a
+                out[m, 3] = b
+                m += 1
+    return out
+
+
+@kernel
+def all_apsides(t, pos, vel, cpos, cvel, mu, dom):
+    """The apsides of paths pos, vel (K, P, 3) about their dominant bodies (dom (K, P) from
+    `dominant`), each taken over the intervals where one candidate dominates at both ends:
+    rows [path k, kind (-1 pericentre, +1 apocentre), time, distance, x, y, z, candidate]
+    (M, 8), by path, candidate, time. mu (K, C): G (m_candidate + m_path) per pair."""
+    K, P = dom.shape[0], dom.shape[1]
+    C = cpos.shape[0]
+    rp = np.empty((P, 3))
+    rv = np.empty((P, 3))
+    use = np.empty(max(P - 1, 0), np.bool_)
+    rows = np.empty((max(P - 1, 1), 5))
+    found = np.empty((max(P - 1, 1), 5))
+    present = np.empty(C, np.bool_)
+    out = np.empty((16, 8))
+    m = 0
+    for k in range(K):
+        present[:] = False
+        for j in range(P - 1):
+            if dom[k, j] >= 0 and dom[k, j] == dom[k, j + 1]:
+                present[dom[k, j]] = True
+        for c in range(C):
+            if not present[c]:
+                continue
+            for j in range(P - 1):
+                use[j] = dom[k, j] == c and dom[k, j + 1] == c
+            for j in range(P):
+                for x in range(3):
+                    rp[j, x] = pos[k, j, x] - cpos[c, j, x]
+                    rv[j, x] = vel[k, j, x] - cvel[c, j, x]
+            n = extrema(t, rp, rv, use, rows, 12)    # the nearer end is all apsides needs
+            apsides(t, rp, rv, cpos[c], cvel[c], mu[k, c], rows[:n], found[:n])
+            if m + n > out.shape[0]:
+                grown = np.empty((2 * (m + n), 8))
+                grown[:m] = out[:m]
+                out = grown
+            for r in range(n):
+                out[m, 0] = k
+                out[m, 1] = rows[r, 0]
+                for x in range(5):
+                    out[m, 2 + x] = found[r, x]
+                out[m, 7] = c
+                m += 1
+    return out[:m]

@@ -27,10 +27,12 @@ from .control import after_step, begin_step, end_burn, undo_turns
 
 @kernel
 def periods(rules):
-    """(3,) box lengths of a wrapping boundary per axis, zeros without one."""
+    """The box lengths of a wrapping boundary per axis (a 3-tuple: no allocation per step),
+    zeros without one."""
     if rules is None:
-        return np.zeros(3)
-    return _periods(rules)
+        return 0.0, 0.0, 0.0
+    L = _periods(rules)
+    return L[0], L[1], L[2]
 
 
 @kernel(inline=True)

@@ -284,7 +284,7 @@ def _fleet_split(w, repeats=5):
 
     def guide():
         plan = w.copy().tables()
-        L = np.zeros(3)
+        L = (0.0, 0.0, 0.0)           # no wrapping (kernels/step.periods)
         start = time.perf_counter()
         control.begin_step(plan.actors, plan.rules, plan.state, w.t, w.dt, L)
         control.end_burn(plan.actors, plan.state, w.t, w.dt)
