@@ -121,7 +121,23 @@ def predict_bench(quick=False):
     hundred = _best(many, repeats)
     return {**header("predict", quick, rebound), "orbits": ORBITS, "points": POINTS,
             "bodies": w.n, "ship_period": PERIOD, "cases": cases, "rebound": theirs,
-            "best": best, "hundred_ships_s": hundred, "frames": _frames(quick, options)}
+            "best": best, "hundred_ships_s": hundred,
+            "stepping_s": {"1": _stepping(w, options, repeats),
+                           "100": _stepping(w100, options, repeats)},
+            "frames": _frames(quick, options)}
+
+
+def _stepping(w, options, repeats):
+    """The prediction's integration alone: a copy of w with its integrator and dt taking the
+    same steps, no samples, no markers [s] (what the call costs beyond is theirs)."""
+    copy = w.copy()
+    copy.integrator = options["integrator"]
+    copy.dt = options.get("dt", DURATION / (POINTS - 1))    # Gauss-Radau: its output steps
+    if "tolerance" in options:
+        copy.tolerance = options["tolerance"]
+    steps = round(DURATION / copy.dt)
+    copy.step(steps)
+    return _best(lambda: copy.step(steps), repeats)
 
 
 def _frames(quick, options):
@@ -196,6 +212,9 @@ def format_predict(r):
                          if theirs else ""))
     lines.append(f"100 ships predicted in one call: {r['hundred_ships_s'] * 1e3:.2f} ms "
                  f"(target 20 ms)")
+    st = r["stepping_s"]
+    lines.append(f"of which the integration alone (the same steps without samples or markers): "
+                 f"{st['1'] * 1e3:.3f} ms for 1 ship, {st['100'] * 1e3:.2f} ms for 100")
     f = r["frames"]
     for name, label in (("alone", "alone"), ("running", "while a prediction runs beside"),
                         ("launching", "launching one (predict_async)")):
