@@ -34,9 +34,9 @@ def test_elements_agree_with_rebound_for_every_conic_and_inclination():
     each (sim.add with elements) and computes its orbit (particle.orbit(primary=star)); ours
     from the same relative state. Measured worst (REBOUND 5.2.2): a and period 6e-16 relative
     over their conditioning 1 + 2|a|/r, e 7e-15, i 1.2e-13 (REBOUND's acos(h_z / h) loses
-    digits at i = 1e-3; ours is atan2), Omega 2e-14, omega and f 3e-14 over 1 + 1/e, M 2e-12
-    (at e = 0.9999, where E - e sin E cancels). Undefined angles are not compared: Omega of
-    an equatorial orbit, omega and f of a circular one."""
+    digits at i = 1e-3; ours is atan2), Omega 2e-14, omega and f 3e-14 over 1 + 1/e (their
+    sum 6e-14 unscaled), M 2e-12 over 1 + 1/e (at e = 30). Undefined angles are not
+    compared: Omega of an equatorial orbit, omega and f of a circular one."""
     worst = {}
     for e, inc, a, Omega, omega, f in _cases():
         sim = rebound.Simulation()
@@ -66,12 +66,15 @@ def test_elements_agree_with_rebound_for_every_conic_and_inclination():
             errors["omega"] = _angle(ours.omega, theirs.omega) / turn
             errors["f"] = _angle(ours.f, theirs.f) / turn
             errors["M"] = _angle(ours.M, theirs.M) / turn     # REBOUND gives M modulo 2 pi
+            # their sum, the argument of latitude, is well conditioned at any e: unscaled
+            errors["omega + f"] = _angle(ours.omega + ours.f, theirs.omega + theirs.f)
         for name, value in errors.items():
             worst[name] = max(worst.get(name, 0.0), value)
-    assert set(worst) == {"a", "e", "i", "period", "Omega", "omega", "f", "M"}
+    assert set(worst) == {"a", "e", "i", "period", "Omega", "omega", "f", "M", "omega + f"}
     assert max(worst["a"], worst["period"]) < 1e-14, worst
     assert worst["e"] < 1e-12 and worst["i"] < 1e-12 and max(
         worst["Omega"], worst["omega"], worst["f"], worst["M"]) < 1e-11, worst
+    assert worst["omega + f"] < 1e-12, worst
 
 
 @pytest.mark.parametrize("e", ECCENTRICITIES)

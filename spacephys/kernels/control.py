@@ -347,7 +347,7 @@ def next_stop(actors, burn, after):
 def begin_step(act, rules, state, t0, dt, L):
     """Arm fuses (rules: the collision table or None), keep every actor's orientation (for
     undo_turns), turn every live actor over the step and set its burn in act.burn (see the
-    module). L : (3,) the periods of a wrapping boundary (zeros: none)."""
+    module). L : 3-tuple, the periods of a wrapping boundary (zeros: none)."""
     actors = act.actors
     alive = state.alive
     pos, vel, mass, burn = state.pos, state.vel, state.mass, act.burn
