@@ -63,6 +63,7 @@ class ForceField:
             self.drag[1:1 + dim] = check.floats("wind", wind, (dim,))
         self.user = []                        # [(fn, params (p,) float64)]
         self._typed = None                    # the kernels' typed lists of them, made on demand
+        self.tape = None                      # a prediction copy's tape (spacephys/tape.py)
 
     # ------------------------------------------------------------ user forces
     @staticmethod
@@ -129,11 +130,14 @@ class ForceField:
         """The kernels' Forces for the bodies mass, ids (n,); src, passive, still: int64 rows;
         held : (n, 6) or None; threads : (1,) int64 shared with World's ThreadChoice."""
         fns, params = self.typed_user() if self.user else (None, None)
-        return kforces.make(mass, ids, model=self.model, G=self.G,
-                            eps2=self.softening ** 2, field=self.field,
-                            field_mass=self.field_mass, src=src, passive=passive, still=still,
-                            drag=self.drag, held=held, user=fns, params=params,
-                            threads=threads)
+        table = kforces.make(mass, ids, model=self.model, G=self.G,
+                             eps2=self.softening ** 2, field=self.field,
+                             field_mass=self.field_mass, src=src, passive=passive, still=still,
+                             drag=self.drag, held=held, user=fns, params=params,
+                             threads=threads)
+        if self.tape is not None:           # a prediction's copy (spacephys/tape.py)
+            self.tape.attach(table, ids[src])
+        return table
 
     def work(self, n, pulling):
         """Pair evaluations of the largest force loop for n bodies, `pulling` of them pulling:
@@ -176,11 +180,13 @@ class ForceField:
         f.user = [(importable(name), np.array(p, np.float64))
                   for name, p in zip(s["user_functions"], s["user_params"])]
         f._typed = None
+        f.tape = None
         return f
 
     def __getstate__(self):
         state = self.__dict__.copy()
         state["_typed"] = None                # typed lists neither copy nor pickle
+        state["tape"] = None                  # a copy's tape is its own (spacephys/tape.py)
         return state
 
 

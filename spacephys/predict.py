@@ -25,6 +25,7 @@ from .kernels import markers
 from .kernels.collide import owners_of
 from .kernels.codes import (EV_BOUNCE, EV_DESTROY, EV_DETONATION, EV_EXPIRY, EV_MERGE,
                             EV_WALL, NONFINITE)
+from .tape import Tape
 
 # events that end a predicted path: a contact by the collision rules, a detonation, an expiry
 _ENDING = (EV_BOUNCE, EV_MERGE, EV_DESTROY, EV_WALL, EV_DETONATION, EV_EXPIRY)
@@ -204,11 +205,15 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
             sampler = _Sampler(watched, counts.size)
             sampler.take(w, 0)
             t = w.time_after(counts.astype(np.float64))     # as World.t computes the time
+            if shadow.tape is not None:
+                shadow.tape.start_run(w, int(counts[-1]))
             events = _run(w, counts, sampler)
             _yield(background)
             return _assemble(w, ids, watched, sampler, t, events, cand, cmass, centre,
                              target, G, own, background)
         finally:
+            if shadow.tape is not None:
+                shadow.tape.end_run()
             shadow.release()
 
     if not background:
@@ -223,7 +228,7 @@ class _Shadow:
     those it was made beside (any change to the bodies or to a setting the tables hold
     rebuilds them) and its own run removed nobody; busy while a prediction runs on it."""
 
-    def __init__(self, world, key, name, step, tolerance, background):
+    def __init__(self, world, key, name, step, tolerance, background, tape=None):
         self.world_plan = world._plan     # the World's tables it was made beside
         w = world.copy()
         w._watch = None
@@ -236,6 +241,7 @@ class _Shadow:
         if background:
             w.threads = "never"           # beside the game's own steps, on one thread
         w.tables()
+        self.tape = Tape.make(w, tape)    # the pulling bodies' recorded future (tape.py)
         self.w, self.key, self.step, self.tolerance = w, key, step, tolerance
         self.same_integrator = name == world.integrator
         self.plan = w._plan
@@ -300,7 +306,10 @@ def _shadow(world, name, step, tolerance, background):
     if shadow is not None and shadow.usable(world, key):
         shadow.take(world)
         return shadow
-    shadow = _Shadow(world, key, name, step, tolerance, background)
+    # the tape outlives a copy remade for new tables (a plan edited, a body added): it plays
+    # on if the pulling bodies are where it has them
+    tape = shadow.tape if shadow is not None and not shadow.busy and shadow.key == key else None
+    shadow = _Shadow(world, key, name, step, tolerance, background, tape)
     shadows[background] = shadow
     return shadow
 

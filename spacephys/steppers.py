@@ -97,6 +97,11 @@ class Stepper:
     def load(self, state):
         pass
 
+    def tape_evaluations(self):
+        """Force evaluations per step when a prediction's copy may keep a tape of the pulling
+        bodies (spacephys/tape.py: a fixed sequence of them per step), else None."""
+        return None
+
     @property
     def counters(self):
         """World.integrator_stats: the adaptive family's counters, zeros for the others."""
@@ -110,6 +115,9 @@ class Splitting(Stepper):
 
     def method(self, world, sources):
         return (self.spec.drift, self.spec.kick)
+
+    def tape_evaluations(self):
+        return int(np.count_nonzero(self.spec.kick))
 
 
 class RungeKutta(Stepper):
@@ -186,6 +194,11 @@ class GaussRadau(Stepper):
         for name in GR_COLUMNS:
             if name in world._b.columns:
                 getattr(world._b, name)[:] = 0.0
+
+    def tape_evaluations(self):
+        """Force evaluations per step when a prediction's copy may keep a tape of the pulling
+        bodies (spacephys/tape.py: a fixed sequence of them per step), else None."""
+        return None
 
     @property
     def counters(self):

@@ -29,6 +29,7 @@ from numba import types, typed
 from numba.experimental import structref
 
 from .._jit import PARALLEL_MIN_PAIRS, TableType, kernel
+from . import tape
 from .diagnostics import add
 
 # gravity models: a code and a name each, their accelerations (accelerations) and potential
@@ -73,6 +74,9 @@ FIELDS = (
     "user_out",    # (n, 3) scratch the user forces add into
     "threads",     # (1,) int64: the fewest pair evaluations a force loop runs on threads
                    # (World's ThreadChoice sets it between calls: huge = never)
+    "tape",        # (E, 4, ns) the pulling bodies' sources per force evaluation (kernels/tape)
+    "ends",        # (T, ns, 7) their positions, velocities, masses per step (kernels/tape)
+    "tape_at",     # (5,) int64: where the tape is and whether it runs (kernels/tape); off
 )
 structref.define_proxy(Forces, ForcesType, list(FIELDS))
 
@@ -81,7 +85,8 @@ structref.define_proxy(Forces, ForcesType, list(FIELDS))
 def _make(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone, drag,
           held, scratch, user, params, user_out, threads):
     return Forces(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone,
-                  drag, held, scratch, user, params, user_out, threads)
+                  drag, held, scratch, user, params, user_out, threads, np.zeros((0, 4, 0)),
+                  np.zeros((0, 0, 7)), np.zeros(5, np.int64))
 
 
 @kernel
@@ -91,7 +96,17 @@ def _make_plain(model, G, eps2, field, field_mass, mass, ids, src, passive, stil
     adds a user force never pays for typed lists in Python (0.4 s of compilation)."""
     return Forces(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone,
                   drag, held, scratch, typed.List.empty_list(USER_FORCE_TYPE),
-                  typed.List.empty_list(types.float64[::1]), user_out, threads)
+                  typed.List.empty_list(types.float64[::1]), user_out, threads,
+                  np.zeros((0, 4, 0)), np.zeros((0, 0, 7)), np.zeros(5, np.int64))
+
+
+@kernel
+def set_tape(f, tape, ends, at):
+    """Give the table a prediction's tape (kernels/tape.py): tape (E, 4, ns), ends (T, ns, 7),
+    at (5,) int64, shared with the caller."""
+    f.tape = tape
+    f.ends = ends
+    f.tape_at = at
 
 
 def no_user_forces():
@@ -218,6 +233,14 @@ def _sources(f, pos):
     for the models without sources."""
     model = f.model
     if model == DIRECT:
+        at = f.tape_at
+        if at[tape.ON] != 0:                # a prediction's copy with a tape
+            e = at[tape.EVAL]
+            at[tape.EVAL] = e + 1
+            if not tape.sources(f, e, f.scratch):
+                _gather_sources(f.src, pos, f.mass, f.scratch)
+                tape.record(f, e, f.scratch)
+            return True
         _gather_sources(f.src, pos, f.mass, f.scratch)
         return True
     if model == CENTRAL:

@@ -13,6 +13,7 @@ import numpy as np
 
 from .._jit import kernel
 from .control import add_thrust, drift_thrust, rk_thrust_fix
+from . import tape
 from .forces import accelerations, drag_kick
 from .step import begin, capture, end, status
 
@@ -38,6 +39,8 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
     for step in range(nsteps):
         t = t0 + step * dt
         begin(state, rules, actors, t, dt, False, step == nsteps - 1)
+        played = tape.playing(forces)                  # a prediction's tape (kernels/tape.py)
+        kicked = forces.passive if played else everyone
         tau = 0.0                                      # time into the step the drifts reached
         for s in range(drift.size):
             h = drift[s] * dt
@@ -51,9 +54,11 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
                 tau += h
             h = kick[s] * dt
             if h != 0.0:
-                accelerations(forces, t + tau, pos, vel, acc, everyone, False)
-                drag_kick(forces, vel, acc, h, everyone, wind)
+                accelerations(forces, t + tau, pos, vel, acc, kicked, False)
+                drag_kick(forces, vel, acc, h, kicked, wind)
+        tape.integrated(forces, pos, vel, state.mass, played)
         stop = end(state, rules, actors, t, dt)
+        tape.collided(forces, pos, vel, state.mass)
         frame = capture(frames, frame, step + 1, state)
         if stop:
             return step + 1, status(state, True)

@@ -16,7 +16,6 @@ code at all (its branches are pruned on the argument's type), so a gravity-only 
 compiles nor runs it. `frames` is None, or (frame_at, fpos, fvel, fmass): the step counts of
 this call after which to copy the state into fpos[k], fvel[k] (F, n, 3) and fmass[k] (F, n).
 """
-import numpy as np
 
 from .._jit import kernel
 from .arrays import copy_into

@@ -124,7 +124,26 @@ def predict_bench(quick=False):
             "best": best, "hundred_ships_s": hundred,
             "stepping_s": {"1": _stepping(w, options, repeats),
                            "100": _stepping(w100, options, repeats)},
-            "frames": _frames(quick, options)}
+            "hud_s": _hud(options, repeats), "frames": _frames(quick, options)}
+
+
+def _hud(options, repeats):
+    """A HUD's prediction each frame: the World flies the prediction's own integrator and
+    dt, one step further between calls, so the planets' recorded future plays on (the tape,
+    spacephys/tape.py); and a call on a World whose integrator differs (each records anew).
+    Best call [s] of each."""
+    same, (ship,) = scene(options["integrator"], dt=options.get("dt"))
+    other, (ship2,) = scene("leapfrog", dt=options.get("dt"))
+    out = {}
+    for name, w, s in (("same_integrator", same, ship), ("other_integrator", other, ship2)):
+        call = lambda: w.predict(s, DURATION, points=POINTS, **options)
+        call()
+
+        def frame():
+            w.step(1)
+            call()
+        out[name] = _best(frame, 2 * repeats) - _best(lambda: w.step(1), 2 * repeats)
+    return out
 
 
 def _stepping(w, options, repeats):
@@ -215,6 +234,11 @@ def format_predict(r):
     st = r["stepping_s"]
     lines.append(f"of which the integration alone (the same steps without samples or markers): "
                  f"{st['1'] * 1e3:.3f} ms for 1 ship, {st['100'] * 1e3:.2f} ms for 100")
+    h = r["hud_s"]
+    lines.append(f"a HUD's call, the World a step further each time: "
+                 f"{h['same_integrator'] * 1e3:.3f} ms when it flies the prediction's "
+                 f"integrator and dt (the planets' future played back), "
+                 f"{h['other_integrator'] * 1e3:.3f} ms when it does not")
     f = r["frames"]
     for name, label in (("alone", "alone"), ("running", "while a prediction runs beside"),
                         ("launching", "launching one (predict_async)")):

@@ -1,0 +1,99 @@
+"""The tape: the pulling bodies' future, recorded by one prediction and played back by the next
+(spacephys/tape.py decides when; a prediction's copy only, off everywhere else).
+
+Recording, a step stores the pulling bodies' sources (x, y, z, m) at each of its force
+evaluations (forces._sources does) and their positions, velocities and masses after its
+integration. Playing back, a step kicks only the passive bodies, from the recorded sources,
+and puts the pulling bodies where the tape has them before the collisions: the passive bodies'
+sums are the ones a full step makes from the same numbers, so the paths are the full run's,
+bit for bit, at the cost of the passive bodies alone. A collision that changes a pulling body
+stops the tape for the rest of the call (its later steps assumed none would).
+
+`tape_at` (5,) int64: [on, step (index into the tape), valid (steps recorded), evaluations per
+step, evaluation (the next one's index)]; `tape` (E, 4, ns), `ends` (T, ns, 7).
+"""
+from .._jit import kernel
+
+ON, STEP, VALID, PER_STEP, EVAL = range(5)
+
+
+@kernel(inline=True)
+def playing(f):
+    """At a step's start: whether the tape plays this step back; points it at the step's first
+    evaluation."""
+    at = f.tape_at
+    if at[ON] == 0:
+        return False
+    at[EVAL] = at[STEP] * at[PER_STEP]
+    return at[STEP] < at[VALID]
+
+
+@kernel(inline=True)
+def sources(f, e, scratch):
+    """Evaluation e's sources: from the tape into scratch (4, ns) when the step plays back
+    (True); otherwise False, and the caller gathers them."""
+    at = f.tape_at
+    if at[STEP] >= at[VALID]:
+        return False
+    tape = f.tape
+    for r in range(4):
+        for a in range(scratch.shape[1]):
+            scratch[r, a] = tape[e, r, a]
+    return True
+
+
+@kernel(inline=True)
+def record(f, e, scratch):
+    """Evaluation e's gathered sources onto the tape, while it records and has room."""
+    at = f.tape_at
+    tape = f.tape
+    if at[STEP] == at[VALID] and e < tape.shape[0]:
+        for r in range(4):
+            for a in range(scratch.shape[1]):
+                tape[e, r, a] = scratch[r, a]
+
+
+@kernel(inline=True)
+def integrated(f, pos, vel, mass, played):
+    """After a step's integration, before its collisions: a played step puts the pulling bodies
+    (drifted, never kicked) where the tape has them; a recorded one writes them down."""
+    at = f.tape_at
+    if at[ON] == 0:
+        return
+    k = at[STEP]
+    src, ends = f.src, f.ends
+    if played:
+        for a in range(src.size):
+            i = src[a]
+            for c in range(3):
+                pos[i, c] = ends[k, a, c]
+                vel[i, c] = ends[k, a, 3 + c]
+    elif k == at[VALID] and k < ends.shape[0] and at[EVAL] <= f.tape.shape[0]:
+        for a in range(src.size):
+            i = src[a]
+            for c in range(3):
+                ends[k, a, c] = pos[i, c]
+                ends[k, a, 3 + c] = vel[i, c]
+            ends[k, a, 6] = mass[i]
+        at[VALID] = k + 1
+
+
+@kernel(inline=True)
+def collided(f, pos, vel, mass):
+    """After the step's collisions: stop the tape if they changed a pulling body; count the
+    step."""
+    at = f.tape_at
+    if at[ON] == 0:
+        return
+    k = at[STEP]
+    if k < at[VALID]:
+        src, ends = f.src, f.ends
+        for a in range(src.size):
+            i = src[a]
+            same = mass[i] == ends[k, a, 6]
+            for c in range(3):
+                same = same and pos[i, c] == ends[k, a, c] and vel[i, c] == ends[k, a, 3 + c]
+            if not same:
+                at[ON] = 0
+                return
+    at[STEP] = k + 1

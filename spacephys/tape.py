@@ -1,0 +1,153 @@
+"""A prediction's tape: the pulling bodies' future, recorded by one prediction and played back
+by the next while the World flies the same steps (the kernels' side: kernels/tape.py).
+
+A HUD predicts every frame from a World a step or two further on, and a player editing a burn
+predicts the same World again and again; the planets' future is the same each time. The tape
+keeps their sources at every force evaluation, so a later prediction integrates only the
+passive bodies (the ship): the same numbers in the same sums, the full run's path bit for bit.
+It plays from step k when the copy's pulling bodies are, bit for bit, where the tape has them
+after k steps (the World flew those steps: its own integrator and dt) and nothing else that
+moves them changed (held forces, drag); otherwise it records anew. Only for the splitting
+family (a fixed sequence of evaluations per step), direct gravity and no user forces, no
+pulling ship or missile. A part of World (predict.py's copy).
+"""
+import numpy as np
+
+from .forces import HELD
+from .kernels import forces as kforces
+from .kernels import tape as ktape
+
+# the most a tape holds: past it a prediction runs in full (10 000 steps of yoshida6 among 10
+# bodies take 27 MB)
+MAX_BYTES = 64 << 20
+
+
+class Tape:
+    """The tape of one prediction copy `w` (made beside its tables, see `make`)."""
+
+    def __init__(self, w, per_step):
+        src = w._sources()[0]
+        self.src_ids = w._b.ids[src].copy()
+        self.per_step = per_step
+        self.at = np.zeros(5, np.int64)
+        self.at[ktape.PER_STEP] = per_step
+        self.tape = np.zeros((0, 4, src.size))
+        self.ends = np.zeros((0, src.size, 7))
+        self.origin = None          # (time, dt) of the tape's step 0
+        self.start = None           # (ns, 7): the pulling bodies then
+        self.moved = None           # what else moves them: held forces, drag
+        self.played = 0             # steps played back over the tape's life
+        self._run = None            # (first step, steps recorded) of the run under way
+        self._bind(w)
+
+    def _bind(self, w):
+        """Ride on w: its ForceField gives the tape to every table it builds (attach)."""
+        w._forces.tape = self
+        self.attach(w.tables().forces, w._b.ids[w._sources()[0]])
+
+    def attach(self, forces, src_ids):
+        """Give a Forces table just built for the copy the tape, if the same bodies pull in
+        the same order (the copy's own run removed others); else stop the tape (a pulling
+        body left)."""
+        if np.array_equal(src_ids, self.src_ids):
+            self.forces = forces
+            kforces.set_tape(forces, self.tape, self.ends, self.at)
+        else:
+            self.at[ktape.ON] = 0
+
+    @staticmethod
+    def make(w, old=None):
+        """A Tape for the copy w (the old copy's, when the same bodies pull in the same
+        rows), or None when its scene cannot have one."""
+        per_step = w._stepper.tape_evaluations()
+        if per_step is None or w.gravity != "direct" or w._forces.user:
+            return None
+        src = w._sources()[0]
+        if old is not None and old.per_step == per_step \
+                and np.array_equal(old.src_ids, w._b.ids[src]):
+            old._bind(w)
+            return old
+        return Tape(w, per_step)
+
+    def _state(self, w):
+        b, src = w._b, w._sources()[0]
+        return np.concatenate([b.pos[src], b.vel[src], b.mass[src][:, None]], axis=1)
+
+    def _moved(self, w):
+        b = w._b
+        held = b.held[w._sources()[0]].copy() if HELD in b.columns else None
+        return held, w._forces.drag.copy()
+
+    def start_run(self, w, nsteps):
+        """Point the tape at the copy's state now, before a run of nsteps steps: play from
+        where it matches, else record from here."""
+        at = self.at
+        at[ktape.ON] = 0
+        self._run = None
+        if np.isin(w._actors.rows(), w._sources()[0]).any():   # a pulling ship: its controls
+            return                                        # move the pulling bodies
+        moved = self._moved(w)
+        k = self._matching_step(w, moved)
+        if k is None:
+            self.origin = (w.t, w._dt)
+            self.start, self.moved = self._state(w), moved
+            at[ktape.VALID] = 0
+            k = 0
+        elif k > 0 and k + nsteps > self.ends.shape[0]:   # drop the steps flown since
+            valid, per = int(at[ktape.VALID]), self.per_step
+            self.start = self.ends[k - 1].copy()
+            self.tape[:(valid - k) * per] = self.tape[k * per:valid * per]
+            self.ends[:valid - k] = self.ends[k:valid]
+            t0, dt = self.origin
+            self.origin = (t0 + k * dt, dt)
+            at[ktape.VALID] = valid - k
+            k = 0
+        if not self._room(k + nsteps):
+            return
+        at[ktape.STEP] = k
+        at[ktape.ON] = 1
+        self._run = (k, int(at[ktape.VALID]))
+
+    def _matching_step(self, w, moved):
+        """k when the copy now is the tape's state after k steps (and nothing else moves the
+        pulling bodies differently), else None. The time only finds k: the pulling bodies'
+        steps do not read it (no user forces, no pulling ship), their state decides."""
+        if self.origin is None:
+            return None
+        t0, dt = self.origin
+        k = round((w.t - t0) / dt)
+        if w._dt != dt or not 0 <= k <= self.at[ktape.VALID]:
+            return None
+        held, drag = moved
+        if not np.array_equal(drag, self.moved[1]) or (held is None) != (self.moved[0] is None) \
+                or (held is not None and not np.array_equal(held, self.moved[0])):
+            return None
+        then = self.start if k == 0 else self.ends[k - 1]
+        return k if np.array_equal(self._state(w), then) else None
+
+    def _room(self, steps):
+        """Room for `steps` steps (grown, within MAX_BYTES); False when past it."""
+        if steps <= self.ends.shape[0]:
+            return True
+        ns = self.src_ids.size
+        size = max(steps, 2 * self.ends.shape[0])
+        if size * (self.per_step * 4 + 7) * ns * 8 > MAX_BYTES:
+            size = steps
+            if size * (self.per_step * 4 + 7) * ns * 8 > MAX_BYTES:
+                return False
+        valid = int(self.at[ktape.VALID])
+        tape = np.zeros((size * self.per_step, 4, ns))
+        ends = np.zeros((size, ns, 7))
+        tape[:valid * self.per_step] = self.tape[:valid * self.per_step]
+        ends[:valid] = self.ends[:valid]
+        self.tape, self.ends = tape, ends
+        kforces.set_tape(self.forces, tape, ends, self.at)
+        return True
+
+    def end_run(self):
+        """The run is over: the copy's table no longer touches the tape."""
+        if self._run is not None:
+            k, valid = self._run
+            self.played += max(0, min(int(self.at[ktape.STEP]), valid) - k)
+            self._run = None
+        self.at[ktape.ON] = 0

@@ -1,0 +1,140 @@
+"""A prediction's tape (spacephys/tape.py, kernels/tape.py): the pulling bodies' future,
+recorded by one prediction and played back by the next while the World flies the same steps.
+Every prediction here equals a fresh copy's bit for bit (paths, velocities, events), whether
+the tape played, recorded, or stopped; the counter of played steps says which happened."""
+import numpy as np
+import pytest
+
+import spacephys as sp
+
+
+def _scene(integrator="yoshida4"):
+    """A star, two planets, a ship on a plan and a passive ship headed into the inner planet."""
+    w = sp.World(dim=3, G=1.0, integrator=integrator, dt=4e-3)
+    w.add_body(1.0, [0.0, 0.0, 0.0], radius=0.05, kind="star")
+    inner = w.add_body(1e-3, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], radius=0.02, kind="planet")
+    w.add_body(2e-3, [0.0, 1.6, 0.1], [-0.79, 0.0, 0.0], radius=0.03, kind="planet")
+    spec = sp.ShipSpec(dry_mass=1e-9, fuel_mass=1e-9, max_thrust=1e-9, exhaust_speed=3.0,
+                       radius=0.001)
+    ship = w.add_ship(spec, [1.05, 0.0, 0.0], [0.0, 1.14, 0.0])
+    w.plan(ship, [sp.Burn(0.2, 0.3, "prograde", frame=inner)])
+    probe = w.add_ship(spec, [1.0, 0.1, 0.0], [0.0, 0.7, 0.0])
+    return w, inner, ship, probe
+
+
+def _played(w):
+    return w.__dict__["_shadows"][False].tape.played
+
+
+def _same(w, ids, **options):
+    """w.predict (its kept copy and tape) against a fresh copy's prediction."""
+    got = w.predict(ids, 0.8, points=50, **options)
+    fresh = w.copy().predict(ids, 0.8, points=50, **options)
+    assert np.array_equal(got.pos, fresh.pos, equal_nan=True)
+    assert np.array_equal(got.vel, fresh.vel, equal_nan=True)
+    assert got.events.tobytes() == fresh.events.tobytes()
+    return got
+
+
+def test_a_prediction_plays_the_tape_back_and_equals_the_full_run():
+    """The second prediction plays all 200 steps back; then from 7 steps on, after the World
+    flew them; after a plan is edited (the ship moves no pulling body); and it records anew
+    when a held force moves a planet, or when the World flies another integrator's steps."""
+    w, inner, ship, probe = _scene()
+    ids = [ship, probe, inner]
+    _same(w, ids)
+    assert _played(w) == 0                       # the first one records
+    _same(w, ids)
+    assert _played(w) == 200
+    w.step(7)
+    _same(w, ids)
+    assert _played(w) == 200 + 193               # the tape's steps 7..199, then recording
+    w.plan(ship, [sp.Burn(w.t + 0.1, 0.2, "retrograde", frame=inner)])
+    _same(w, ids)
+    assert _played(w) == 200 + 193 + 200
+    w.apply_force(inner, [1e-6, 0.0, 0.0])
+    _same(w, ids)
+    assert _played(w) == 200 + 193 + 200         # recorded anew
+    w.integrator = "leapfrog"                    # the World's own steps now differ
+    w.step(3)
+    before = _played(w)
+    _same(w, ids, integrator="yoshida4")
+    assert _played(w) == before
+
+
+def test_a_collision_that_moves_a_pulling_body_stops_the_tape():
+    """The probe merges into the inner planet mid-prediction, changing its mass and velocity;
+    the tape stops there (its later steps assumed it would not), recording as playing."""
+    w, inner, ship, probe = _scene()
+    w.set_collision("ship", "planet", "merge")
+    first = _same(w, [ship, inner])
+    merges = [e for e in first.events if sp.EVENT_KINDS[e["kind"]] == "merge"]
+    assert len(merges) == 1 and merges[0]["b"] == probe
+    _same(w, [ship, inner])
+    assert 0 < _played(w) < 200
+
+
+def test_a_destroyed_ship_leaves_the_tape_playing():
+    """A ship destroyed on a planet does not move it: the tape plays on past the impact."""
+    w, inner, ship, probe = _scene()
+    w.set_collision("ship", "planet", "destroy_a")
+    _same(w, [ship, probe])
+    _same(w, [ship, probe])
+    assert _played(w) == 200
+
+
+def test_scenes_without_a_tape_predict_as_before():
+    """Gauss-Radau, Runge-Kutta and user forces keep no tape; their predictions equal a
+    fresh copy's as they did."""
+    for integrator in ("gauss_radau", "rk4"):
+        w, inner, ship, probe = _scene(integrator)
+        _same(w, [ship, inner])
+        _same(w, [ship, inner])
+        assert w.__dict__["_shadows"][False].tape is None
+
+
+def test_a_pulling_body_destroyed_mid_prediction_stops_the_tape():
+    """An asteroid (it pulls, a row before the planets) falls into the star. The tape is
+    recorded while it swings by; then a rule destroys it there: the star does not move, but
+    a pulling body left, so the tape stops (its rows no longer fit the bodies)."""
+    w = sp.World(dim=3, G=1.0, integrator="yoshida4", dt=4e-3)
+    w.add_body(1.0, [0.0, 0.0, 0.0], radius=0.05, kind="star")
+    rock = w.add_body(1e-4, [0.02, -0.3, 0.0], [0.0, 0.5, 0.0], radius=0.01, kind="asteroid")
+    planet = w.add_body(1e-3, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], radius=0.02, kind="planet")
+    w.add_body(2e-3, [0.0, 1.6, 0.1], [-0.79, 0.0, 0.0], radius=0.03, kind="planet")
+    ship = w.add_ship(sp.ShipSpec(dry_mass=1e-9, fuel_mass=0.0, max_thrust=0.0),
+                      [1.05, 0.0, 0.0], [0.0, 1.14, 0.0])
+    _same(w, [ship, planet])
+    w.set_collision("asteroid", "star", "destroy_a")
+    first = _same(w, [ship, planet])
+    assert [sp.EVENT_KINDS[e["kind"]] for e in first.events if e["a"] == rock] == ["destroy"]
+    assert 0 < _played(w) < 200
+
+
+def test_a_pulling_ship_keeps_no_tape():
+    """A ship that pulls moves the pulling bodies by its controls and plans, which the tape
+    cannot know: predictions run in full."""
+    w, inner, ship, probe = _scene()
+    big = w.add_ship(sp.ShipSpec(dry_mass=1e-4, fuel_mass=1e-4, max_thrust=1e-3,
+                                 exhaust_speed=3.0, active=True), [0.0, -1.2, 0.0],
+                     [0.9, 0.0, 0.0])
+    w.plan(big, [sp.Burn(0.1, 0.3, "prograde")])
+    _same(w, [ship, big])
+    w.plan(big, [sp.Burn(0.1, 0.3, "retrograde")])
+    _same(w, [ship, big])
+    assert _played(w) == 0
+
+
+def test_a_pulling_body_killed_in_place_stops_the_tape():
+    """A missile's fuse kills the inner planet where it is (its state does not change, it
+    only dies): a pulling body left, so the tape recorded without the missile stops there."""
+    w, inner, ship, probe = _scene()
+    _same(w, [ship, probe])
+    w.launch(probe, sp.MissileSpec(mass=1e-9, thrust=1e-8, fuel_mass=1e-9, exhaust_speed=1.0,
+                                   guidance="pn", turn_rate=5.0, fuse_radius=0.05,
+                                   radius=0.001), target=inner, heading=[0.0, -1.0, 0.0])
+    with pytest.warns(RuntimeWarning, match="is gone"):      # the ship's burn's frame
+        got = _same(w, [ship, probe])
+    kills = [e for e in got.events if sp.EVENT_KINDS[e["kind"]] == "detonation"]
+    assert len(kills) == 1 and kills[0]["b"] == inner
+    assert 0 < _played(w) < 200
