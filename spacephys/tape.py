@@ -126,16 +126,17 @@ class Tape:
         return k if np.array_equal(self._state(w), then) else None
 
     def _room(self, steps):
-        """Room for `steps` steps (grown, within MAX_BYTES); False when past it."""
+        """Room for `steps` steps, grown within MAX_BYTES to twice that (a HUD's World moves
+        on a few steps a call: the tape's start is dropped only when the room runs out);
+        False when past it."""
         if steps <= self.ends.shape[0]:
             return True
-        ns = self.src_ids.size
-        size = max(steps, 2 * self.ends.shape[0])
-        if size * (self.per_step * 4 + 7) * ns * 8 > MAX_BYTES:
-            size = steps
-            if size * (self.per_step * 4 + 7) * ns * 8 > MAX_BYTES:
-                return False
+        per_step = (self.per_step * 4 + 7) * self.src_ids.size * 8
+        if steps * per_step > MAX_BYTES:
+            return False
+        size = min(2 * steps, MAX_BYTES // per_step)
         valid = int(self.at[ktape.VALID])
+        ns = self.src_ids.size
         tape = np.zeros((size * self.per_step, 4, ns))
         ends = np.zeros((size, ns, 7))
         tape[:valid * self.per_step] = self.tape[:valid * self.per_step]
