@@ -7,7 +7,8 @@ keeps their sources at every force evaluation, so a later prediction integrates 
 passive bodies (the ship): the same numbers in the same sums, the full run's path bit for bit.
 It plays from step k when the copy's pulling bodies are, bit for bit, where the tape has them
 after k steps (the World flew those steps: its own integrator and dt) and nothing else that
-moves them changed (held forces, drag); otherwise it records anew. Only for the splitting
+sets how they move changed (held forces, fixed flags, drag, softening); otherwise it records
+anew. A collision that moves or removes a pulling body stops it. Only for the splitting
 family (a fixed sequence of evaluations per step), direct gravity and no user forces, no
 pulling ship or missile. A part of World (predict.py's copy).
 """
@@ -35,7 +36,7 @@ class Tape:
         self.ends = np.zeros((0, src.size, 7))
         self.origin = None          # (time, dt) of the tape's step 0
         self.start = None           # (ns, 7): the pulling bodies then
-        self.moved = None           # what else moves them: held forces, drag
+        self.moved = None           # what else sets how they move (_moved)
         self.played = 0             # steps played back over the tape's life
         self._run = None            # (first step, steps recorded) of the run under way
         self._bind(w)
@@ -74,9 +75,12 @@ class Tape:
         return np.concatenate([b.pos[src], b.vel[src], b.mass[src][:, None]], axis=1)
 
     def _moved(self, w):
-        b = w._b
-        held = b.held[w._sources()[0]].copy() if HELD in b.columns else None
-        return held, w._forces.drag.copy()
+        """What else sets how the pulling bodies move: their held forces, whether they are
+        fixed, drag and softening (comparable with ==)."""
+        b, src = w._b, w._sources()[0]
+        held = tuple(b.held[src].ravel()) if HELD in b.columns else None
+        return (held, tuple(b.fixed[src]), tuple(w._forces.drag), w._forces.softening,
+                w._forces.G)
 
     def start_run(self, w, nsteps):
         """Point the tape at the copy's state now, before a run of nsteps steps: play from
@@ -118,9 +122,7 @@ class Tape:
         k = round((w.t - t0) / dt)
         if w._dt != dt or not 0 <= k <= self.at[ktape.VALID]:
             return None
-        held, drag = moved
-        if not np.array_equal(drag, self.moved[1]) or (held is None) != (self.moved[0] is None) \
-                or (held is not None and not np.array_equal(held, self.moved[0])):
+        if moved != self.moved:
             return None
         then = self.start if k == 0 else self.ends[k - 1]
         return k if np.array_equal(self._state(w), then) else None

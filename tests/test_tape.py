@@ -39,7 +39,8 @@ def _same(w, ids, **options):
 def test_a_prediction_plays_the_tape_back_and_equals_the_full_run():
     """The second prediction plays all 200 steps back; then from 7 steps on, after the World
     flew them; after a plan is edited (the ship moves no pulling body); and it records anew
-    when a held force moves a planet, or when the World flies another integrator's steps."""
+    when a held force moves a planet, the softening changes, a planet is fixed, or the World
+    flies another integrator's steps."""
     w, inner, ship, probe = _scene()
     ids = [ship, probe, inner]
     _same(w, ids)
@@ -55,6 +56,12 @@ def test_a_prediction_plays_the_tape_back_and_equals_the_full_run():
     w.apply_force(inner, [1e-6, 0.0, 0.0])
     _same(w, ids)
     assert _played(w) == 200 + 193 + 200         # recorded anew
+    for change in (lambda: setattr(w, "softening", 1e-3),
+                   lambda: w.set_body(inner, fixed=True)):
+        change()
+        before = _played(w)
+        _same(w, ids)
+        assert _played(w) == before              # recorded anew
     w.integrator = "leapfrog"                    # the World's own steps now differ
     w.step(3)
     before = _played(w)
