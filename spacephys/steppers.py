@@ -99,7 +99,8 @@ class Stepper:
 
     def tape_evaluations(self):
         """Force evaluations per step when a prediction's copy may keep a tape of the pulling
-        bodies (spacephys/tape.py: a fixed sequence of them per step), else None."""
+        bodies (spacephys/tape.py: a fixed sequence of them per step, whatever the bodies do),
+        else None."""
         return None
 
     @property
@@ -127,6 +128,9 @@ class RungeKutta(Stepper):
 
     def method(self, world, sources):
         return (self.spec.a, self.spec.b)
+
+    def tape_evaluations(self):
+        return int(self.spec.b.size)
 
 
 # Gauss-Radau's per-body carried state: name -> trailing shape
@@ -197,7 +201,8 @@ class GaussRadau(Stepper):
 
     def tape_evaluations(self):
         """Force evaluations per step when a prediction's copy may keep a tape of the pulling
-        bodies (spacephys/tape.py: a fixed sequence of them per step), else None."""
+        bodies (spacephys/tape.py: a fixed sequence of them per step, whatever the bodies do),
+        else None."""
         return None
 
     @property

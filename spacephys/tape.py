@@ -8,9 +8,9 @@ passive bodies (the ship): the same numbers in the same sums, the full run's pat
 It plays from step k when the copy's pulling bodies are, bit for bit, where the tape has them
 after k steps (the World flew those steps: its own integrator and dt) and nothing else that
 sets how they move changed (held forces, fixed flags, drag, softening); otherwise it records
-anew. A collision that moves or removes a pulling body stops it. Only for the splitting
-family (a fixed sequence of evaluations per step), direct gravity and no user forces, no
-pulling ship or missile. A part of World (predict.py's copy).
+anew. A collision that moves or removes a pulling body stops it. Only for the fixed-step
+families, splitting and Runge-Kutta (a fixed sequence of evaluations per step), direct
+gravity and no user forces, no pulling ship or missile. A part of World (predict.py's copy).
 """
 import numpy as np
 

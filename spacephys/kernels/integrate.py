@@ -77,7 +77,7 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
     n = pos.shape[0]
     S = b.size
     kx = np.empty((S, n, 3))     # stage velocities (the derivative of position)
-    kv = np.empty((S, n, 3))     # stage accelerations (the derivative of velocity)
+    kv = np.zeros((S, n, 3))     # stage accelerations (the derivative of velocity)
     x = state.acc
     everyone = forces.everyone
     no_mask = np.zeros(0, np.bool_)
@@ -85,6 +85,8 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
     for step in range(nsteps):
         t = t0 + step * dt
         begin(state, rules, actors, t, dt, False, step == nsteps - 1)
+        played = tape.playing(forces)       # a prediction's tape: the pulling rows' stages
+        kicked = forces.passive if played else everyone   # go unused, the tape restores them
         for s in range(S):
             for i in range(n):
                 for c in range(3):
@@ -99,7 +101,7 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
             c_s = 0.0
             for j in range(s):
                 c_s += a[s, j]
-            accelerations(forces, t + c_s * dt, x, kx[s], kv[s], everyone, True)
+            accelerations(forces, t + c_s * dt, x, kx[s], kv[s], kicked, True)
             if actors is not None:
                 add_thrust(actors.actors, actors.burn, kv[s], c_s * dt, no_mask, -1)
         for i in range(n):
@@ -113,7 +115,9 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
                 vel[i, c] += dt * dv
         if actors is not None:
             rk_thrust_fix(actors.actors, actors.burn, vel, a, b, dt)
+        tape.integrated(forces, pos, vel, state.mass, played)
         stop = end(state, rules, actors, t, dt)
+        tape.collided(forces, pos, vel, state.mass)
         frame = capture(frames, frame, step + 1, state)
         if stop:
             return step + 1, status(state, True)
