@@ -8,9 +8,10 @@ passive bodies (the ship): the same numbers in the same sums, the full run's pat
 It plays from step k when the copy's pulling bodies are, bit for bit, where the tape has them
 after k steps (the World flew those steps: its own integrator and dt) and nothing else that
 sets how they move changed (held forces, fixed flags, drag, softening); otherwise it records
-anew. A collision that moves or removes a pulling body stops it. Only for the fixed-step
-families, splitting and Runge-Kutta (a fixed sequence of evaluations per step), direct
-gravity and no user forces, no pulling ship or missile. A part of World (predict.py's copy).
+anew. A collision that leaves a pulling body elsewhere than the recording's did, or removes
+one, stops it. Only for the fixed-step families, splitting and Runge-Kutta (a fixed sequence
+of evaluations per step), direct gravity and no user forces, no pulling ship or missile. A
+part of World (predict.py's copy).
 """
 import numpy as np
 
@@ -33,9 +34,9 @@ class Tape:
         self.at = np.zeros(5, np.int64)
         self.at[ktape.PER_STEP] = per_step
         self.tape = np.zeros((0, 4, src.size))
-        self.ends = np.zeros((0, src.size, 7))
+        self.ends = np.zeros((0, src.size, 14))
         self.origin = None          # (time, dt) of the tape's step 0
-        self.start = None           # (ns, 7): the pulling bodies then
+        self.start = None           # (ns, 7): the pulling bodies then (pos, vel, mass)
         self.moved = None           # what else sets how they move (_moved)
         self.played = 0             # steps played back over the tape's life
         self._run = None            # (first step, steps recorded) of the run under way
@@ -99,7 +100,7 @@ class Tape:
             k = 0
         elif k > 0 and k + nsteps > self.ends.shape[0]:   # drop the steps flown since
             valid, per = int(at[ktape.VALID]), self.per_step
-            self.start = self.ends[k - 1].copy()
+            self.start = self.ends[k - 1, :, 7:].copy()
             self.tape[:(valid - k) * per] = self.tape[k * per:valid * per]
             self.ends[:valid - k] = self.ends[k:valid]
             t0, dt = self.origin
@@ -124,7 +125,7 @@ class Tape:
             return None
         if moved != self.moved:
             return None
-        then = self.start if k == 0 else self.ends[k - 1]
+        then = self.start if k == 0 else self.ends[k - 1, :, 7:]   # after its collisions
         return k if np.array_equal(self._state(w), then) else None
 
     def _room(self, steps):
@@ -133,14 +134,14 @@ class Tape:
         False when past it."""
         if steps <= self.ends.shape[0]:
             return True
-        per_step = (self.per_step * 4 + 7) * self.src_ids.size * 8
+        per_step = (self.per_step * 4 + 14) * self.src_ids.size * 8
         if steps * per_step > MAX_BYTES:
             return False
         size = min(2 * steps, MAX_BYTES // per_step)
         valid = int(self.at[ktape.VALID])
         ns = self.src_ids.size
         tape = np.zeros((size * self.per_step, 4, ns))
-        ends = np.zeros((size, ns, 7))
+        ends = np.zeros((size, ns, 14))
         tape[:valid * self.per_step] = self.tape[:valid * self.per_step]
         ends[:valid] = self.ends[:valid]
         self.tape, self.ends = tape, ends

@@ -71,16 +71,35 @@ def test_a_prediction_plays_the_tape_back_and_equals_the_full_run(integrator):
     assert _played(w) == before
 
 
-def test_a_collision_that_moves_a_pulling_body_stops_the_tape():
-    """The probe merges into the inner planet mid-prediction, changing its mass and velocity;
-    the tape stops there (its later steps assumed it would not), recording as playing."""
+def test_a_collision_that_moves_a_pulling_body_plays_as_recorded_or_stops():
+    """The probe merges into the inner planet mid-prediction, changing its mass and velocity.
+    Predicted again, the merge happens as recorded and the tape plays on; with the probe
+    moved off its course, the planet is not where the recording's merge left it, and the
+    tape stops there."""
     w, inner, ship, probe = _scene()
     w.set_collision("ship", "planet", "merge")
     first = _same(w, [ship, inner])
     merges = [e for e in first.events if sp.EVENT_KINDS[e["kind"]] == "merge"]
     assert len(merges) == 1 and merges[0]["b"] == probe
     _same(w, [ship, inner])
-    assert 0 < _played(w) < 200
+    assert _played(w) == 200
+    w.set_body(probe, vel=[0.5, 0.7, 0.0])
+    moved = _same(w, [ship, inner])
+    assert not any(sp.EVENT_KINDS[e["kind"]] == "merge" for e in moved.events)
+    assert 200 < _played(w) < 400
+
+
+def test_a_periodic_box_plays_the_tape():
+    """A periodic box wraps every position every step (its last bits change, crossing or not):
+    the tape compares the pulling bodies after the wrap with the recording's and plays."""
+    w, inner, ship, probe = _scene()
+    w.set_boundary("periodic", lo=(-3.3, -3.3, -3.3), hi=(3.7, 3.7, 3.7))
+    _same(w, [ship, inner])
+    _same(w, [ship, inner])
+    assert _played(w) == 200
+    w.step(5)                                    # the World's state is after the wrap too
+    _same(w, [ship, inner])
+    assert _played(w) == 200 + 195
 
 
 def test_a_destroyed_ship_leaves_the_tape_playing():

@@ -75,7 +75,7 @@ FIELDS = (
     "threads",     # (1,) int64: the fewest pair evaluations a force loop runs on threads
                    # (World's ThreadChoice sets it between calls: huge = never)
     "tape",        # (E, 4, ns) the pulling bodies' sources per force evaluation (kernels/tape)
-    "ends",        # (T, ns, 7) their positions, velocities, masses per step (kernels/tape)
+    "ends",        # (T, ns, 14) their positions, velocities, masses per step (kernels/tape)
     "tape_at",     # (5,) int64: where the tape is and whether it runs (kernels/tape); off
 )
 structref.define_proxy(Forces, ForcesType, list(FIELDS))
@@ -86,7 +86,7 @@ def _make(model, G, eps2, field, field_mass, mass, ids, src, passive, still, eve
           held, scratch, user, params, user_out, threads):
     return Forces(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone,
                   drag, held, scratch, user, params, user_out, threads, np.zeros((0, 4, 0)),
-                  np.zeros((0, 0, 7)), np.zeros(5, np.int64))
+                  np.zeros((0, 0, 14)), np.zeros(5, np.int64))
 
 
 @kernel
@@ -97,12 +97,12 @@ def _make_plain(model, G, eps2, field, field_mass, mass, ids, src, passive, stil
     return Forces(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone,
                   drag, held, scratch, typed.List.empty_list(USER_FORCE_TYPE),
                   typed.List.empty_list(types.float64[::1]), user_out, threads,
-                  np.zeros((0, 4, 0)), np.zeros((0, 0, 7)), np.zeros(5, np.int64))
+                  np.zeros((0, 4, 0)), np.zeros((0, 0, 14)), np.zeros(5, np.int64))
 
 
 @kernel
 def set_tape(f, tape, ends, at):
-    """Give the table a prediction's tape (kernels/tape.py): tape (E, 4, ns), ends (T, ns, 7),
+    """Give the table a prediction's tape (kernels/tape.py): tape (E, 4, ns), ends (T, ns, 14),
     at (5,) int64, shared with the caller."""
     f.tape = tape
     f.ends = ends

@@ -58,7 +58,7 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
                 drag_kick(forces, vel, acc, h, kicked, wind)
         tape.integrated(forces, pos, vel, state.mass, played)
         stop = end(state, rules, actors, t, dt)
-        tape.collided(forces, pos, vel, state.mass)
+        tape.collided(forces, pos, vel, state.mass, played)
         frame = capture(frames, frame, step + 1, state)
         if stop:
             return step + 1, status(state, True)
@@ -117,7 +117,7 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
             rk_thrust_fix(actors.actors, actors.burn, vel, a, b, dt)
         tape.integrated(forces, pos, vel, state.mass, played)
         stop = end(state, rules, actors, t, dt)
-        tape.collided(forces, pos, vel, state.mass)
+        tape.collided(forces, pos, vel, state.mass, played)
         frame = capture(frames, frame, step + 1, state)
         if stop:
             return step + 1, status(state, True)

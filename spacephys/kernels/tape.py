@@ -3,14 +3,16 @@
 
 Recording, a step stores the pulling bodies' sources (x, y, z, m) at each of its force
 evaluations (forces._sources does) and their positions, velocities and masses after its
-integration. Playing back, a step kicks only the passive bodies, from the recorded sources,
-and puts the pulling bodies where the tape has them before the collisions: the passive bodies'
-sums are the ones a full step makes from the same numbers, so the paths are the full run's,
-bit for bit, at the cost of the passive bodies alone. A collision that changes a pulling body
-stops the tape for the rest of the call (its later steps assumed none would).
+integration and again after its collisions. Playing back, a step kicks only the passive
+bodies, from the recorded sources, and puts the pulling bodies where the tape has them before
+the collisions: the passive bodies' sums are the ones a full step makes from the same
+numbers, so the paths are the full run's, bit for bit, at the cost of the passive bodies
+alone. When the collisions leave a pulling body elsewhere than the recording's did (this
+prediction's bodies hit it, or missed it, otherwise) the tape stops for the rest of the call.
 
 `tape_at` (5,) int64: [on, step (index into the tape), valid (steps recorded), evaluations per
-step, evaluation (the next one's index)]; `tape` (E, 4, ns), `ends` (T, ns, 7).
+step, evaluation (the next one's index)]; `tape` (E, 4, ns); `ends` (T, ns, 14): pos, vel,
+mass after the integration, then after the collisions.
 """
 from .._jit import kernel
 
@@ -54,6 +56,14 @@ def record(f, e, scratch):
 
 
 @kernel(inline=True)
+def _recording(f, k):
+    """Whether step k is being recorded: the next after the recorded ones, with room for it
+    and for all its evaluations."""
+    at = f.tape_at
+    return at[VALID] == k and k < f.ends.shape[0] and at[EVAL] <= f.tape.shape[0]
+
+
+@kernel(inline=True)
 def integrated(f, pos, vel, mass, played):
     """After a step's integration, before its collisions: a played step puts the pulling bodies
     (drifted, never kicked) where the tape has them; a recorded one writes them down."""
@@ -68,32 +78,43 @@ def integrated(f, pos, vel, mass, played):
             for c in range(3):
                 pos[i, c] = ends[k, a, c]
                 vel[i, c] = ends[k, a, 3 + c]
-    elif k == at[VALID] and k < ends.shape[0] and at[EVAL] <= f.tape.shape[0]:
-        for a in range(src.size):
-            i = src[a]
-            for c in range(3):
-                ends[k, a, c] = pos[i, c]
-                ends[k, a, 3 + c] = vel[i, c]
-            ends[k, a, 6] = mass[i]
-        at[VALID] = k + 1
+    elif _recording(f, k):
+        _write(ends, k, 0, src, pos, vel, mass)
 
 
 @kernel(inline=True)
-def collided(f, pos, vel, mass):
-    """After the step's collisions: stop the tape if they changed a pulling body; count the
+def collided(f, pos, vel, mass, played):
+    """After the step's collisions (and a periodic box's wrap): a recorded step writes the
+    pulling bodies down again; a played one stops the tape if they are not where the
+    recording's collisions left them (this prediction's bodies acted otherwise). Counts the
     step."""
     at = f.tape_at
     if at[ON] == 0:
         return
     k = at[STEP]
-    if k < at[VALID]:
-        src, ends = f.src, f.ends
+    src, ends = f.src, f.ends
+    if played:
         for a in range(src.size):
             i = src[a]
-            same = mass[i] == ends[k, a, 6]
+            same = mass[i] == ends[k, a, 13]
             for c in range(3):
-                same = same and pos[i, c] == ends[k, a, c] and vel[i, c] == ends[k, a, 3 + c]
+                same = same and pos[i, c] == ends[k, a, 7 + c] and \
+                    vel[i, c] == ends[k, a, 10 + c]
             if not same:
                 at[ON] = 0
                 return
+    elif _recording(f, k):
+        _write(ends, k, 7, src, pos, vel, mass)
+        at[VALID] = k + 1
     at[STEP] = k + 1
+
+
+@kernel(inline=True)
+def _write(ends, k, col, src, pos, vel, mass):
+    """The pulling bodies' pos, vel, mass into ends[k, :, col:col + 7]."""
+    for a in range(src.size):
+        i = src[a]
+        for c in range(3):
+            ends[k, a, col + c] = pos[i, c]
+            ends[k, a, col + 3 + c] = vel[i, c]
+        ends[k, a, col + 6] = mass[i]
