@@ -255,9 +255,15 @@ class RunLog(_Schedule):
             self._create(world, meta, compress_state)
             self._world_frame(world)
             self._checkpoint(world)
+            self._file["writer"][:] = h5writer.writer_id()   # named before it is in place
             self._file.close()
             os.replace(part, self.path)
-            self._file = h5py.File(self.path, "r+", libver=LIBVER, rdcc_nbytes=0)
+            # opened straight in SWMR mode: a kill at any moment after the rename leaves a
+            # file whose flags say SWMR and whose writer is named, which readers open (and
+            # open_file clears once the writer is dead); "r+" then swmr_mode left an instant
+            # where the flags said a plain writer held it, which nothing could tell apart
+            # from another program's
+            self._file = _open_swmr_writer(self.path)
             self._start_writing()
         except (OSError, RuntimeError, RunLogError) as e:
             self._abandon()
@@ -268,7 +274,8 @@ class RunLog(_Schedule):
     def _start_writing(self):
         """SWMR mode from here on (readers may follow; a kill leaves a readable file), and
         this process named as the writer."""
-        self._file.swmr_mode = True
+        if not self._file.swmr_mode:      # a new log is opened in it (_open_swmr_writer)
+            self._file.swmr_mode = True
         self._file["writer"][:] = h5writer.writer_id()
         self._file.flush()
 
@@ -649,6 +656,20 @@ def world_image(state):
         statefile.write(f.create_group("world"), state)
         f.flush()
         return np.frombuffer(f.id.get_file_image(), np.uint8)
+
+
+def _open_swmr_writer(path):
+    """An h5py File of the log at `path` opened for writing in SWMR mode in one call (HDF5's
+    SWMR_WRITE access flag; h5py's File takes it for reading only), the chunk cache off as
+    the log writes it."""
+    fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
+    fapl.set_libver_bounds(h5py.h5f.LIBVER_V110, h5py.h5f.LIBVER_V110)
+    fapl.set_fclose_degree(h5py.h5f.CLOSE_STRONG)
+    mdc, nslots, _nbytes, w0 = fapl.get_cache()
+    fapl.set_cache(mdc, nslots, 0, w0)
+    fid = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDWR | h5py.h5f.ACC_SWMR_WRITE,
+                        fapl=fapl)
+    return h5py.File(fid)
 
 
 def open_file(path, mode="r"):

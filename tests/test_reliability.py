@@ -126,9 +126,10 @@ def _check_killed_log(path, committed):
     try:
         f = h5py.File(path, "r", swmr=True)                # plain h5py, before any repair
     except OSError as e:
-        # killed in the instant between the rename of the finished new log and its switch
-        # to SWMR writing: a complete file, closed, that a plain open reads (seen once in
-        # several hundred kills)
+        # killed in the instant between the rename of the finished new log and its opening
+        # for SWMR writing: a complete file, closed, that a plain open reads (seen once in
+        # several hundred kills; killed once opened, see
+        # test_a_log_killed_as_it_is_opened_for_writing_opens)
         assert "not already open for SWMR writing" in str(e), e
         f = h5py.File(path, "r")
     with f:
@@ -153,6 +154,36 @@ def _check_killed_log(path, committed):
     with sp.open_run(path) as run:
         assert run.meta["closed"] and run.steps.tolist() == list(range(saved_step + 3))
         run.verify()                      # the flush rows cut back and carried on resume
+
+
+KILLED_AT_OPEN = r"""
+import os, signal, sys
+import numpy as np
+import spacephys as sp
+from spacephys import runlog
+# killed in the instant after the finished log is renamed into place and opened for writing
+runlog.RunLog._start_writing = lambda self: os.kill(os.getpid(), signal.SIGKILL)
+w = sp.World(2, dt=0.01, gravity="none")
+w.add_bodies(np.ones(5), np.zeros((5, 2)), np.ones((5, 2)))
+w.record(sys.argv[1])
+"""
+
+
+def test_a_log_killed_as_it_is_opened_for_writing_opens(tmp_path):
+    """The kill the 100-kill test met once in several hundred: right after the new log is
+    renamed into place and opened for writing. The log is opened straight in SWMR mode, its
+    writer named before the rename, so h5py reads it at once (SWMR) and sp.open_run opens it
+    and clears the dead writer's flags. (Opened "r+" then switched to SWMR, it was refused:
+    its flags said a plain writer held it.)"""
+    path = tmp_path / "killed.h5"
+    done = subprocess.run([sys.executable, "-c", KILLED_AT_OPEN, str(path)])
+    assert done.returncode == -signal.SIGKILL and path.exists()
+    with h5py.File(path, "r", swmr=True) as f:
+        assert f["frames/pos"].shape[0] >= 5
+    with sp.open_run(path) as run:
+        assert len(run) == 1 and not run.meta["closed"]
+    with h5py.File(path, "r") as f:                      # plain h5py, flags cleared
+        assert f["commit"][()]["frames"] == 1
 
 
 FOLLOWED = r"""
