@@ -136,7 +136,7 @@ class ForceField:
                              drag=self.drag, held=held, user=fns, params=params,
                              threads=threads)
         if self.tape is not None:           # a prediction's copy (spacephys/tape.py)
-            self.tape.attach(table, ids[src])
+            self.tape.attach(table, src, ids[src])
         return table
 
     def work(self, n, pulling):

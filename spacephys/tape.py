@@ -27,8 +27,7 @@ MAX_BYTES = 64 << 20
 class Tape:
     """The tape of one prediction copy `w` (made beside its tables, see `make`)."""
 
-    def __init__(self, w, per_step):
-        src = w._sources()[0]
+    def __init__(self, w, per_step, src):
         self.src_ids = w._b.ids[src].copy()
         self.per_step = per_step
         self.at = np.zeros(5, np.int64)
@@ -40,19 +39,19 @@ class Tape:
         self.moved = None           # what else sets how they move (_moved)
         self.played = 0             # steps played back over the tape's life
         self._run = None            # (first step, steps recorded) of the run under way
-        self._bind(w)
+        self._bind(w, src)
 
-    def _bind(self, w):
+    def _bind(self, w, src):
         """Ride on w: its ForceField gives the tape to every table it builds (attach)."""
         w._forces.tape = self
-        self.attach(w.tables().forces, w._b.ids[w._sources()[0]])
+        self.attach(w.tables().forces, src, w._b.ids[src])
 
-    def attach(self, forces, src_ids):
-        """Give a Forces table just built for the copy the tape, if the same bodies pull in
-        the same order (the copy's own run removed others); else stop the tape (a pulling
-        body left)."""
+    def attach(self, forces, src, src_ids):
+        """Give a Forces table just built for the copy (its pulling rows src, their ids) the
+        tape, if the same bodies pull in the same order (the copy's own run removed others);
+        else stop the tape (a pulling body left)."""
         if np.array_equal(src_ids, self.src_ids):
-            self.forces = forces
+            self.forces, self.src = forces, src
             kforces.set_tape(forces, self.tape, self.ends, self.at)
         else:
             self.at[ktape.ON] = 0
@@ -67,18 +66,18 @@ class Tape:
         src = w._sources()[0]
         if old is not None and old.per_step == per_step \
                 and np.array_equal(old.src_ids, w._b.ids[src]):
-            old._bind(w)
+            old._bind(w, src)
             return old
-        return Tape(w, per_step)
+        return Tape(w, per_step, src)
 
     def _state(self, w):
-        b, src = w._b, w._sources()[0]
+        b, src = w._b, self.src
         return np.concatenate([b.pos[src], b.vel[src], b.mass[src][:, None]], axis=1)
 
     def _moved(self, w):
         """What else sets how the pulling bodies move: their held forces, whether they are
         fixed, drag and softening (comparable with ==)."""
-        b, src = w._b, w._sources()[0]
+        b, src = w._b, self.src
         held = tuple(b.held[src].ravel()) if HELD in b.columns else None
         return (held, tuple(b.fixed[src]), tuple(w._forces.drag), w._forces.softening,
                 w._forces.G)
@@ -89,7 +88,7 @@ class Tape:
         at = self.at
         at[ktape.ON] = 0
         self._run = None
-        if np.isin(w._actors.rows(), w._sources()[0]).any():   # a pulling ship: its controls
+        if np.isin(w._actors.rows(), self.src).any():   # a pulling ship: its controls
             return                                        # move the pulling bodies
         moved = self._moved(w)
         k = self._matching_step(w, moved)

@@ -77,6 +77,8 @@ FIELDS = (
     "tape",        # (E, 4, ns) the pulling bodies' sources per force evaluation (kernels/tape)
     "ends",        # (T, ns, 14) their positions, velocities, masses per step (kernels/tape)
     "tape_at",     # (5,) int64: where the tape is and whether it runs (kernels/tape); off
+    "taped",       # int: 1 once the table has a tape (set_tape). A scalar, read every step
+                   # and evaluation at the cost of a load; the arrays' reads cost refcounts
 )
 structref.define_proxy(Forces, ForcesType, list(FIELDS))
 
@@ -86,7 +88,7 @@ def _make(model, G, eps2, field, field_mass, mass, ids, src, passive, still, eve
           held, scratch, user, params, user_out, threads):
     return Forces(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone,
                   drag, held, scratch, user, params, user_out, threads, np.zeros((0, 4, 0)),
-                  np.zeros((0, 0, 14)), np.zeros(5, np.int64))
+                  np.zeros((0, 0, 14)), np.zeros(5, np.int64), 0)
 
 
 @kernel
@@ -97,7 +99,7 @@ def _make_plain(model, G, eps2, field, field_mass, mass, ids, src, passive, stil
     return Forces(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone,
                   drag, held, scratch, typed.List.empty_list(USER_FORCE_TYPE),
                   typed.List.empty_list(types.float64[::1]), user_out, threads,
-                  np.zeros((0, 4, 0)), np.zeros((0, 0, 14)), np.zeros(5, np.int64))
+                  np.zeros((0, 4, 0)), np.zeros((0, 0, 14)), np.zeros(5, np.int64), 0)
 
 
 @kernel
@@ -107,6 +109,7 @@ def set_tape(f, tape, ends, at):
     f.tape = tape
     f.ends = ends
     f.tape_at = at
+    f.taped = 1
 
 
 def no_user_forces():
@@ -233,8 +236,8 @@ def _sources(f, pos):
     for the models without sources."""
     model = f.model
     if model == DIRECT:
-        at = f.tape_at
-        if at[tape.ON] != 0:                # a prediction's copy with a tape
+        if f.taped != 0 and f.tape_at[tape.ON] != 0:     # a prediction's copy, its tape on
+            at = f.tape_at
             e = at[tape.EVAL]
             at[tape.EVAL] = e + 1
             if not tape.sources(f, e, f.scratch):

@@ -34,13 +34,17 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
     everyone = forces.everyone
     wind = forces.drag[1:]
     frame = 0
-    if actors is not None:      # read once: a table's field read per drift costs ~40 ns
+    mass = state.mass           # read once: an array field read costs its refcounts
+    passive = forces.passive
+    if actors is not None:
         movers, burn = actors.actors, actors.burn
+    kicked, was = everyone, False
     for step in range(nsteps):
         t = t0 + step * dt
         begin(state, rules, actors, t, dt, False, step == nsteps - 1)
         played = tape.playing(forces)                  # a prediction's tape (kernels/tape.py)
-        kicked = forces.passive if played else everyone
+        if played != was:           # rebound only when it changes: a rebinding costs refcounts
+            kicked, was = (passive if played else everyone), played
         tau = 0.0                                      # time into the step the drifts reached
         for s in range(drift.size):
             h = drift[s] * dt
@@ -56,9 +60,9 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
             if h != 0.0:
                 accelerations(forces, t + tau, pos, vel, acc, kicked, False)
                 drag_kick(forces, vel, acc, h, kicked, wind)
-        tape.integrated(forces, pos, vel, state.mass, played)
+        tape.integrated(forces, pos, vel, mass, played)
         stop = end(state, rules, actors, t, dt)
-        tape.collided(forces, pos, vel, state.mass, played)
+        tape.collided(forces, pos, vel, mass, played)
         frame = capture(frames, frame, step + 1, state)
         if stop:
             return step + 1, status(state, True)
@@ -77,16 +81,23 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
     n = pos.shape[0]
     S = b.size
     kx = np.empty((S, n, 3))     # stage velocities (the derivative of position)
-    kv = np.zeros((S, n, 3))     # stage accelerations (the derivative of velocity)
+    # stage accelerations (the derivative of velocity); zeros, not empty: a step played from a
+    # prediction's tape leaves the pulling rows unset, and they must not carry NaN into pos
+    # before the tape restores them
+    kv = np.zeros((S, n, 3))
     x = state.acc
     everyone = forces.everyone
+    passive = forces.passive
+    mass = state.mass
     no_mask = np.zeros(0, np.bool_)
     frame = 0
+    kicked, was = everyone, False
     for step in range(nsteps):
         t = t0 + step * dt
         begin(state, rules, actors, t, dt, False, step == nsteps - 1)
         played = tape.playing(forces)       # a prediction's tape: the pulling rows' stages
-        kicked = forces.passive if played else everyone   # go unused, the tape restores them
+        if played != was:                   # go unused, the tape restores them
+            kicked, was = (passive if played else everyone), played
         for s in range(S):
             for i in range(n):
                 for c in range(3):
@@ -115,9 +126,9 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
                 vel[i, c] += dt * dv
         if actors is not None:
             rk_thrust_fix(actors.actors, actors.burn, vel, a, b, dt)
-        tape.integrated(forces, pos, vel, state.mass, played)
+        tape.integrated(forces, pos, vel, mass, played)
         stop = end(state, rules, actors, t, dt)
-        tape.collided(forces, pos, vel, state.mass, played)
+        tape.collided(forces, pos, vel, mass, played)
         frame = capture(frames, frame, step + 1, state)
         if stop:
             return step + 1, status(state, True)

@@ -23,6 +23,8 @@ ON, STEP, VALID, PER_STEP, EVAL = range(5)
 def playing(f):
     """At a step's start: whether the tape plays this step back; points it at the step's first
     evaluation."""
+    if f.taped == 0:
+        return False
     at = f.tape_at
     if at[ON] == 0:
         return False
@@ -67,19 +69,16 @@ def _recording(f, k):
 def integrated(f, pos, vel, mass, played):
     """After a step's integration, before its collisions: a played step puts the pulling bodies
     (drifted, never kicked) where the tape has them; a recorded one writes them down."""
+    if f.taped == 0:
+        return
     at = f.tape_at
     if at[ON] == 0:
         return
     k = at[STEP]
-    src, ends = f.src, f.ends
     if played:
-        for a in range(src.size):
-            i = src[a]
-            for c in range(3):
-                pos[i, c] = ends[k, a, c]
-                vel[i, c] = ends[k, a, 3 + c]
+        _read(f.ends, k, f.src, pos, vel)
     elif _recording(f, k):
-        _write(ends, k, 0, src, pos, vel, mass)
+        _write(f.ends, k, 0, f.src, pos, vel, mass)
 
 
 @kernel(inline=True)
@@ -88,23 +87,18 @@ def collided(f, pos, vel, mass, played):
     pulling bodies down again; a played one stops the tape if they are not where the
     recording's collisions left them (this prediction's bodies acted otherwise). Counts the
     step."""
+    if f.taped == 0:
+        return
     at = f.tape_at
     if at[ON] == 0:
         return
     k = at[STEP]
-    src, ends = f.src, f.ends
     if played:
-        for a in range(src.size):
-            i = src[a]
-            same = mass[i] == ends[k, a, 13]
-            for c in range(3):
-                same = same and pos[i, c] == ends[k, a, 7 + c] and \
-                    vel[i, c] == ends[k, a, 10 + c]
-            if not same:
-                at[ON] = 0
-                return
+        if not _same(f.ends, k, 7, f.src, pos, vel, mass):
+            at[ON] = 0
+            return
     elif _recording(f, k):
-        _write(ends, k, 7, src, pos, vel, mass)
+        _write(f.ends, k, 7, f.src, pos, vel, mass)
         at[VALID] = k + 1
     at[STEP] = k + 1
 
@@ -118,3 +112,26 @@ def _write(ends, k, col, src, pos, vel, mass):
             ends[k, a, col + c] = pos[i, c]
             ends[k, a, col + 3 + c] = vel[i, c]
         ends[k, a, col + 6] = mass[i]
+
+
+@kernel(inline=True)
+def _read(ends, k, src, pos, vel):
+    """The pulling bodies' pos, vel from ends[k, :, 0:6]."""
+    for a in range(src.size):
+        i = src[a]
+        for c in range(3):
+            pos[i, c] = ends[k, a, c]
+            vel[i, c] = ends[k, a, 3 + c]
+
+
+@kernel(inline=True)
+def _same(ends, k, col, src, pos, vel, mass):
+    """Whether the pulling bodies' pos, vel, mass are ends[k, :, col:col + 7], bit for bit."""
+    for a in range(src.size):
+        i = src[a]
+        if mass[i] != ends[k, a, col + 6]:
+            return False
+        for c in range(3):
+            if pos[i, c] != ends[k, a, col + c] or vel[i, c] != ends[k, a, col + 3 + c]:
+                return False
+    return True
