@@ -106,45 +106,73 @@ class Prediction:
 
 class _Sampler:
     """Takes the frames World's step loop captures (the RunLog's interface): the rows of the
-    watched ids into pos, vel (m, P, 3); NaN for a body gone."""
+    watched ids, sample by sample, into pos, vel (P, m, 3); NaN for a body gone. When the
+    watched bodies are every row in order (a ship among its candidates, as a HUD asks) the
+    kernel captures straight into them: no copy. The buffers are the shadow's, kept from one
+    prediction to the next (fresh pages cost a fault each)."""
 
-    def __init__(self, ids, P):
-        self.ids = ids
-        self.pos = np.full((ids.size, P, 3), np.nan)
-        self.vel = np.full((ids.size, P, 3), np.nan)
+    def __init__(self, world, ids, P, buffers):
+        self.world, self.ids = world, ids
+        shape = (P, ids.size, 3)
+        if buffers.get("shape") != shape:
+            buffers.clear()
+            buffers.update(shape=shape, pos=np.empty(shape), vel=np.empty(shape))
+        self.pos, self.vel, self._buffers = buffers["pos"], buffers["vel"], buffers
         self.next = 1                      # sample 0 is the state now
-        self._buffers = None
+        self._rows = None                  # the watched rows for this kernel call
+        self._direct = False
 
     def take(self, world, j):
         rows = world._b.lookup(self.ids)
         ok = rows >= 0
-        self.pos[ok, j] = world._b.pos[rows[ok]]
-        self.vel[ok, j] = world._b.vel[rows[ok]]
+        self.pos[j], self.vel[j] = np.nan, np.nan
+        self.pos[j, ok] = world._b.pos[rows[ok]]
+        self.vel[j, ok] = world._b.vel[rows[ok]]
+
+    def skip(self, k):
+        """k samples with every body gone."""
+        self.pos[self.next:self.next + k] = np.nan
+        self.vel[self.next:self.next + k] = np.nan
+        self.next += k
 
     def frame_buffers(self, F, n):
-        b = self._buffers
-        if b is None or b[0].shape[0] < F or b[0].shape[1] != n:
-            b = self._buffers = (np.empty((F, n, 3)), np.empty((F, n, 3)), np.empty((F, n)))
+        # rows do not change within a kernel call
+        self._rows = rows = self.world._b.lookup(self.ids)
+        j = self.next
+        self._direct = rows.size == n and bool(np.all(rows == np.arange(n)))
+        key = ("frames", n)
+        b = self._buffers.get(key)
+        if b is None or b[2].shape[0] < F:
+            b = self._buffers[key] = (np.empty((F, n, 3)), np.empty((F, n, 3)),
+                                      np.empty((F, n)))
+        if self._direct:
+            return self.pos[j:j + F], self.vel[j:j + F], b[2][:F]
         return b[0][:F], b[1][:F], b[2][:F]
 
     def captured(self, world, at, fpos, fvel, fmass, done):
         k = int(np.searchsorted(at, done))     # the one at the last step: captured_last
-        if k:
-            rows = world._b.lookup(self.ids)   # rows do not change within a kernel call
-            j = self.next
+        if k and not self._direct:
+            rows, j = self._rows, self.next
+            self.pos[j:j + k] = np.nan
+            self.vel[j:j + k] = np.nan
             ok = np.flatnonzero(rows >= 0)
-            self.pos[ok, j:j + k] = fpos[:k, rows[ok]].swapaxes(0, 1)
-            self.vel[ok, j:j + k] = fvel[:k, rows[ok]].swapaxes(0, 1)
-            self.next += k
+            self.pos[j:j + k, ok] = fpos[:k, rows[ok]]
+            self.vel[j:j + k, ok] = fvel[:k, rows[ok]]
+        self.next += k
 
     def captured_last(self, world, at, done):
         if np.any(at == done):
             self.take(world, self.next)
             self.next += 1
 
-    def paths(self):
-        """(pos, vel) as (m, P, 3), contiguous."""
-        return self.pos, self.vel
+    def paths(self, rows):
+        """(pos, vel) (K, P, 3) of the watched bodies rows (K,) (indices into ids), new."""
+        out = []
+        for samples in (self.pos, self.vel):
+            o = np.empty((rows.size,) + samples.shape[::2])
+            markers.paths(samples, rows, o)
+            out.append(o)
+        return out
 
 
 def _schedule(world, duration, points, integrator, dt):
@@ -202,7 +230,7 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
         try:
             _yield(background)
             w = shadow.ready()
-            sampler = _Sampler(watched, counts.size)
+            sampler = _Sampler(w, watched, counts.size, shadow.buffers)
             sampler.take(w, 0)
             t = w.time_after(counts.astype(np.float64))     # as World.t computes the time
             if shadow.tape is not None:
@@ -246,6 +274,7 @@ class _Shadow:
         self.same_integrator = name == world.integrator
         self.plan = w._plan
         self.snap = None
+        self.buffers = {}                 # the samplers' (_Sampler)
         self.busy = True
 
     def usable(self, world, key):
@@ -340,7 +369,7 @@ def _run(w, counts, sampler):
             status = w._run(n, chunk - done, sampler)
         else:
             w._steps += n
-            sampler.next += chunk.size
+            sampler.skip(chunk.size)
         done += n
     if status & NONFINITE:
         w._check_health(t0, status)
@@ -391,8 +420,7 @@ def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, targ
     dim = world.dim
     at = {int(i): k for k, i in enumerate(watched)}
     sel = np.array([at[int(i)] for i in ids])
-    spos, svel = sampler.paths()
-    pos, vel = spos[sel], svel[sel]
+    pos, vel = sampler.paths(sel)
     ended = np.full(ids.size, np.inf)
     impacts = []
     for ev in events:
@@ -410,8 +438,7 @@ def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, targ
     pos[gone] = np.nan
     vel[gone] = np.nan
     # the candidates' paths (the field's centre last, fixed)
-    cpos = spos[[at[int(c)] for c in cand]] if cand.size else np.zeros((0, t.size, 3))
-    cvel = svel[[at[int(c)] for c in cand]] if cand.size else np.zeros((0, t.size, 3))
+    cpos, cvel = sampler.paths(np.array([at[int(c)] for c in cand], np.int64))
     cids = cand
     if centre is not None:
         cpos = np.concatenate([cpos, np.broadcast_to(centre, (1, t.size, 3))])
@@ -441,12 +468,12 @@ def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, targ
                                    when, point, distance, int(cids[int(c)])))
     if target is not None:
         out = np.empty((t.size, 5))
+        tpos, tvel = sampler.paths(np.array([at[int(target)]], np.int64))
         for k in range(ids.size):
             _yield(background)
             if ids[k] != target:
-                p.approaches.append(_closest(int(ids[k]), target, t, pos[k], vel[k],
-                                             spos[at[int(target)]], svel[at[int(target)]],
-                                             out))
+                p.approaches.append(_closest(int(ids[k]), target, t, pos[k], vel[k], tpos[0],
+                                             tvel[0], out))
     p.apsides.sort(key=lambda a: a.t)
     p.changes.sort(key=lambda a: a.t)
     p.approaches = [a for a in p.approaches if a is not None]

@@ -280,7 +280,7 @@ def drift_thrust(actors, burn, pos, vel, ta, tb):
             vel[i, c] += dv * burn[q, c]
 
 
-@kernel
+@kernel(lean=True)
 def add_thrust(actors, burn, acc, tau, mask, want):
     """acc += the thrust acceleration at tau [time after the step's start], for every actor
     (want = -1) or for those whose row has mask[i] == want (0 or 1)."""
@@ -296,7 +296,7 @@ def add_thrust(actors, burn, acc, tau, mask, want):
             acc[i, c] += a * burn[q, c]
 
 
-@kernel
+@kernel(lean=True)
 def rk_thrust_fix(actors, burn, vel, a, b, dt):
     """Replace the Runge-Kutta quadrature of the thrust, dt sum_s b_s a(c_s dt), in vel by its
     exact integral dv(dt): Tsiolkovsky holds to rounding, the order of the method is kept."""
@@ -343,7 +343,7 @@ def next_stop(actors, burn, after):
     return best
 
 
-@kernel
+@kernel(inline=True)
 def begin_step(act, rules, state, t0, dt, L):
     """Arm fuses (rules: the collision table or None), keep every actor's orientation (for
     undo_turns), turn every live actor over the step and set its burn in act.burn (see the
@@ -527,7 +527,7 @@ def _fly_plan(act, q, i, state, t0, dt):
     return True
 
 
-@kernel
+@kernel(inline=True)
 def end_burn(act, state, t0, dt):
     """Book the fuel the step burned; report fuel running out and burn times ending; count
     the step on the clock."""
@@ -568,7 +568,7 @@ def _event(state, kind, i, j, t0, t_in_step, pos, distance):
            t_in_step, point, normal, 0.0, 0.0, distance)
 
 
-@kernel
+@kernel(inline=True)
 def after_step(act, state, t0, dt, L):
     """Proximity fuses (the closest approach along both bodies' straight lines over the step)
     and lifetimes. Returns True when a body died (World must remove it, and may spawn its

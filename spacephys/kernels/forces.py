@@ -210,59 +210,109 @@ def accelerations(f, t, pos, vel, out, targets, with_drag):
     by drag and user forces only); out : (n, 3) [length / time^2]; targets : int64 rows
     (f.everyone, f.src, f.passive or any subset); with_drag : add -k (v - wind) (the
     splittings and Wisdom-Holman apply drag in their kicks instead, see drag_kick). The force
-    loop runs on threads from f.threads[0] pair evaluations on.
+    loop runs on threads from f.threads[0] pair evaluations on. A step loop calls
+    lean_accelerations instead where it can (see hoist): bit for bit the same.
     """
-    if _sources(f, pos):
+    fa, _ = hoist(f)
+    if _sources(fa, pos):
         _pull_all(targets, pos, f.scratch, f.G, f.eps2, out, f.threads[0])
     else:
-        _field(f, out, targets)
-    _add_others(f, t, pos, vel, out, targets, with_drag)
+        _field(fa, out, targets)
+    _add_held(fa, out, targets)
+    if f.user_out.shape[0]:               # made only with user forces (see make)
+        _add_user(f, t, pos, vel, out, targets)
+    _add_drag(fa, vel, out, targets, with_drag)
 
 
 @kernel
 def accelerations_serial(f, t, pos, vel, out, targets, with_drag):
     """accelerations on the calling thread, bit for bit the same: for a few bodies at a time
     (Gauss-Radau's riders), where a threaded loop would only cost compile time."""
-    if _sources(f, pos):
+    fa, lean_below = hoist(f)
+    if lean_below > 0:
+        lean_accelerations(fa, pos, vel, out, targets, with_drag)
+        return
+    if _sources(fa, pos):
         _pull_rows(targets, pos, f.scratch, f.G, f.eps2, out)
     else:
-        _field(f, out, targets)
-    _add_others(f, t, pos, vel, out, targets, with_drag)
+        _field(fa, out, targets)
+    _add_held(fa, out, targets)
+    _add_user(f, t, pos, vel, out, targets)
+    _add_drag(fa, vel, out, targets, with_drag)
+
+
+# A step loop evaluates forces thousands of times per call. Each read of a table's array field
+# and each array passed to a helper costs two atomic reference-count updates there (numba's
+# runtime; measured 10 ns the pair, 43% of a ship's prediction among 10 planets), so a step
+# loop reads the table once (hoist) and hands the tuple to lean helpers, compiled without
+# reference counting.
+FA_MODEL, FA_G, FA_EPS2, FA_FIELD, FA_FIELD_MASS, FA_MASS, FA_SRC, FA_SCRATCH, FA_HELD, \
+    FA_DRAG, FA_STILL, FA_TAPED, FA_TAPE, FA_TAPE_AT, FA_ENDS = range(15)
 
 
 @kernel(inline=True)
-def _sources(f, pos):
-    """Gather the pulling bodies (DIRECT) or the fixed body (CENTRAL) into f.scratch; False
+def hoist(f):
+    """(fa, lean_below): the table's fields as one tuple (FA_* index it), read once before a
+    step loop, and the number of targets below which lean_accelerations serves (0: never,
+    with user forces; otherwise up to the threaded loop's threshold f.threads[0])."""
+    fa = (f.model, f.G, f.eps2, f.field, f.field_mass, f.mass, f.src, f.scratch, f.held,
+          f.drag, f.still, f.taped, f.tape, f.tape_at, f.ends)
+    lean_below = np.iinfo(np.int64).max
+    if f.user_out.shape[0]:
+        lean_below = 0
+    elif f.model == DIRECT and f.src.size:
+        lean_below = (f.threads[0] + f.src.size - 1) // f.src.size
+    return fa, lean_below
+
+
+@kernel(lean=True)
+def lean_accelerations(fa, pos, vel, out, targets, with_drag):
+    """accelerations from the hoisted table fa, on the calling thread, without user forces
+    (the step loops call it for fewer targets than hoist's lean_below): bit for bit the
+    same."""
+    if _sources(fa, pos):
+        _pull_rows(targets, pos, fa[FA_SCRATCH], fa[FA_G], fa[FA_EPS2], out)
+    else:
+        _field(fa, out, targets)
+    _add_held(fa, out, targets)
+    _add_drag(fa, vel, out, targets, with_drag)
+
+
+@kernel(inline=True)
+def _sources(fa, pos):
+    """Gather the pulling bodies (DIRECT) or the fixed body (CENTRAL) into the scratch; False
     for the models without sources."""
-    model = f.model
+    model = fa[FA_MODEL]
+    scratch = fa[FA_SCRATCH]
     if model == DIRECT:
-        if f.taped != 0 and f.tape_at[tape.ON] != 0:     # a prediction's copy, its tape on
-            at = f.tape_at
+        at = fa[FA_TAPE_AT]
+        if fa[FA_TAPED] != 0 and at[tape.ON] != 0:      # a prediction's copy, its tape on
             e = at[tape.EVAL]
             at[tape.EVAL] = e + 1
-            if not tape.sources(f, e, f.scratch):
-                _gather_sources(f.src, pos, f.mass, f.scratch)
-                tape.record(f, e, f.scratch)
+            if not tape.sources(fa[FA_TAPE], at, e, scratch):
+                _gather_sources(fa[FA_SRC], pos, fa[FA_MASS], scratch)
+                tape.record(fa[FA_TAPE], at, e, scratch)
             return True
-        _gather_sources(f.src, pos, f.mass, f.scratch)
+        _gather_sources(fa[FA_SRC], pos, fa[FA_MASS], scratch)
         return True
     if model == CENTRAL:
-        scratch = f.scratch
-        scratch[0, 0] = f.field[0]
-        scratch[1, 0] = f.field[1]
-        scratch[2, 0] = f.field[2]
-        scratch[3, 0] = f.field_mass
+        field = fa[FA_FIELD]
+        scratch[0, 0] = field[0]
+        scratch[1, 0] = field[1]
+        scratch[2, 0] = field[2]
+        scratch[3, 0] = fa[FA_FIELD_MASS]
         return True
     return False
 
 
 @kernel(inline=True)
-def _field(f, out, targets):
+def _field(fa, out, targets):
     """The uniform field (or nothing) into out's target rows."""
-    uniform = f.model == UNIFORM
-    g0 = f.field[0] if uniform else 0.0
-    g1 = f.field[1] if uniform else 0.0
-    g2 = f.field[2] if uniform else 0.0
+    uniform = fa[FA_MODEL] == UNIFORM
+    field = fa[FA_FIELD]
+    g0 = field[0] if uniform else 0.0
+    g1 = field[1] if uniform else 0.0
+    g2 = field[2] if uniform else 0.0
     for a in range(targets.size):
         k = targets[a]
         out[k, 0] = g0
@@ -271,38 +321,47 @@ def _field(f, out, targets):
 
 
 @kernel(inline=True)
-def _add_others(f, t, pos, vel, out, targets, with_drag):
-    """Held forces and accelerations, user forces, drag (with_drag); zero for immovable bodies."""
-    held = f.held
+def _add_held(fa, out, targets):
+    """Held forces and accelerations."""
+    held = fa[FA_HELD]
     if held.shape[0]:
-        mass = f.mass
+        mass = fa[FA_MASS]
         for a in range(targets.size):
             k = targets[a]
             m = mass[k]
             for c in range(3):
                 # a held force on a body of mass 0 has no acceleration to give
                 out[k, c] += (held[k, c] / m if m > 0.0 else 0.0) + held[k, 3 + c]
-    if f.user_out.shape[0]:               # made only with user forces (see make)
-        extra = f.user_out
-        for i in range(extra.shape[0]):
-            extra[i, 0] = 0.0
-            extra[i, 1] = 0.0
-            extra[i, 2] = 0.0
-        for u in range(len(f.user)):
-            fn = f.user[u]
-            fn(t, pos, vel, f.mass, f.ids, f.params[u], extra)
-        for a in range(targets.size):
-            k = targets[a]
-            out[k, 0] += extra[k, 0]
-            out[k, 1] += extra[k, 1]
-            out[k, 2] += extra[k, 2]
-    drag = f.drag
+
+
+@kernel(inline=True)
+def _add_user(f, t, pos, vel, out, targets):
+    """The user forces (each adds every body's acceleration into f.user_out)."""
+    extra = f.user_out
+    for i in range(extra.shape[0]):
+        extra[i, 0] = 0.0
+        extra[i, 1] = 0.0
+        extra[i, 2] = 0.0
+    for u in range(len(f.user)):
+        fn = f.user[u]
+        fn(t, pos, vel, f.mass, f.ids, f.params[u], extra)
+    for a in range(targets.size):
+        k = targets[a]
+        out[k, 0] += extra[k, 0]
+        out[k, 1] += extra[k, 1]
+        out[k, 2] += extra[k, 2]
+
+
+@kernel(inline=True)
+def _add_drag(fa, vel, out, targets, with_drag):
+    """Drag (with_drag); then zero for immovable bodies."""
+    drag = fa[FA_DRAG]
     if with_drag and drag[0] > 0.0:
         for a in range(targets.size):
             k = targets[a]
             for c in range(3):
                 out[k, c] -= drag[0] * (vel[k, c] - drag[1 + c])
-    still = f.still
+    still = fa[FA_STILL]
     for a in range(still.size):
         k = still[a]
         out[k, 0] = 0.0
@@ -316,14 +375,14 @@ def velocity_dependent(f):
     return f.drag[0] > 0.0 or f.user_out.shape[0] > 0
 
 
-@kernel(inline=True)
-def drag_kick(f, vel, acc, h, rows, wind):
+@kernel(lean=True)
+def drag_kick(fa, vel, acc, h, rows, wind):
     """The kick with linear drag toward the wind, dv/dt = a - k (v - wind) with a held, for
     the bodies in rows: exact, v <- v_t + (v - v_t) exp(-k h), v_t = wind + a / k the terminal
-    velocity. Without drag (k = 0) the plain kick v += h a. wind : (3,), f.drag[1:] in
-    inertial coordinates (0 for Wisdom-Holman's Jacobi velocities). Immovable bodies stay at
-    rest."""
-    k = f.drag[0]
+    velocity. Without drag (k = 0) the plain kick v += h a. fa : the hoisted table (hoist);
+    wind : (3,), the drag's wind in inertial coordinates (0 for Wisdom-Holman's Jacobi
+    velocities). Immovable bodies stay at rest."""
+    k = fa[FA_DRAG][0]
     if k > 0.0:
         E = math.exp(-k * h)
         for a in range(rows.size):
@@ -337,7 +396,7 @@ def drag_kick(f, vel, acc, h, rows, wind):
             vel[i, 0] += h * acc[i, 0]
             vel[i, 1] += h * acc[i, 1]
             vel[i, 2] += h * acc[i, 2]
-    still = f.still
+    still = fa[FA_STILL]
     for j in range(still.size):
         for c in range(3):
             vel[still[j], c] = 0.0

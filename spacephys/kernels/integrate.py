@@ -14,7 +14,8 @@ import numpy as np
 from .._jit import kernel
 from .control import add_thrust, drift_thrust, rk_thrust_fix
 from . import tape
-from .forces import accelerations, drag_kick
+from .forces import (FA_DRAG, FA_ENDS, FA_SRC, FA_TAPE, FA_TAPE_AT, FA_TAPED, accelerations,
+                     drag_kick, hoist, lean_accelerations)
 from .step import begin, capture, end, status
 
 
@@ -32,9 +33,14 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
     n = pos.shape[0]
     acc = state.acc
     everyone = forces.everyone
-    wind = forces.drag[1:]
+    # the force table read once (forces.hoist): a read of an array field, or an array handed
+    # to a helper, costs its reference counts on every call
+    fa, lean_below = hoist(forces)
+    wind = fa[FA_DRAG][1:]
+    taped, tape_, at, ends, src = (fa[FA_TAPED], fa[FA_TAPE], fa[FA_TAPE_AT], fa[FA_ENDS],
+                                   fa[FA_SRC])
     frame = 0
-    mass = state.mass           # read once: an array field read costs its refcounts
+    mass = state.mass
     passive = forces.passive
     if actors is not None:
         movers, burn = actors.actors, actors.burn
@@ -42,7 +48,7 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
     for step in range(nsteps):
         t = t0 + step * dt
         begin(state, rules, actors, t, dt, False, step == nsteps - 1)
-        played = tape.playing(forces)                  # a prediction's tape (kernels/tape.py)
+        played = tape.playing(taped, at)               # a prediction's tape (kernels/tape.py)
         if played != was:           # rebound only when it changes: a rebinding costs refcounts
             kicked, was = (passive if played else everyone), played
         tau = 0.0                                      # time into the step the drifts reached
@@ -58,11 +64,14 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
                 tau += h
             h = kick[s] * dt
             if h != 0.0:
-                accelerations(forces, t + tau, pos, vel, acc, kicked, False)
-                drag_kick(forces, vel, acc, h, kicked, wind)
-        tape.integrated(forces, pos, vel, mass, played)
+                if kicked.size < lean_below:
+                    lean_accelerations(fa, pos, vel, acc, kicked, False)
+                else:
+                    accelerations(forces, t + tau, pos, vel, acc, kicked, False)
+                drag_kick(fa, vel, acc, h, kicked, wind)
+        tape.integrated(taped, tape_, at, ends, src, pos, vel, mass, played)
         stop = end(state, rules, actors, t, dt)
-        tape.collided(forces, pos, vel, mass, played)
+        tape.collided(taped, tape_, at, ends, src, pos, vel, mass, played)
         frame = capture(frames, frame, step + 1, state)
         if stop:
             return step + 1, status(state, True)
@@ -89,13 +98,16 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
     everyone = forces.everyone
     passive = forces.passive
     mass = state.mass
+    fa, lean_below = hoist(forces)          # as in splitting_steps
+    taped, tape_, at, ends, src = (fa[FA_TAPED], fa[FA_TAPE], fa[FA_TAPE_AT], fa[FA_ENDS],
+                                   fa[FA_SRC])
     no_mask = np.zeros(0, np.bool_)
     frame = 0
     kicked, was = everyone, False
     for step in range(nsteps):
         t = t0 + step * dt
         begin(state, rules, actors, t, dt, False, step == nsteps - 1)
-        played = tape.playing(forces)       # a prediction's tape: the pulling rows' stages
+        played = tape.playing(taped, at)    # a prediction's tape: the pulling rows' stages
         if played != was:                   # go unused, the tape restores them
             kicked, was = (passive if played else everyone), played
         for s in range(S):
@@ -112,7 +124,10 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
             c_s = 0.0
             for j in range(s):
                 c_s += a[s, j]
-            accelerations(forces, t + c_s * dt, x, kx[s], kv[s], kicked, True)
+            if kicked.size < lean_below:
+                lean_accelerations(fa, x, kx[s], kv[s], kicked, True)
+            else:
+                accelerations(forces, t + c_s * dt, x, kx[s], kv[s], kicked, True)
             if actors is not None:
                 add_thrust(actors.actors, actors.burn, kv[s], c_s * dt, no_mask, -1)
         for i in range(n):
@@ -126,9 +141,9 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
                 vel[i, c] += dt * dv
         if actors is not None:
             rk_thrust_fix(actors.actors, actors.burn, vel, a, b, dt)
-        tape.integrated(forces, pos, vel, mass, played)
+        tape.integrated(taped, tape_, at, ends, src, pos, vel, mass, played)
         stop = end(state, rules, actors, t, dt)
-        tape.collided(forces, pos, vel, mass, played)
+        tape.collided(taped, tape_, at, ends, src, pos, vel, mass, played)
         frame = capture(frames, frame, step + 1, state)
         if stop:
             return step + 1, status(state, True)

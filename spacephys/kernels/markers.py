@@ -11,6 +11,18 @@ from .._jit import kernel
 
 
 @kernel
+def paths(samples, rows, out):
+    """out[k, j] = samples[j, rows[k]]: samples (P, m, 3) as a prediction captures them, the
+    paths of rows (K,) into out (K, P, 3)."""
+    for k in range(rows.size):
+        r = rows[k]
+        for j in range(samples.shape[0]):
+            out[k, j, 0] = samples[j, r, 0]
+            out[k, j, 1] = samples[j, r, 1]
+            out[k, j, 2] = samples[j, r, 2]
+
+
+@kernel
 def dominant(pos, cpos, cmass, same, out):
     """out[k, j] = the candidate pulling hardest (largest m_c / d^2) on path k at sample j, -1
     where the path has ended (NaN); pos (K, P, 3), cpos (C, P, 3), cmass (C,), same (K,) the

@@ -19,13 +19,12 @@ from .._jit import kernel
 ON, STEP, VALID, PER_STEP, EVAL = range(5)
 
 
-@kernel(inline=True)
-def playing(f):
+@kernel(lean=True)
+def playing(taped, at):
     """At a step's start: whether the tape plays this step back; points it at the step's first
-    evaluation."""
-    if f.taped == 0:
+    evaluation. taped, at : the table's fields (forces.hoist)."""
+    if taped == 0:
         return False
-    at = f.tape_at
     if at[ON] == 0:
         return False
     at[EVAL] = at[STEP] * at[PER_STEP]
@@ -33,13 +32,11 @@ def playing(f):
 
 
 @kernel(inline=True)
-def sources(f, e, scratch):
+def sources(tape, at, e, scratch):
     """Evaluation e's sources: from the tape into scratch (4, ns) when the step plays back
     (True); otherwise False, and the caller gathers them."""
-    at = f.tape_at
     if at[STEP] >= at[VALID]:
         return False
-    tape = f.tape
     for r in range(4):
         for a in range(scratch.shape[1]):
             scratch[r, a] = tape[e, r, a]
@@ -47,10 +44,8 @@ def sources(f, e, scratch):
 
 
 @kernel(inline=True)
-def record(f, e, scratch):
+def record(tape, at, e, scratch):
     """Evaluation e's gathered sources onto the tape, while it records and has room."""
-    at = f.tape_at
-    tape = f.tape
     if at[STEP] == at[VALID] and e < tape.shape[0]:
         for r in range(4):
             for a in range(scratch.shape[1]):
@@ -58,47 +53,41 @@ def record(f, e, scratch):
 
 
 @kernel(inline=True)
-def _recording(f, k):
+def _recording(tape, at, ends, k):
     """Whether step k is being recorded: the next after the recorded ones, with room for it
     and for all its evaluations."""
-    at = f.tape_at
-    return at[VALID] == k and k < f.ends.shape[0] and at[EVAL] <= f.tape.shape[0]
+    return at[VALID] == k and k < ends.shape[0] and at[EVAL] <= tape.shape[0]
 
 
-@kernel(inline=True)
-def integrated(f, pos, vel, mass, played):
+@kernel(lean=True)
+def integrated(taped, tape, at, ends, src, pos, vel, mass, played):
     """After a step's integration, before its collisions: a played step puts the pulling bodies
-    (drifted, never kicked) where the tape has them; a recorded one writes them down."""
-    if f.taped == 0:
-        return
-    at = f.tape_at
-    if at[ON] == 0:
+    (drifted, never kicked) where the tape has them; a recorded one writes them down.
+    taped, tape, at, ends, src : the table's fields (forces.hoist)."""
+    if taped == 0 or at[ON] == 0:
         return
     k = at[STEP]
     if played:
-        _read(f.ends, k, f.src, pos, vel)
-    elif _recording(f, k):
-        _write(f.ends, k, 0, f.src, pos, vel, mass)
+        _read(ends, k, src, pos, vel)
+    elif _recording(tape, at, ends, k):
+        _write(ends, k, 0, src, pos, vel, mass)
 
 
-@kernel(inline=True)
-def collided(f, pos, vel, mass, played):
+@kernel(lean=True)
+def collided(taped, tape, at, ends, src, pos, vel, mass, played):
     """After the step's collisions (and a periodic box's wrap): a recorded step writes the
     pulling bodies down again; a played one stops the tape if they are not where the
     recording's collisions left them (this prediction's bodies acted otherwise). Counts the
     step."""
-    if f.taped == 0:
-        return
-    at = f.tape_at
-    if at[ON] == 0:
+    if taped == 0 or at[ON] == 0:
         return
     k = at[STEP]
     if played:
-        if not _same(f.ends, k, 7, f.src, pos, vel, mass):
+        if not _same(ends, k, 7, src, pos, vel, mass):
             at[ON] = 0
             return
-    elif _recording(f, k):
-        _write(f.ends, k, 7, f.src, pos, vel, mass)
+    elif _recording(tape, at, ends, k):
+        _write(ends, k, 7, src, pos, vel, mass)
         at[VALID] = k + 1
     at[STEP] = k + 1
 
