@@ -489,6 +489,11 @@ class Actors:
             return np.zeros(0, np.int64)
         return np.flatnonzero(b.actor[:b.n]).astype(np.int64)
 
+    def any_of(self, rows):
+        """Whether any of these rows is a ship or missile."""
+        b = self.b
+        return "actor" in b.columns and bool(b.actor[rows].any())
+
     def table(self, actors):
         """The kernels' Actors table for the bodies now alive (columns shared), or None when
         there are no actors and no lifetimes; actors = rows()."""

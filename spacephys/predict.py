@@ -137,6 +137,7 @@ class _Sampler:
 
     def frame_buffers(self, F, n):
         # rows do not change within a kernel call
+        self._tables = self.world._plan       # replaced when bodies are removed or added
         self._rows = rows = self.world._b.lookup(self.ids)
         j = self.next
         self._direct = rows.size == n and bool(np.all(rows == np.arange(n)))
@@ -161,8 +162,9 @@ class _Sampler:
         self.next += k
 
     def captured_last(self, world, at, done):
-        if np.any(at == done):
-            self.take(world, self.next)
+        if done <= at[-1] and at[np.searchsorted(at, done)] == done:
+            if not (self._direct and world._plan is self._tables):   # else: the kernel's
+                self.take(world, self.next)
             self.next += 1
 
     def paths(self, rows):
@@ -418,8 +420,7 @@ def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, targ
     """The Prediction from the samples and the events of the copy `world`; G and own (k,),
     the predicted bodies' masses where they pull (0 elsewhere), make the apsides' mu."""
     dim = world.dim
-    at = {int(i): k for k, i in enumerate(watched)}
-    sel = np.array([at[int(i)] for i in ids])
+    sel = np.searchsorted(watched, ids)                 # watched: sorted, unique
     pos, vel = sampler.paths(sel)
     ended = np.full(ids.size, np.inf)
     impacts = []
@@ -438,7 +439,7 @@ def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, targ
     pos[gone] = np.nan
     vel[gone] = np.nan
     # the candidates' paths (the field's centre last, fixed)
-    cpos, cvel = sampler.paths(np.array([at[int(c)] for c in cand], np.int64))
+    cpos, cvel = sampler.paths(np.searchsorted(watched, cand))
     cids = cand
     if centre is not None:
         cpos = np.concatenate([cpos, np.broadcast_to(centre, (1, t.size, 3))])
@@ -455,27 +456,29 @@ def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, targ
     p = Prediction(ids, t, pos[:, :, :dim], vel[:, :, :dim], ended, about_ids, impacts=impacts,
                    events=events)
     if cids.size:
-        for k, when, a, b in markers.changes(t, pos, vel, cpos, cvel, cmass, dom).tolist():
-            p.changes.append(Change(int(ids[int(k)]), when, int(cids[int(a)]),
-                                    int(cids[int(b)])))
+        # the marker objects made column by column, in time order (a stable sort, as the
+        # lists' own sort below)
+        rows = markers.changes(t, pos, vel, cpos, cvel, cmass, dom)
+        rows = rows[np.argsort(rows[:, 1], kind="stable")]
+        col = lambda x, j: x[rows[:, j].astype(np.int64)].tolist()
+        p.changes = list(map(Change, col(ids, 0), rows[:, 1].tolist(), col(cids, 2),
+                             col(cids, 3)))
         _yield(background)
         mu = G * (cmass[None, :] + own[:, None])
-        found = markers.all_apsides(t, pos, vel, cpos, cvel, mu, dom)
-        where = found[:, 4:4 + dim].copy()
-        for (k, kind, when, distance, c), point in zip(found[:, [0, 1, 2, 3, 7]].tolist(),
-                                                      where):
-            p.apsides.append(Apsis(int(ids[int(k)]), "pericentre" if kind < 0 else "apocentre",
-                                   when, point, distance, int(cids[int(c)])))
+        rows = markers.all_apsides(t, pos, vel, cpos, cvel, mu, dom)
+        rows = rows[np.argsort(rows[:, 2], kind="stable")]
+        kinds = np.where(rows[:, 1] < 0, "pericentre", "apocentre").tolist()
+        p.apsides = list(map(Apsis, col(ids, 0), kinds, rows[:, 2].tolist(),
+                             list(rows[:, 4:4 + dim].copy()), rows[:, 3].tolist(),
+                             col(cids, 7)))
     if target is not None:
         out = np.empty((t.size, 5))
-        tpos, tvel = sampler.paths(np.array([at[int(target)]], np.int64))
+        tpos, tvel = sampler.paths(np.searchsorted(watched, [target]))
         for k in range(ids.size):
             _yield(background)
             if ids[k] != target:
                 p.approaches.append(_closest(int(ids[k]), target, t, pos[k], vel[k], tpos[0],
                                              tvel[0], out))
-    p.apsides.sort(key=lambda a: a.t)
-    p.changes.sort(key=lambda a: a.t)
     p.approaches = [a for a in p.approaches if a is not None]
     return p
 

@@ -88,7 +88,7 @@ class Tape:
         at = self.at
         at[ktape.ON] = 0
         self._run = None
-        if np.isin(w._actors.rows(), self.src).any():   # a pulling ship: its controls
+        if w._actors.any_of(self.src):                    # a pulling ship: its controls
             return                                        # move the pulling bodies
         moved = self._moved(w)
         k = self._matching_step(w, moved)

@@ -24,6 +24,7 @@ after the collisions after_step fires proximity fuses and ends lifetimes.
 Compiled without fastmath: log1p and the series of g carry the small-burn accuracy.
 """
 import math
+from collections import namedtuple
 
 import numpy as np
 from numba.experimental import structref
@@ -34,6 +35,11 @@ from .codes import (BURN_ANTINORMAL, BURN_NORMAL, BURN_PROGRADE, BURN_RADIAL_IN,
                     EV_FUEL_EMPTY, NO_GUIDANCE, PURSUIT)
 from .collide import _wrap
 from .state import record
+
+# pending events (the lean functions cannot grow the event buffer; flush records them): a row
+# each, [kind, row i, row j (-1: none), time into the step, point (3,), normal (3,), speed,
+# distance]
+PENDING = 12
 
 # flags: what has been reported once
 _FLAG_EMPTY, _FLAG_BURNOUT = 1, 2
@@ -88,6 +94,22 @@ FIELDS = (
     "saved",       # (A, 7) orientations and rates at the step's start, to undo a failed step
 )
 structref.define_proxy(Actors, ActorsType, list(FIELDS))
+
+# the table's fields as a tuple, read once before a kernel's step loop (step.hoist): the
+# per-step functions below take it and are compiled without reference counting (_jit lean)
+ActorArrays = namedtuple("ActorArrays", FIELDS)
+
+
+@kernel(inline=True)
+def hoist(act):
+    """The Actors table's fields as an ActorArrays tuple."""
+    return ActorArrays(act.actors, act.quat, act.omega, act.throttle, act.turn, act.strafe,
+                       act.dry, act.fuel, act.thrust, act.side, act.exhaust, act.turn_rate,
+                       act.inertia, act.torque, act.curve, act.curve_table, act.guidance,
+                       act.nav, act.target, act.burn_end, act.armed_at, act.fuse, act.kill,
+                       act.flags, act.expires, act.dim, act.plan, act.clock, act.planned,
+                       act.burn, act.saved)
+
 
 
 @kernel
@@ -343,11 +365,13 @@ def next_stop(actors, burn, after):
     return best
 
 
-@kernel(inline=True)
-def begin_step(act, rules, state, t0, dt, L):
-    """Arm fuses (rules: the collision table or None), keep every actor's orientation (for
-    undo_turns), turn every live actor over the step and set its burn in act.burn (see the
-    module). L : 3-tuple, the periods of a wrapping boundary (zeros: none)."""
+@kernel(lean=True)
+def begin_step(ht, t0, dt, L):
+    """Arm fuses (the collision table's owners), keep every actor's orientation (for
+    undo_turns), turn every live actor over the step and set its burn in burn (see the
+    module). ht : step.hoist's tuple; L : 3-tuple, the periods of a wrapping boundary (zeros:
+    none)."""
+    state, owner, act = ht[0], ht[1], ht[2]
     actors = act.actors
     alive = state.alive
     pos, vel, mass, burn = state.pos, state.vel, state.mass, act.burn
@@ -366,8 +390,8 @@ def begin_step(act, rules, state, t0, dt, L):
         burn[q, M0] = 1.0
         if not alive[i]:
             continue
-        if rules is not None and rules.owner[i] >= 0 and t0 >= act.armed_at[i]:
-            rules.owner[i] = -1                      # armed: its launcher can be hit now
+        if owner.size and owner[i] >= 0 and t0 >= act.armed_at[i]:
+            owner[i] = -1                            # armed: its launcher can be hit now
         if act.planned[q, 1] and _fly_plan(act, q, i, state, t0, dt):
             continue
         q0, q1, q2, q3 = act.quat[i, 0], act.quat[i, 1], act.quat[i, 2], act.quat[i, 3]
@@ -438,7 +462,7 @@ def begin_step(act, rules, state, t0, dt, L):
         burn[q, VE] = force / mdot
 
 
-@kernel
+@kernel(lean=True)
 def _plan_direction(act, k, i, pos, vel):
     """The unit direction of planned burn k for the body in row i, from its state relative to
     the burn's frame now; (0, 0, 0) when the direction is undefined (no motion relative to
@@ -468,7 +492,7 @@ def _plan_direction(act, k, i, pos, vel):
     return dx / norm, dy / norm, dz / norm
 
 
-@kernel
+@kernel(lean=True)
 def _fly_plan(act, q, i, state, t0, dt):
     """The autopilot: when one of actor q's planned burns covers part of the step from t0,
     hold the heading along its direction (rates zeroed), set the burn from its start to its
@@ -527,13 +551,15 @@ def _fly_plan(act, q, i, state, t0, dt):
     return True
 
 
-@kernel(inline=True)
-def end_burn(act, state, t0, dt):
-    """Book the fuel the step burned; report fuel running out and burn times ending; count
-    the step on the clock."""
+@kernel(lean=True)
+def end_burn(ht, t0, dt):
+    """Book the fuel the step burned; report fuel running out and burn times ending (into
+    ht's pending rows: returns how many, for flush); count the step on the clock."""
+    state, act, pending = ht[0], ht[2], ht[3]
     act.clock[1] += 1.0
     actors = act.actors
     pos, mass, burn = state.pos, state.mass, act.burn
+    m = 0
     for q in range(actors.size):
         i = actors[q]
         if not state.alive[i]:
@@ -549,51 +575,80 @@ def end_burn(act, state, t0, dt):
                 fuel = 0.0
                 if act.flags[i] & _FLAG_EMPTY == 0:
                     act.flags[i] |= _FLAG_EMPTY
-                    _event(state, EV_FUEL_EMPTY, i, -1, t0, t_burn, pos, 0.0)
+                    m = _pend(pending, m, EV_FUEL_EMPTY, i, -1, t_burn, pos[i, 0], pos[i, 1],
+                              pos[i, 2], 0.0, 0.0, 0.0, 0.0, 0.0)
             act.fuel[i] = max(fuel, 0.0)
             mass[i] = act.dry[i] + act.fuel[i]     # exactly dry once the fuel is gone
         end = act.burn_end[i]
         if t0 < end <= t0 + dt and act.fuel[i] > 0.0 and act.flags[i] & _FLAG_BURNOUT == 0:
             act.flags[i] |= _FLAG_BURNOUT
-            _event(state, EV_BURNOUT, i, -1, t0, end - t0, pos, 0.0)
-
-
-@kernel
-def _event(state, kind, i, j, t0, t_in_step, pos, distance):
-    point = np.empty(3)
-    normal = np.zeros(3)
-    for c in range(3):
-        point[c] = pos[i, c]
-    record(state, kind, state.ids[i], state.ids[j] if j >= 0 else -1, t0 + t_in_step,
-           t_in_step, point, normal, 0.0, 0.0, distance)
+            m = _pend(pending, m, EV_BURNOUT, i, -1, end - t0, pos[i, 0], pos[i, 1], pos[i, 2],
+                      0.0, 0.0, 0.0, 0.0, 0.0)
+    return m
 
 
 @kernel(inline=True)
-def after_step(act, state, t0, dt, L):
+def _pend(pending, m, kind, i, j, t_in_step, px, py, pz, nx, ny, nz, speed, distance):
+    """Write pending row m (see PENDING); returns m + 1."""
+    pending[m, 0] = kind
+    pending[m, 1] = i
+    pending[m, 2] = j
+    pending[m, 3] = t_in_step
+    pending[m, 4] = px
+    pending[m, 5] = py
+    pending[m, 6] = pz
+    pending[m, 7] = nx
+    pending[m, 8] = ny
+    pending[m, 9] = nz
+    pending[m, 10] = speed
+    pending[m, 11] = distance
+    return m + 1
+
+
+@kernel
+def flush(state, ht, m, t0):
+    """Record ht's first m pending rows as events of the step from t0, in order."""
+    pending = ht[3]
+    ids = state.ids
+    point = np.empty(3)
+    normal = np.empty(3)
+    for r in range(m):
+        i, j = int(pending[r, 1]), int(pending[r, 2])
+        for c in range(3):
+            point[c] = pending[r, 4 + c]
+            normal[c] = pending[r, 7 + c]
+        record(state, int(pending[r, 0]), ids[i], ids[j] if j >= 0 else -1,
+               t0 + pending[r, 3], pending[r, 3], point, normal, pending[r, 10], 0.0,
+               pending[r, 11])
+
+
+@kernel(lean=True)
+def after_step(ht, t0, dt, L):
     """Proximity fuses (the closest approach along both bodies' straight lines over the step)
-    and lifetimes. Returns True when a body died (World must remove it, and may spawn its
-    explosion)."""
+    and lifetimes, their events into ht's pending rows. Returns (a body died (World must
+    remove it, and may spawn its explosion), pending rows written)."""
+    state, act, pending = ht[0], ht[2], ht[3]
     alive = state.alive
     pos0, pos = state.pos0, state.pos
     died = False
+    m = 0
     actors = act.actors
     for q in range(actors.size):
         i = actors[q]
         j = act.target[i]
         if act.fuse[i] <= 0.0 or j < 0 or not alive[i] or not alive[j]:
             continue
-        point = np.empty(3)           # allocated only for a fuse: every step of every scene
-        normal = np.empty(3)          # with actors calls this
-        d0 = np.empty(3)
-        e = np.empty(3)
-        for c in range(3):
-            # nearest images when wrapping: pos is already wrapped into the box
-            d0[c] = _wrap(pos0[j, c] - pos0[i, c], L[c])
-            e[c] = _wrap(pos[j, c] - pos0[j, c], L[c]) - _wrap(pos[i, c] - pos0[i, c], L[c])
-        ee = e[0] * e[0] + e[1] * e[1] + e[2] * e[2]
+        # nearest images when wrapping: pos is already wrapped into the box
+        d0x = _wrap(pos0[j, 0] - pos0[i, 0], L[0])
+        d0y = _wrap(pos0[j, 1] - pos0[i, 1], L[1])
+        d0z = _wrap(pos0[j, 2] - pos0[i, 2], L[2])
+        ex = _wrap(pos[j, 0] - pos0[j, 0], L[0]) - _wrap(pos[i, 0] - pos0[i, 0], L[0])
+        ey = _wrap(pos[j, 1] - pos0[j, 1], L[1]) - _wrap(pos[i, 1] - pos0[i, 1], L[1])
+        ez = _wrap(pos[j, 2] - pos0[j, 2], L[2]) - _wrap(pos[i, 2] - pos0[i, 2], L[2])
+        ee = ex * ex + ey * ey + ez * ez
         s = 0.0
         if ee > 0.0:
-            s = min(max(-(d0[0] * e[0] + d0[1] * e[1] + d0[2] * e[2]) / ee, 0.0), 1.0)
+            s = min(max(-(d0x * ex + d0y * ey + d0z * ez) / ee, 0.0), 1.0)
         armed = act.armed_at[i]
         if t0 + s * dt < armed:
             if t0 + dt < armed:
@@ -601,22 +656,23 @@ def after_step(act, state, t0, dt, L):
             # armed within the step, after the closest approach: the range only grows from
             # then on, so the arming moment is the closest armed one
             s = (armed - t0) / dt
-        dist2 = 0.0
-        for c in range(3):
-            normal[c] = d0[c] + s * e[c]
-            dist2 += normal[c] * normal[c]
+        nx, ny, nz = d0x + s * ex, d0y + s * ey, d0z + s * ez
+        dist2 = nx * nx + ny * ny + nz * nz
         fuse = act.fuse[i]
         if dist2 > fuse * fuse:
             continue
         dist = math.sqrt(dist2)
         closing = 0.0
-        for c in range(3):
-            point[c] = pos0[i, c] + s * _wrap(pos[i, c] - pos0[i, c], L[c])
-            if dist > 0.0:
-                normal[c] /= dist
-                closing -= normal[c] * e[c] / dt
-        record(state, EV_DETONATION, state.ids[i], state.ids[j], t0 + s * dt, s * dt, point,
-               normal, closing, 0.0, dist)
+        if dist > 0.0:
+            nx, ny, nz = nx / dist, ny / dist, nz / dist
+            closing -= nx * ex / dt
+            closing -= ny * ey / dt
+            closing -= nz * ez / dt
+        px = pos0[i, 0] + s * _wrap(pos[i, 0] - pos0[i, 0], L[0])
+        py = pos0[i, 1] + s * _wrap(pos[i, 1] - pos0[i, 1], L[1])
+        pz = pos0[i, 2] + s * _wrap(pos[i, 2] - pos0[i, 2], L[2])
+        m = _pend(pending, m, EV_DETONATION, i, j, s * dt, px, py, pz, nx, ny, nz, closing,
+                  dist)
         alive[i] = False
         if act.kill[i]:
             alive[j] = False
@@ -627,8 +683,9 @@ def after_step(act, state, t0, dt, L):
             if alive[i] and act.expires[i] <= t1:
                 alive[i] = False
                 died = True
-                _event(state, EV_EXPIRY, i, -1, t0, max(act.expires[i] - t0, 0.0), pos, 0.0)
-    return died
+                m = _pend(pending, m, EV_EXPIRY, i, -1, max(act.expires[i] - t0, 0.0),
+                          pos[i, 0], pos[i, 1], pos[i, 2], 0.0, 0.0, 0.0, 0.0, 0.0)
+    return died, m
 
 
 @kernel

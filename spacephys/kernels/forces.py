@@ -28,7 +28,7 @@ import numpy as np
 from numba import types, typed
 from numba.experimental import structref
 
-from .._jit import PARALLEL_MIN_PAIRS, TableType, kernel
+from .._jit import NEVER, PARALLEL_MIN_PAIRS, TableType, kernel
 from . import tape
 from .diagnostics import add
 
@@ -214,8 +214,9 @@ def accelerations(f, t, pos, vel, out, targets, with_drag):
     lean_accelerations instead where it can (see hoist): bit for bit the same.
     """
     fa, _ = hoist(f)
-    if _sources(fa, pos):
-        _pull_all(targets, pos, f.scratch, f.G, f.eps2, out, f.threads[0])
+    has, s = _sources(fa, pos)
+    if has:
+        _pull_all(targets, pos, s, f.G, f.eps2, out, f.threads[0])
     else:
         _field(fa, out, targets)
     _add_held(fa, out, targets)
@@ -232,8 +233,9 @@ def accelerations_serial(f, t, pos, vel, out, targets, with_drag):
     if lean_below > 0:
         lean_accelerations(fa, pos, vel, out, targets, with_drag)
         return
-    if _sources(fa, pos):
-        _pull_rows(targets, pos, f.scratch, f.G, f.eps2, out)
+    has, s = _sources(fa, pos)
+    if has:
+        _pull_rows(targets, pos, s, f.G, f.eps2, out)
     else:
         _field(fa, out, targets)
     _add_held(fa, out, targets)
@@ -257,11 +259,15 @@ def hoist(f):
     with user forces; otherwise up to the threaded loop's threshold f.threads[0])."""
     fa = (f.model, f.G, f.eps2, f.field, f.field_mass, f.mass, f.src, f.scratch, f.held,
           f.drag, f.still, f.taped, f.tape, f.tape_at, f.ends)
-    lean_below = np.iinfo(np.int64).max
+    # a constant, not np.iinfo: with np.iinfo(np.int64).max here the step kernels took the
+    # threaded path on every step of a 3-body scene (seen in gdb; not reproduced alone)
+    lean_below = NEVER
+    min_pairs = f.threads[0]
     if f.user_out.shape[0]:
         lean_below = 0
     elif f.model == DIRECT and f.src.size:
-        lean_below = (f.threads[0] + f.src.size - 1) // f.src.size
+        # targets * ns < min_pairs; NEVER (min_pairs) + ns would overflow
+        lean_below = (min_pairs - 1) // f.src.size + 1 if min_pairs > 0 else 0
     return fa, lean_below
 
 
@@ -270,8 +276,9 @@ def lean_accelerations(fa, pos, vel, out, targets, with_drag):
     """accelerations from the hoisted table fa, on the calling thread, without user forces
     (the step loops call it for fewer targets than hoist's lean_below): bit for bit the
     same."""
-    if _sources(fa, pos):
-        _pull_rows(targets, pos, fa[FA_SCRATCH], fa[FA_G], fa[FA_EPS2], out)
+    has, s = _sources(fa, pos)
+    if has:
+        _pull_rows(targets, pos, s, fa[FA_G], fa[FA_EPS2], out)
     else:
         _field(fa, out, targets)
     _add_held(fa, out, targets)
@@ -280,8 +287,9 @@ def lean_accelerations(fa, pos, vel, out, targets, with_drag):
 
 @kernel(inline=True)
 def _sources(fa, pos):
-    """Gather the pulling bodies (DIRECT) or the fixed body (CENTRAL) into the scratch; False
-    for the models without sources."""
+    """(whether the model has sources, the sources (4, ns): x, y, z, m): the pulling bodies
+    (DIRECT) gathered into the scratch, or a played step's straight from the prediction's
+    tape; the fixed body (CENTRAL)."""
     model = fa[FA_MODEL]
     scratch = fa[FA_SCRATCH]
     if model == DIRECT:
@@ -289,20 +297,21 @@ def _sources(fa, pos):
         if fa[FA_TAPED] != 0 and at[tape.ON] != 0:      # a prediction's copy, its tape on
             e = at[tape.EVAL]
             at[tape.EVAL] = e + 1
-            if not tape.sources(fa[FA_TAPE], at, e, scratch):
-                _gather_sources(fa[FA_SRC], pos, fa[FA_MASS], scratch)
-                tape.record(fa[FA_TAPE], at, e, scratch)
-            return True
+            if tape.recorded(at):
+                return True, fa[FA_TAPE][e]
+            _gather_sources(fa[FA_SRC], pos, fa[FA_MASS], scratch)
+            tape.record(fa[FA_TAPE], at, e, scratch)
+            return True, scratch
         _gather_sources(fa[FA_SRC], pos, fa[FA_MASS], scratch)
-        return True
+        return True, scratch
     if model == CENTRAL:
         field = fa[FA_FIELD]
         scratch[0, 0] = field[0]
         scratch[1, 0] = field[1]
         scratch[2, 0] = field[2]
         scratch[3, 0] = fa[FA_FIELD_MASS]
-        return True
-    return False
+        return True, scratch
+    return False, scratch
 
 
 @kernel(inline=True)

@@ -21,7 +21,7 @@ from .arrays import copy_into
 from .codes import FAILED
 from .control import add_thrust, next_stop, snap_stops
 from .forces import accelerations, accelerations_serial, velocity_dependent
-from .step import begin, capture, end, status, undo
+from .step import begin, capture, end, hoist as hoist_step, status, undo
 
 _PC_TOLERANCE = 1e-16      # corrector converged: the sweep changed b7 by < this fraction of |a|
 _PC_ROUNDOFF = 1e-10       # below this, an error that stops shrinking is round-off: also converged
@@ -478,9 +478,10 @@ def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nste
     frame = 0
     done = 0
     removed = False
+    ht = hoist_step(state, rules, actors)
     for interval in range(nsteps):
         t_start = t0 + interval * dt_out
-        begin(state, rules, actors, t_start, dt_out, True, interval == nsteps - 1)
+        begin(state, rules, actors, ht, t_start, dt_out, True, interval == nsteps - 1)
         copy_into(saved[0], csx)
         copy_into(saved[1], csv)
         elapsed = 0.0
@@ -611,8 +612,8 @@ def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nste
             params[5] = 1.0 if have_predictor else 0.0
             return interval, status(state, False) | FAILED
         done = interval + 1
-        removed = end(state, rules, actors, t_start, dt_out)
-        frame = capture(frames, frame, done, state)
+        removed = end(state, rules, actors, ht, t_start, dt_out)
+        frame = capture(frames, frame, done, ht)
         if removed:
             break
     params[3] = dt

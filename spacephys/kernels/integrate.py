@@ -16,7 +16,7 @@ from .control import add_thrust, drift_thrust, rk_thrust_fix
 from . import tape
 from .forces import (FA_DRAG, FA_ENDS, FA_SRC, FA_TAPE, FA_TAPE_AT, FA_TAPED, accelerations,
                      drag_kick, hoist, lean_accelerations)
-from .step import begin, capture, end, status
+from .step import begin, capture, end, hoist as hoist_step, status
 
 
 @kernel(parallel=True)
@@ -44,10 +44,11 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
     passive = forces.passive
     if actors is not None:
         movers, burn = actors.actors, actors.burn
+    ht = hoist_step(state, rules, actors)
     kicked, was = everyone, False
     for step in range(nsteps):
         t = t0 + step * dt
-        begin(state, rules, actors, t, dt, False, step == nsteps - 1)
+        begin(state, rules, actors, ht, t, dt, False, step == nsteps - 1)
         played = tape.playing(taped, at)               # a prediction's tape (kernels/tape.py)
         if played != was:           # rebound only when it changes: a rebinding costs refcounts
             kicked, was = (passive if played else everyone), played
@@ -55,10 +56,17 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
         for s in range(drift.size):
             h = drift[s] * dt
             if h != 0.0:
-                for i in range(n):
-                    pos[i, 0] += h * vel[i, 0]
-                    pos[i, 1] += h * vel[i, 1]
-                    pos[i, 2] += h * vel[i, 2]
+                if played:          # the pulling rows: the tape puts them where they end
+                    for a in range(kicked.size):
+                        i = kicked[a]
+                        pos[i, 0] += h * vel[i, 0]
+                        pos[i, 1] += h * vel[i, 1]
+                        pos[i, 2] += h * vel[i, 2]
+                else:
+                    for i in range(n):
+                        pos[i, 0] += h * vel[i, 0]
+                        pos[i, 1] += h * vel[i, 1]
+                        pos[i, 2] += h * vel[i, 2]
                 if actors is not None:
                     drift_thrust(movers, burn, pos, vel, tau, tau + h)
                 tau += h
@@ -70,9 +78,9 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
                     accelerations(forces, t + tau, pos, vel, acc, kicked, False)
                 drag_kick(fa, vel, acc, h, kicked, wind)
         tape.integrated(taped, tape_, at, ends, src, pos, vel, mass, played)
-        stop = end(state, rules, actors, t, dt)
+        stop = end(state, rules, actors, ht, t, dt)
         tape.collided(taped, tape_, at, ends, src, pos, vel, mass, played)
-        frame = capture(frames, frame, step + 1, state)
+        frame = capture(frames, frame, step + 1, ht)
         if stop:
             return step + 1, status(state, True)
     return nsteps, status(state, False)
@@ -103,10 +111,11 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
                                    fa[FA_SRC])
     no_mask = np.zeros(0, np.bool_)
     frame = 0
+    ht = hoist_step(state, rules, actors)
     kicked, was = everyone, False
     for step in range(nsteps):
         t = t0 + step * dt
-        begin(state, rules, actors, t, dt, False, step == nsteps - 1)
+        begin(state, rules, actors, ht, t, dt, False, step == nsteps - 1)
         played = tape.playing(taped, at)    # a prediction's tape: the pulling rows' stages
         if played != was:                   # go unused, the tape restores them
             kicked, was = (passive if played else everyone), played
@@ -142,9 +151,9 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
         if actors is not None:
             rk_thrust_fix(actors.actors, actors.burn, vel, a, b, dt)
         tape.integrated(taped, tape_, at, ends, src, pos, vel, mass, played)
-        stop = end(state, rules, actors, t, dt)
+        stop = end(state, rules, actors, ht, t, dt)
         tape.collided(taped, tape_, at, ends, src, pos, vel, mass, played)
-        frame = capture(frames, frame, step + 1, state)
+        frame = capture(frames, frame, step + 1, ht)
         if stop:
             return step + 1, status(state, True)
     return nsteps, status(state, False)

@@ -6,6 +6,8 @@ reuses, and the event buffer every part of the step appends to. spacephys/world.
 per set of bodies; its arrays are views of the World's columns, so a step changes the World in
 place and a change made between steps (set_body, control) is seen by the next step.
 """
+from collections import namedtuple
+
 import numpy as np
 from numba.experimental import structref
 
@@ -34,6 +36,18 @@ FIELDS = (
     "dim",             # 2 or 3
 )
 structref.define_proxy(State, StateType, list(FIELDS))
+
+
+# the arrays the per-step functions move, read once before a kernel's step loop (step.hoist);
+# not the event buffer, which a kernel may replace when it grows it
+StateArrays = namedtuple("StateArrays", ("pos", "vel", "prev", "mass", "alive", "pos0", "vel0"))
+
+
+@kernel(inline=True)
+def hoist(state):
+    """The State's arrays as a StateArrays tuple."""
+    return StateArrays(state.pos, state.vel, state.prev, state.mass, state.alive, state.pos0,
+                       state.vel0)
 
 
 @kernel

@@ -1,5 +1,8 @@
 """The sequence around every step's integration, written once and called by all four families.
 
+    hoist(...)      once before the step loop: the tables' arrays as one tuple ht, which the
+                    per-step functions take (compiled without reference counting, _jit lean:
+                    an array read or handed on inside the loop costs two atomic updates)
     begin(...)      prev <- pos on the call's last step (render interpolation); the state at
                     the step's start kept (collisions need the lines, undo the state); actors
                     turned and their burns set
@@ -17,11 +20,15 @@ compiles nor runs it. `frames` is None, or (frame_at, fpos, fvel, fmass): the st
 this call after which to copy the state into fpos[k], fvel[k] (F, n, 3) and fmass[k] (F, n).
 """
 
+import numpy as np
+
 from .._jit import kernel
+from . import control
+from . import state as kstate
 from .arrays import copy_into
 from .codes import NONFINITE, REMOVED
 from .collide import _periods, collide_step
-from .control import after_step, begin_step, end_burn, undo_turns
+from .control import after_step, begin_step, end_burn, flush, undo_turns
 
 
 @kernel
@@ -35,44 +42,72 @@ def periods(rules):
 
 
 @kernel(inline=True)
-def begin(state, rules, actors, t0, dt, keep, last):
-    """Before a step's integration (see the module). keep: save the start state even without
-    collisions or actors (the family may undo the step); last: the call's last step."""
-    if last:
-        copy_into(state.prev, state.pos)
-    if keep or rules is not None or actors is not None:
-        copy_into(state.pos0, state.pos)
-        copy_into(state.vel0, state.vel)
-    if actors is not None:
-        begin_step(actors, rules, state, t0, dt, periods(rules))
+def hoist(state, rules, actors):
+    """ht = (the state's arrays (state.StateArrays), the collision table's owners (empty
+    without one), the actors' arrays (control.ActorArrays; None without actors), pending
+    events (control.PENDING columns)): read once per kernel call. The inlined functions
+    below only hand ht on; reading its arrays here would cost their reference counts."""
+    owner = np.zeros(0, np.int64) if rules is None else rules.owner
+    sa = kstate.hoist(state)
+    if actors is None:
+        return sa, owner, None, np.empty((0, control.PENDING))
+    aa = control.hoist(actors)
+    return sa, owner, aa, np.empty((2 * aa.actors.size + sa.pos.shape[0], control.PENDING))
 
 
 @kernel(inline=True)
-def end(state, rules, actors, t0, dt):
+def begin(state, rules, actors, ht, t0, dt, keep, last):
+    """Before a step's integration (see the module). keep: save the start state even without
+    collisions or actors (the family may undo the step); last: the call's last step."""
+    _keep(ht, keep or rules is not None or actors is not None, last)
+    if actors is not None:
+        begin_step(ht, t0, dt, periods(rules))
+
+
+@kernel(lean=True)
+def _keep(ht, keep, last):
+    """prev <- pos on the last step; pos0, vel0 <- pos, vel when keep."""
+    sa = ht[0]
+    if last:
+        copy_into(sa.prev, sa.pos)
+    if keep:
+        copy_into(sa.pos0, sa.pos)
+        copy_into(sa.vel0, sa.vel)
+
+
+@kernel(inline=True)
+def end(state, rules, actors, ht, t0, dt):
     """After a step's integration: fuel, collisions, fuses and lifetimes. True when bodies
     died or merged away (state.alive): the kernel returns so that World can catch up."""
     removed = False
     if actors is not None:
-        end_burn(actors, state, t0, dt)
+        m = end_burn(ht, t0, dt)
+        if m:
+            flush(state, ht, m, t0)
     if rules is not None:
         removed = collide_step(state, rules, dt, t0) == 2
-    if actors is not None and after_step(actors, state, t0, dt, periods(rules)):
-        removed = True
+    if actors is not None:
+        died, m = after_step(ht, t0, dt, periods(rules))
+        if m:
+            flush(state, ht, m, t0)
+        removed = removed or died
     return removed
 
 
-@kernel(inline=True)
-def capture(frames, k, done, state):
+@kernel(lean=True)
+def capture(frames, k, done, ht):
     """When frames[0][k] == done (steps done in this call), copy the state into frame k.
     Returns the index of the next frame to take."""
     if frames is None:
         return k
     frame_at, fpos, fvel, fmass = frames
     if k < frame_at.size and frame_at[k] == done:
-        copy_into(fpos[k], state.pos)
-        copy_into(fvel[k], state.vel)
-        mass = state.mass
+        sa = ht[0]
+        pos, vel, mass = sa.pos, sa.vel, sa.mass
         for i in range(mass.size):
+            for c in range(3):
+                fpos[k, i, c] = pos[i, c]
+                fvel[k, i, c] = vel[i, c]
             fmass[k, i] = mass[i]
         return k + 1
     return k

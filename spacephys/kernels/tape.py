@@ -32,15 +32,9 @@ def playing(taped, at):
 
 
 @kernel(inline=True)
-def sources(tape, at, e, scratch):
-    """Evaluation e's sources: from the tape into scratch (4, ns) when the step plays back
-    (True); otherwise False, and the caller gathers them."""
-    if at[STEP] >= at[VALID]:
-        return False
-    for r in range(4):
-        for a in range(scratch.shape[1]):
-            scratch[r, a] = tape[e, r, a]
-    return True
+def recorded(at):
+    """Whether the current step is on the tape (its evaluations' sources are tape[e])."""
+    return at[STEP] < at[VALID]
 
 
 @kernel(inline=True)

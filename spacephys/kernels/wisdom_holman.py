@@ -23,7 +23,7 @@ from .._jit import kernel
 from .codes import FAILED
 from .control import F, thrust_dv
 from .forces import accelerations
-from .step import begin, capture, end, next_frame, status, undo
+from .step import begin, capture, end, hoist as hoist_step, next_frame, status, undo
 
 # 1/n! for n = 0..25, for the Stumpff series
 _INV_FACTORIAL = tuple(1.0 / math.factorial(n) for n in range(26))
@@ -416,6 +416,7 @@ def wisdom_holman_steps(state, forces, rules, actors, frames, method, dt, nsteps
     done = 0
     frame = 0
     removed = False
+    ht = hoist_step(state, rules, actors)
     # In chunks of steps between synchronisations. Within a chunk, one loop of drift-then-kick
     # over the whole schedule, so that the force code appears once in the compiled kernel
     # (each call site of an inlined parallel loop is compiled again). Corrector drifts merge
@@ -425,7 +426,7 @@ def wisdom_holman_steps(state, forces, rules, actors, frames, method, dt, nsteps
         upto = min(nsteps - 1 if done < nsteps - 1 else nsteps,
                    next_frame(frames, frame, nsteps))
         steps = 1 if every else upto - done
-        begin(state, rules, actors, t, dt, True, done == nsteps - 1)
+        begin(state, rules, actors, ht, t, dt, True, done == nsteps - 1)
         for q in range(movers.size):
             dv = thrust_dv(burn, q, dt) if burn[q, F] != 0.0 else 0.0
             for c in range(3):
@@ -454,8 +455,8 @@ def wisdom_holman_steps(state, forces, rules, actors, frames, method, dt, nsteps
             undo(state, actors)
             return done, status(state, False) | FAILED
         done += steps
-        removed = end(state, rules, actors, t, dt)
-        frame = capture(frames, frame, done, state)
+        removed = end(state, rules, actors, ht, t, dt)
+        frame = capture(frames, frame, done, ht)
         if removed:
             break
     return done, status(state, removed)

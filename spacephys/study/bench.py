@@ -265,6 +265,7 @@ def _fleet_split(w, repeats=5):
     from ..events import EVENT_DTYPE
     from ..kernels import collide, control, forces
     from ..kernels import state as kstate
+    from ..kernels import step as kstep
     n = w.n
     pos, vel = np.zeros((n, 3)), np.zeros((n, 3))
     pos[:, :w.dim], vel[:, :w.dim] = w.pos, w.vel
@@ -285,10 +286,11 @@ def _fleet_split(w, repeats=5):
     def guide():
         plan = w.copy().tables()
         L = (0.0, 0.0, 0.0)           # no wrapping (kernels/step.periods)
+        ht = kstep.hoist(plan.state, plan.rules, plan.actors)
         start = time.perf_counter()
-        control.begin_step(plan.actors, plan.rules, plan.state, w.t, w.dt, L)
-        control.end_burn(plan.actors, plan.state, w.t, w.dt)
-        control.after_step(plan.actors, plan.state, w.t, w.dt, L)
+        control.begin_step(ht, w.t, w.dt, L)
+        control.end_burn(ht, w.t, w.dt)
+        control.after_step(ht, w.t, w.dt, L)
         return time.perf_counter() - start
 
     def collisions():
