@@ -11,6 +11,7 @@ A part of World (like forces.py): it runs the copy's steps through World's own s
 """
 import concurrent.futures
 import math
+import os
 import threading
 import time
 from dataclasses import dataclass, field
@@ -35,6 +36,8 @@ _IMPACTS = (EV_BOUNCE, EV_MERGE, EV_DESTROY, EV_WALL, EV_DETONATION)
 MAX_CANDIDATES = 64
 # frames one kernel call captures: buffers of at most 32 MB
 _FRAME_BYTES = 32 << 20
+# from this many paths the markers are found on two threads (_in_halves)
+_SPLIT_PATHS = 8
 
 
 class Apsis(NamedTuple):
@@ -447,30 +450,41 @@ def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, targ
         cmass = np.append(cmass, world.central_mass)
         cids = np.append(cids, -1)
     dom = np.full((ids.size, t.size), -1, np.int64)
+    p = Prediction(ids, t, pos[:, :, :dim], vel[:, :, :dim], ended, None, impacts=impacts,
+                   events=events)
     if cids.size:
         match = cids[None, :] == ids[:, None]
         same = np.where(match.any(axis=1), match.argmax(axis=1), -1).astype(np.int64)
-        markers.dominant(pos, np.ascontiguousarray(cpos), np.ascontiguousarray(cmass), same,
-                         dom)
-    about_ids = np.where(dom >= 0, cids[np.maximum(dom, 0)] if cids.size else -1, -1)
-    p = Prediction(ids, t, pos[:, :, :dim], vel[:, :, :dim], ended, about_ids, impacts=impacts,
-                   events=events)
-    if cids.size:
-        # the marker objects made column by column, in time order (a stable sort, as the
-        # lists' own sort below)
-        rows = markers.changes(t, pos, vel, cpos, cvel, cmass, dom)
+        cpos, cmass = np.ascontiguousarray(cpos), np.ascontiguousarray(cmass)
+        mu = G * (cmass[None, :] + own[:, None])
+
+        def marks(lo, hi):
+            """Paths lo..hi's dominant bodies (into dom) and their changes and apsides (rows
+            as markers.changes, markers.all_apsides give them, paths numbered from 0)."""
+            markers.dominant(pos[lo:hi], cpos, cmass, same[lo:hi], dom[lo:hi])
+            got = (markers.changes(t, pos[lo:hi], vel[lo:hi], cpos, cvel, cmass, dom[lo:hi]),
+                   markers.all_apsides(t, pos[lo:hi], vel[lo:hi], cpos, cvel, mu[lo:hi],
+                                       dom[lo:hi]))
+            for rows in got:
+                rows[:, 0] += lo
+            return got
+
+        parts = _in_halves(marks, ids.size, background)
+        # the marker objects made column by column, in time order (a stable sort: by path,
+        # then time, where times are equal)
+        rows = np.concatenate([c for c, _ in parts])
         rows = rows[np.argsort(rows[:, 1], kind="stable")]
         col = lambda x, j: x[rows[:, j].astype(np.int64)].tolist()
         p.changes = list(map(Change, col(ids, 0), rows[:, 1].tolist(), col(cids, 2),
                              col(cids, 3)))
         _yield(background)
-        mu = G * (cmass[None, :] + own[:, None])
-        rows = markers.all_apsides(t, pos, vel, cpos, cvel, mu, dom)
+        rows = np.concatenate([a for _, a in parts])
         rows = rows[np.argsort(rows[:, 2], kind="stable")]
         kinds = np.where(rows[:, 1] < 0, "pericentre", "apocentre").tolist()
         p.apsides = list(map(Apsis, col(ids, 0), kinds, rows[:, 2].tolist(),
                              list(rows[:, 4:4 + dim].copy()), rows[:, 3].tolist(),
                              col(cids, 7)))
+    p.about = np.where(dom >= 0, cids[np.maximum(dom, 0)] if cids.size else -1, -1)
     if target is not None:
         out = np.empty((t.size, 5))
         tpos, tvel = sampler.paths(np.searchsorted(watched, [target]))
@@ -481,6 +495,17 @@ def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, targ
                                              tvel[0], out))
     p.approaches = [a for a in p.approaches if a is not None]
     return p
+
+
+def _in_halves(fn, K, background):
+    """[fn(0, K)], or [fn(0, K // 2), fn(K // 2, K)] with the second half on a helper thread
+    (the marker kernels release the GIL): many paths' markers on both cores. Not for a
+    prediction in the background, whose game has the other core."""
+    if background or K < _SPLIT_PATHS or (os.cpu_count() or 1) < 2:
+        return [fn(0, K)]
+    mid = K // 2
+    later = _pool("markers").submit(fn, mid, K)
+    return [fn(0, mid), later.result()]
 
 
 def _at(t, pos, vel, row):
@@ -538,15 +563,14 @@ class PredictionHandle:
         return False
 
 
-_POOL = None
+_POOLS = {}
 _POOL_LOCK = threading.Lock()
 
 
-def _pool():
-    """The one worker thread predictions run on (one at a time: the game's steps keep the
-    other core)."""
-    global _POOL
+def _pool(name="predict"):
+    """A worker thread of its own per name: "predict", the one predictions run on (one at a
+    time: the game's steps keep the other core); "markers", _in_halves' helper."""
     with _POOL_LOCK:
-        if _POOL is None:
-            _POOL = concurrent.futures.ThreadPoolExecutor(1, "spacephys-predict")
-    return _POOL
+        if name not in _POOLS:
+            _POOLS[name] = concurrent.futures.ThreadPoolExecutor(1, f"spacephys-{name}")
+    return _POOLS[name]

@@ -134,26 +134,52 @@ def interpolate(t, pos, vel, j, s, out_p, out_v):
 @kernel
 def equal_pulls(t, pos, vel, apos, avel, ma, bpos, bvel, mb, j):
     """The time in interval j where bodies a (mass ma) and b pull equally on a path (all
-    sampled (P, 3) with velocities): bisection on the Hermite-interpolated positions, the
-    pull of a the stronger at the interval's start."""
+    sampled (P, 3) with velocities), on the Hermite-interpolated positions, the pull of a the
+    stronger at the interval's start: the root of g(s) = ma |b - p|^2 - mb |a - p|^2 by the
+    Illinois method (regula falsi that halves a stale end's value: superlinear, and never
+    leaves the bracket), to the last bits of s."""
     h = t[j + 1] - t[j]
     lo, hi = 0.0, 1.0
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        da, db = 0.0, 0.0
-        for x in range(3):
-            p, _v = _hermite(pos[j, x], vel[j, x], pos[j + 1, x], vel[j + 1, x], h, mid)
-            q, _w = _hermite(apos[j, x], avel[j, x], apos[j + 1, x], avel[j + 1, x], h, mid)
-            r, _u = _hermite(bpos[j, x], bvel[j, x], bpos[j + 1, x], bvel[j + 1, x], h, mid)
-            da += (q - p) * (q - p)
-            db += (r - p) * (r - p)
-        if ma * db > mb * da:         # a still pulls harder
-            lo = mid
-        else:
-            hi = mid
-        if mid == lo and mid == hi:
+    glo = _pull_balance(pos, vel, apos, avel, ma, bpos, bvel, mb, j, h, lo)
+    ghi = _pull_balance(pos, vel, apos, avel, ma, bpos, bvel, mb, j, h, hi)
+    side = 0
+    best = 0.5                                  # the last point tried: the root's estimate
+    for _ in range(100):
+        if not (glo > 0.0 and ghi <= 0.0):      # no sign change left (or a NaN): done
             break
-    return t[j] + 0.5 * (lo + hi) * h
+        s = hi - ghi * (hi - lo) / (ghi - glo)
+        if not lo < s < hi:
+            s = 0.5 * (lo + hi)
+        if s == lo or s == hi:                  # no room left between the ends
+            break
+        best = s
+        g = _pull_balance(pos, vel, apos, avel, ma, bpos, bvel, mb, j, h, s)
+        if g == 0.0:
+            break
+        if g > 0.0:                             # a still pulls harder
+            lo, glo = s, g
+            if side == 1:
+                ghi *= 0.5
+            side = 1
+        else:
+            hi, ghi = s, g
+            if side == -1:
+                glo *= 0.5
+            side = -1
+    return t[j] + best * h
+
+
+@kernel(inline=True)
+def _pull_balance(pos, vel, apos, avel, ma, bpos, bvel, mb, j, h, s):
+    """ma |b - p|^2 - mb |a - p|^2 at s in interval j: > 0 while a pulls harder."""
+    da, db = 0.0, 0.0
+    for x in range(3):
+        p, _v = _hermite(pos[j, x], vel[j, x], pos[j + 1, x], vel[j + 1, x], h, s)
+        q, _w = _hermite(apos[j, x], avel[j, x], apos[j + 1, x], avel[j + 1, x], h, s)
+        r, _u = _hermite(bpos[j, x], bvel[j, x], bpos[j + 1, x], bvel[j + 1, x], h, s)
+        da += (q - p) * (q - p)
+        db += (r - p) * (r - p)
+    return ma * db - mb * da
 
 
 @kernel
