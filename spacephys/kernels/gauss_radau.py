@@ -20,7 +20,8 @@ from .._jit import kernel
 from .arrays import copy_into
 from .codes import FAILED
 from .control import add_thrust, next_stop, snap_stops
-from .forces import accelerations, accelerations_serial, velocity_dependent
+from .forces import (accelerations, accelerations_serial, hoist, lean_accelerations,
+                     velocity_dependent)
 from .step import begin, capture, end, hoist as hoist_step, status, undo
 
 _PC_TOLERANCE = 1e-16      # corrector converged: the sweep changed b7 by < this fraction of |a|
@@ -216,15 +217,16 @@ def _predict(b, e, q, have_predictor):
 
 
 @kernel(parallel=True, inline=True)
-def _sweep(rows, targets, first, f, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7, h, nodes,
-           c_gb, thrust):
+def _sweep(rows, targets, first, f, fa, lean_below, t, pos, csx, vel, csv, a0, b, g, x, v, a,
+           b7, h, nodes, c_gb, thrust):
     """One predictor-corrector sweep over the seven nodes, updating the bodies in rows (whose
     accelerations are computed for `targets`, see forces.accelerations). first = -1 evaluates
     a0, the acceleration at the step's start (of every body), before the nodes. f : Forces;
     t : the time of the step's start. thrust = (actors, burn, t_off, rider, want): the burns
     (control.begin_step) are added for the actors whose rider flag equals want (-1: all), the
     step starting t_off after the interval's. Returns the change of b7 in this sweep relative
-    to the largest |a| (over rows)."""
+    to the largest |a| (over rows). fa, lean_below: forces.hoist(f), read once per kernel
+    call (lean_accelerations serves fewer targets than lean_below, bit for bit the same)."""
     for q in range(rows.size):
         for c in range(3):
             b7[rows[q], c] = b[rows[q], 6, c]
@@ -244,8 +246,12 @@ def _sweep(rows, targets, first, f, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7
                     x[i, c] = pos[i, c] - csx[i, c]
                     v[i, c] = vel[i, c] - csv[i, c]
         tau = nodes[node] * h if node >= 0 else 0.0
-        accelerations(f, t + tau, x, v, a if node >= 0 else a0,
-                      targets if node >= 0 else f.everyone, True)
+        out = a if node >= 0 else a0
+        who = targets if node >= 0 else f.everyone
+        if who.size < lean_below:
+            lean_accelerations(fa, x, v, out, who, True)
+        else:
+            accelerations(f, t + tau, x, v, out, who, True)
         actors, burn, t_off, rider, want = thrust
         if burn.shape[0]:
             add_thrust(actors, burn, a if node >= 0 else a0, t_off + tau, rider,
@@ -263,19 +269,28 @@ def _sweep(rows, targets, first, f, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7
 
 
 @kernel(parallel=True, inline=True)
-def _converge(rows, targets, with_a0, f, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7, h,
-              nodes, c_gb, thrust):
+def _converge(rows, targets, with_a0, f, fa, lean_below, t, pos, csx, vel, csv, a0, b, g, x, v,
+              a, b7, h, nodes, c_gb, thrust):
     """Sweep until b7 stops changing: below _PC_TOLERANCE, or stalled at round-off. Returns
     (converged within _PC_MAX_SWEEPS, sweeps made). with_a0: evaluate a0 first."""
     last = np.inf
     for sweep in range(_PC_MAX_SWEEPS):
         first = -1 if with_a0 and sweep == 0 else 0
-        error = _sweep(rows, targets, first, f, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7,
-                       h, nodes, c_gb, thrust)
+        error = _sweep(rows, targets, first, f, fa, lean_below, t, pos, csx, vel, csv, a0, b,
+                       g, x, v, a, b7, h, nodes, c_gb, thrust)
         if error < _PC_TOLERANCE or (sweep > 1 and error >= last and error < _PC_ROUNDOFF):
             return True, sweep + 1
         last = error
     return False, _PC_MAX_SWEEPS
+
+
+@kernel(inline=True)
+def _riders_accelerations(f, fa, lean_below, t, x, v, out, needy):
+    """The needy riders' accelerations, on this thread (see _substep_riders)."""
+    if lean_below > 0:
+        lean_accelerations(fa, x, v, out, needy, True)
+    else:
+        accelerations_serial(f, t, x, v, out, needy, True)
 
 
 @kernel
@@ -298,9 +313,9 @@ def _needy_riders(riders, b, a0, h, dt_scale, mask, converged):
 
 
 @kernel
-def _substep_riders(needy, h, dt_scale, reject_above, control, f, t, nodes, c_gb, d_bg, pos,
-                    csx, vel, csv, a0, b, g, x, v, a, b7, stats, actors, burn, t_off,
-                    needy_mask):
+def _substep_riders(needy, h, dt_scale, reject_above, control, f, fa, lean_below, t, nodes,
+                    c_gb, d_bg, pos, csx, vel, csv, a0, b, g, x, v, a, b7, stats, actors, burn,
+                    t_off, needy_mask):
     """Integrate the needy riders across the step [0, h] in adaptive substeps of their own.
 
     The control bodies have not moved yet: at any time of the step their positions (and
@@ -335,7 +350,7 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, f, t, nodes, c_gb
             for c in range(3):
                 x[r, c] = pos[r, c] - csx[r, c]
                 v[r, c] = vel[r, c] - csv[r, c]
-        accelerations_serial(f, t + elapsed, x, v, a0, needy, True)
+        _riders_accelerations(f, fa, lean_below, t + elapsed, x, v, a0, needy)
         if burn.shape[0]:
             add_thrust(actors, burn, a0, t_off + elapsed, needy_mask, 1)
         for q in range(needy.size):
@@ -352,7 +367,8 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, f, t, nodes, c_gb
                 if moving:
                     _velocity_at(control, vel, csv, a0, b, at, h, v)
                     _velocity_at(needy, vel, csv, a0, b, nodes[node], hs, v)
-                accelerations_serial(f, t + elapsed + nodes[node] * hs, x, v, a, needy, True)
+                _riders_accelerations(f, fa, lean_below, t + elapsed + nodes[node] * hs, x, v,
+                                      a, needy)
                 if burn.shape[0]:
                     add_thrust(actors, burn, a, t_off + elapsed + nodes[node] * hs,
                                needy_mask, 1)
@@ -479,6 +495,7 @@ def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nste
     done = 0
     removed = False
     ht = hoist_step(state, rules, actors)
+    fa, lean_below = hoist(forces)         # the force table read once (forces.hoist)
     for interval in range(nsteps):
         t_start = t0 + interval * dt_out
         begin(state, rules, actors, ht, t_start, dt_out, True, interval == nsteps - 1)
@@ -518,9 +535,10 @@ def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nste
                     break
                 rows = control if phase == 0 else riders
                 want = (-1 if everyone else 0) if phase == 0 else 1
-                converged, sweeps = _converge(rows, rows, phase == 0, forces, t_start + elapsed,
-                                              pos, csx, vel, csv, a0, b, g, x, v, a, b7, h,
-                                              nodes, c_gb, (movers, burn, elapsed, rider, want))
+                converged, sweeps = _converge(rows, rows, phase == 0, forces, fa, lean_below,
+                                              t_start + elapsed, pos, csx, vel, csv, a0, b, g,
+                                              x, v, a, b7, h, nodes, c_gb,
+                                              (movers, burn, elapsed, rider, want))
                 if phase == 1:
                     # riders that do not converge over the whole step take substeps below
                     riders_converged = converged
@@ -575,8 +593,8 @@ def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nste
             if not everyone and riders.size and tolerance > 0.0:
                 needy = _needy_riders(riders, b, a0, h, dt_scale, needy_mask, riders_converged)
                 if needy.size:
-                    _substep_riders(needy, h, dt_scale, reject_above, control, forces,
-                                    t_start + elapsed, nodes, c_gb, d_bg, pos, csx, vel, csv,
+                    _substep_riders(needy, h, dt_scale, reject_above, control, forces, fa,
+                                    lean_below, t_start + elapsed, nodes, c_gb, d_bg, pos, csx, vel, csv,
                                     a0, b, g, x, v, a, b7, stats, movers, burn, elapsed,
                                     needy_mask)
             _finish_step(all_rows if needy.size == 0 else all_rows[~needy_mask], pos, vel,
