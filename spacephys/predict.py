@@ -86,7 +86,7 @@ class Prediction:
     dim) [length], [length/time], NaN after a path ended; ended (k,) the time each path ended
     (inf: it did not); about (k, P) the dominant body's id at each sample (-1: the field's
     centre or none); the markers, each a list sorted by time; events: every event of the
-    prediction (EVENT_DTYPE), fuel running out included."""
+    prediction (EVENT_DTYPE), fuel running out included, in time order."""
     ids: np.ndarray
     t: np.ndarray
     pos: np.ndarray
@@ -172,12 +172,38 @@ class _Sampler:
 
     def paths(self, rows):
         """(pos, vel) (K, P, 3) of the watched bodies rows (K,) (indices into ids), new."""
-        out = []
-        for samples in (self.pos, self.vel):
-            o = np.empty((rows.size,) + samples.shape[::2])
-            markers.paths(samples, rows, o)
-            out.append(o)
+        return _paths([self], self.ids, rows)
+
+
+def _paths(samplers, ids, rows):
+    """(pos, vel) (K, P, 3), new, of the bodies ids[rows], each from the first of the
+    samplers that watched it."""
+    P = samplers[0].pos.shape[0]
+    out = np.empty((rows.size, P, 3)), np.empty((rows.size, P, 3))
+    if len(samplers) == 1:                  # ids are the sampler's own
+        for o, samples in zip(out, (samplers[0].pos, samplers[0].vel)):
+            markers.paths(samples, rows, np.arange(rows.size), o)
         return out
+    wanted = ids[rows]
+    left = np.ones(rows.size, bool)
+    for s in samplers:                      # ids sorted: membership by searchsorted
+        at = np.minimum(np.searchsorted(s.ids, wanted), s.ids.size - 1)
+        here = np.flatnonzero(left & (s.ids[at] == wanted))
+        for o, samples in zip(out, (s.pos, s.vel)):
+            markers.paths(samples, at[here], here, o)
+        left[here] = False
+    return out
+
+
+class _Merged:
+    """The samples of a split prediction (_Halves): paths() as _Sampler's, from the copies'
+    samplers."""
+
+    def __init__(self, ids, samplers):
+        self.ids, self.samplers = ids, samplers
+
+    def paths(self, rows):
+        return _paths(self.samplers, self.ids, rows)
 
 
 def _schedule(world, duration, points, integrator, dt):
@@ -240,7 +266,11 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
             t = w.time_after(counts.astype(np.float64))     # as World.t computes the time
             if shadow.tape is not None:
                 shadow.tape.start_run(w, int(counts[-1]))
-            events = _run(w, counts, sampler)
+            halves = None if background else _Halves.ready(shadow, w, ids, watched, counts)
+            if halves is None:
+                events = _run(w, counts, sampler)
+            else:
+                sampler, events = halves.run(counts, watched)
             _yield(background)
             return _assemble(w, ids, watched, sampler, t, events, cand, cmass, centre,
                              target, G, own, background)
@@ -330,6 +360,126 @@ class _Shadow:
         self.busy = False
 
 
+class _Halves:
+    """A prediction on two threads: two copies of the shadow's copy, each with the pulling
+    bodies and half of the predicted ones (the other bodies left out), run side by side and
+    their samples and events merged. Only when nothing couples the predicted bodies but the
+    pulling bodies' known motion: the tape covers the whole run (so each copy plays it back,
+    bit for bit the full run's numbers), no collisions, no queued launches, every predicted
+    body passive, no ship with a fuse or a guidance target other than a pulling body. The
+    copies are made once per shadow and set of predicted ids (the first eligible call pays
+    for them) and loaded from the shadow's copy before each run."""
+
+    def __init__(self, w, groups):
+        self.groups = groups
+        self.copies = []
+        for keep in groups:
+            c = w.copy()
+            c._watch = None
+            c.threads = "never"           # two Python threads: no numba pool between them
+            gone = np.setdiff1d(c.ids, keep)
+            if gone.size:
+                c.remove(gone)
+            c.tables()
+            self.copies.append(c)
+        self.rows = None                 # each copy's rows in the shadow's copy
+        self.tapes = None
+
+    @staticmethod
+    def ready(shadow, w, ids, watched, counts):
+        """The shadow's _Halves loaded with w's state and its tape's cursors, or None when
+        the run cannot be split (see the class)."""
+        tape, n = shadow.tape, int(counts[-1])
+        if tape is None or not tape.covers(n) or ids.size < _SPLIT_PATHS \
+                or (os.cpu_count() or 1) < 2 or w._plan.rules is not None or w._actors.queued:
+            return None
+        b = w._b
+        rows = w.index_of(ids)
+        src = w._sources()[0]
+        if np.isin(rows, src).any() or not _independent(w, src):
+            return None
+        src_ids = b.ids[src]
+        order = np.sort(ids)              # rows follow ids: the first half's events first
+        mid = order.size // 2
+        others = np.setdiff1d(watched, np.concatenate([ids, src_ids]))   # a passive target
+        groups = (np.union1d(np.concatenate([src_ids, others]), order[:mid]),
+                  np.union1d(src_ids, order[mid:]))
+        halves = shadow.__dict__.get("halves")
+        if halves is None or len(halves.groups[0]) != len(groups[0]) \
+                or any(not np.array_equal(a, g) for a, g in zip(halves.groups, groups)):
+            halves = shadow.halves = _Halves(w, groups)
+        if not halves.load(w, n):
+            return None
+        return halves
+
+    def load(self, w, n):
+        """Each copy in w's state (the rows of its bodies), its tape cursor at w's: False
+        when a cursor would not play the whole run."""
+        b = w._b
+        self.rows = []
+        self.tapes = []
+        for c in self.copies:
+            rows = w.index_of(c.ids)
+            cb = c._b
+            for name in cb.columns:
+                getattr(cb, name)[:rows.size] = getattr(b, name)[rows]
+            c._forces.drag[:] = w._forces.drag
+            c._t_base, c._steps, c._dt = w._t_base, w._steps, w._dt
+            c._stepper.reset(c)
+            c._adaptive[:] = w._adaptive
+            c._origin[:] = w._origin
+            fork = self.tape_of(w, c)
+            if fork is None:
+                return False
+            fork.start_run(c, n)
+            if not fork.covers(n):
+                fork.end_run()
+                return False
+            self.rows.append(rows)
+            self.tapes.append(fork)
+        return True
+
+    @staticmethod
+    def tape_of(w, c):
+        return w._forces.tape.fork(c)
+
+    def run(self, counts, watched):
+        """Both copies' runs, the second on a helper thread: (their samples of the watched
+        ids (_Merged), their events merged by time (stable: the first half's first where
+        times are equal))."""
+        parts = []
+        for c in self.copies:
+            own = watched[np.isin(watched, c.ids)]
+            s = _Sampler(c, own, counts.size, c.__dict__.setdefault("_sampler_buffers", {}))
+            s.take(c, 0)
+            parts.append((c, s))
+        try:
+            later = _pool("markers").submit(_run, parts[1][0], counts, parts[1][1])
+            events = [_run(parts[0][0], counts, parts[0][1]), later.result()]
+        finally:
+            for fork in self.tapes:
+                fork.end_run()
+        events = np.concatenate(events)
+        return (_Merged(watched, [s for _, s in parts]),
+                events[np.argsort(events["time"], kind="stable")])
+
+
+def _independent(w, src):
+    """Whether no ship or missile reads another body but the pulling ones (src rows): no
+    proximity fuse, no guidance target elsewhere."""
+    b = w._b
+    if "actor" not in b.columns:
+        return True
+    actors = np.flatnonzero(b.actor[:b.n])
+    if not actors.size:
+        return True
+    if np.any(b.fuse[actors] > 0.0):
+        return False
+    targets = b.target[actors]
+    aimed = targets[(targets >= 0) & (b.guidance[actors] != 0)]
+    return bool(np.isin(aimed, b.ids[src]).all())
+
+
 def _shadow(world, name, step, tolerance, background):
     """The World's shadow for these settings, up to date with it, marked busy; made anew
     when there is none, it is busy, or the World's tables were rebuilt since."""
@@ -378,7 +528,8 @@ def _run(w, counts, sampler):
         done += n
     if status & NONFINITE:
         w._check_health(t0, status)
-    return w._events[:w._event_count[0]].copy()
+    events = w._events[:w._event_count[0]]
+    return events[np.argsort(events["time"], kind="stable")]      # in time order (a copy)
 
 
 def _candidates(world, ids, about):

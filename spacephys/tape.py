@@ -147,10 +147,34 @@ class Tape:
         kforces.set_tape(self.forces, tape, ends, self.at)
         return True
 
+    def covers(self, nsteps):
+        """After start_run: whether the whole run of nsteps plays back (the pulling bodies'
+        motion known beforehand, every other body moves on its own)."""
+        at = self.at
+        return bool(at[ktape.ON]) and int(at[ktape.STEP]) + nsteps <= int(at[ktape.VALID])
+
+    def fork(self, w):
+        """A cursor of its own on this tape for another copy w whose pulling bodies are the
+        same (a prediction split between threads, predict._Halves): it shares the recording
+        and plays it back where this tape would, never records, and books what it played
+        here. None when w's pulling bodies differ."""
+        src = w._sources()[0]
+        if not np.array_equal(self.src_ids, w._b.ids[src]):
+            return None
+        other = Tape.__new__(Tape)
+        other.__dict__.update(self.__dict__)
+        other.at = self.at.copy()
+        other.parent = self
+        other._bind(w, src)
+        return other
+
     def end_run(self):
         """The run is over: the copy's table no longer touches the tape."""
         if self._run is not None:
             k, valid = self._run
-            self.played += max(0, min(int(self.at[ktape.STEP]), valid) - k)
+            played = max(0, min(int(self.at[ktape.STEP]), valid) - k)
+            self.played += played
+            if getattr(self, "parent", None) is not None:
+                self.parent.played += played
             self._run = None
         self.at[ktape.ON] = 0

@@ -1485,7 +1485,10 @@ class World:
         apsides about the dominant body (or `about`), the closest approach to `target`,
         changes of the dominant body (the one pulling hardest), impacts (a path ends where
         its body is destroyed, merged away, detonates or expires, at its first wall, or at
-        its first bounce off a body at least as heavy)."""
+        its first bounce off a body at least as heavy). Many passive bodies predicted
+        together whose only coupling is the pulling bodies' motion, already recorded by the
+        last prediction (spacephys/tape.py), run in two halves on two threads, bit for bit
+        the same paths (predict._Halves)."""
         from .predict import predict
         return predict(self, ids, duration, points, integrator, dt, tolerance, target, about)
 

@@ -31,9 +31,9 @@ def test_the_errors_are_those_of_each_integrators_order(results):
 
 def test_the_report_names_every_figure(results):
     table = bench.format_table(results)
-    for text in ("fastest within 1e-6", "100 ships predicted in one call", "integration alone",
+    for text in ("fastest within 1e-6", "100 ships predicted in one call", "a World flying the same steps",
                  "a HUD's call",
                  "while a prediction runs beside", "launching one (predict_async)"):
-        assert text in table
+        assert text in table, text
     f = results["frames"]
     assert f["predictions"] > 0 and f["running"]["count"] > 0 and f["launching"]["count"] > 0

@@ -17,3 +17,47 @@ def test_a_quick_load_from_the_cache_says_nothing(capsys):
     with _jit.announced("the test kernel", after=0.5):
         time.sleep(0.01)
     assert capsys.readouterr().err == ""
+
+
+FORK_CHILD = r"""
+import os, sys
+import numpy as np
+import spacephys as sp
+
+worlds = []
+for gravity in ("none", "direct"):
+    for integrator in ("leapfrog", "yoshida6", "rk4", "gauss_radau", "wisdom_holman"):
+        if integrator == "wisdom_holman" and gravity == "none":
+            continue
+        for ship in (False, True):
+            w = sp.World(2, dt=0.01, gravity=gravity, integrator=integrator)
+            w.add_body(1.0, [0.0, 0.0])
+            w.add_body(1e-3, [1.0, 0.0], [0.0, 1.0])
+            if ship:
+                w.add_ship(sp.ShipSpec(dry_mass=1e-9), [1.2, 0.0], [0.0, 0.9])
+            w.step(2)                   # compiled or loaded here, in the parent
+            worlds.append(w)
+pid = os.fork()
+if pid == 0:                            # GNU OpenMP kills a child whose parent used it
+    for w in worlds:
+        w.step(3)
+    os._exit(0)
+_, status = os.waitpid(pid, 0)
+print("child", os.waitstatus_to_exitcode(status))
+"""
+
+
+def test_a_small_scene_never_starts_the_thread_pool():
+    """A 3-body scene's steps stay on the calling thread in every family (its force loops are
+    far below the threaded size): a process that forked after stepping one can step it again
+    in the child (GNU OpenMP terminates a forked child once its parent entered a parallel
+    region; a recording server forks so, tests/test_reliability.py). numba turns np.zeros and
+    array expressions in a parallel kernel into parallel regions of their own, whatever their
+    size (kernels/arrays.zeroed): this fails on any of them in a step kernel, and when the
+    force loop is made to run threaded at any size."""
+    import subprocess
+    import sys
+    out = subprocess.run([sys.executable, "-c", FORK_CHILD], capture_output=True, text=True,
+                         timeout=600)
+    assert out.returncode == 0, out.stderr
+    assert "child 0" in out.stdout, out.stdout + out.stderr

@@ -176,3 +176,75 @@ def test_a_pulling_body_killed_in_place_stops_the_tape():
     kills = [e for e in got.events if sp.EVENT_KINDS[e["kind"]] == "detonation"]
     assert len(kills) == 1 and kills[0]["b"] == inner
     assert 0 < _played(w) < 200
+
+
+def _fleet(fuse=0.0):
+    """_scene's star and planets, 12 ships (half of them on plans that burn their fuel out at
+    different times), a passive target and a rock nobody predicts."""
+    w, inner, ship, probe = _scene()
+    spec = sp.ShipSpec(dry_mass=1e-9, fuel_mass=1e-10, max_thrust=1e-9, exhaust_speed=3.0,
+                       radius=0.001)
+    missile = sp.MissileSpec(mass=1e-9, fuse_radius=fuse, radius=0.001) if fuse else None
+    ships = [ship, probe]
+    for k in range(10):
+        r = 1.1 + 0.02 * k
+        pos, vel = [r, 0.0, 0.01 * k], [0.0, 1.0 / np.sqrt(r) + 0.01, 0.0]
+        ships.append(w.add_ship(spec, pos, vel))
+        if k % 2:
+            w.plan(ships[-1], [sp.Burn(0.4 - 0.03 * k, 0.5, "prograde", frame=inner)])
+    target = w.add_ship(spec, [0.0, -1.2, 0.0], [0.9, 0.0, 0.0])
+    w.add_body(0.0, [0.0, 2.5, 0.0], [-0.6, 0.0, 0.0], radius=0.01)        # the rock
+    if missile is not None:
+        w.launch(ships[0], missile, target=target)
+        w.step(1)                               # launched with this step
+    return w, ships, target
+
+
+def _compare(got, fresh):
+    assert np.array_equal(got.pos, fresh.pos, equal_nan=True)
+    assert np.array_equal(got.vel, fresh.vel, equal_nan=True)
+    assert np.array_equal(got.about, fresh.about)
+    assert got.events.tobytes() == fresh.events.tobytes()
+    for name in ("apsides", "changes", "approaches", "impacts"):
+        mine, theirs = getattr(got, name), getattr(fresh, name)
+        assert len(mine) == len(theirs) and all(
+            str(a) == str(b) for a, b in zip(mine, theirs)), name
+
+
+def test_many_ships_are_predicted_in_two_halves_on_two_threads_bit_for_bit():
+    """With the planets' future on the tape, 12 ships (6 burning their fuel out: events) are
+    predicted in two halves side by side (predict._Halves), the rock left out: paths,
+    dominant bodies, markers, the closest approach to a ship that is not predicted and the
+    events in time order equal a fresh copy's full run. Each half plays all 200 steps back
+    (the tape's counter books both); a run the tape does not cover is one run (it records
+    the rest)."""
+    w, ships, target = _fleet()
+    options = dict(points=60, target=target)
+    first = w.predict(ships, 0.8, **options)
+    assert _played(w) == 0
+    got = w.predict(ships, 0.8, **options)
+    halves = w.__dict__["_shadows"][False].halves
+    assert _played(w) == 2 * 200
+    assert [c.n for c in halves.copies] == [3 + 1 + 6, 3 + 6]    # no rock
+    fresh = w.copy().predict(ships, 0.8, **options)
+    _compare(got, fresh)
+    _compare(first, fresh)
+    assert sum(sp.EVENT_KINDS[e["kind"]] == "fuel_empty" for e in got.events) >= 3
+    assert len(got.approaches) == 12
+    w.step(5)               # a HUD's next frame: the tape ends 5 steps short, one run
+    got = w.predict(ships, 0.8, **options)
+    assert _played(w) == 2 * 200 + 195
+    _compare(got, w.copy().predict(ships, 0.8, **options))
+    got = w.predict(ships, 0.8, **options)   # now it covers the run: halves, loaded anew
+    assert _played(w) == 2 * 200 + 195 + 2 * 200
+    _compare(got, w.copy().predict(ships, 0.8, **options))
+
+
+def test_ships_coupled_otherwise_are_predicted_in_one_run():
+    """A missile with a proximity fuse reads its target: no halves; the tape plays once."""
+    w, ships, target = _fleet(fuse=0.01)
+    w.predict(ships, 0.8, points=60)
+    got = w.predict(ships, 0.8, points=60)
+    assert _played(w) == 200
+    assert "halves" not in w.__dict__["_shadows"][False].__dict__
+    _compare(got, w.copy().predict(ships, 0.8, points=60))

@@ -9,9 +9,22 @@ import numpy as np
 
 from .._jit import kernel
 
-@kernel
+@kernel(inline=True)
+def zeroed(a):
+    """a, filled with zeros in a loop. In a parallel kernel numba turns np.zeros into a
+    parallel region of its own, whatever its size (a 'zeros function' parfor, despite
+    _jit.PRANGE_ONLY): the thread pool woken on every call of a 3-body scene, and a process
+    forked after one dies in the child (GNU OpenMP). The step kernels use np.empty and
+    this."""
+    flat = a.reshape(a.size)
+    for i in range(flat.size):
+        flat[i] = 0
+    return a
+
+
+@kernel(lean=True)
 def copy_into(dst, src):
-    """dst[:] = src for (n, 3) float64 arrays."""
+    """dst[:] = src for (n, 3) float64 arrays (lean: the per-step copies hand it arrays)."""
     for i in range(src.shape[0]):
         dst[i, 0] = src[i, 0]
         dst[i, 1] = src[i, 1]

@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from .._jit import kernel
-from .arrays import copy_into
+from .arrays import copy_into, zeroed
 from .codes import FAILED
 from .control import add_thrust, next_stop, snap_stops
 from .forces import (accelerations, accelerations_serial, hoist, lean_accelerations,
@@ -284,6 +284,19 @@ def _converge(rows, targets, with_a0, f, fa, lean_below, t, pos, csx, vel, csv, 
     return False, _PC_MAX_SWEEPS
 
 
+@kernel
+def _unmasked(mask):
+    """The rows i where mask[i] is False, in order: a loop, since the array expression
+    (~mask) would be a parallel region of its own in the step kernel."""
+    rows = np.empty(mask.size - np.count_nonzero(mask), np.int64)
+    k = 0
+    for i in range(mask.size):
+        if not mask[i]:
+            rows[k] = i
+            k += 1
+    return rows
+
+
 @kernel(inline=True)
 def _riders_accelerations(f, fa, lean_below, t, x, v, out, needy):
     """The needy riders' accelerations, on this thread (see _substep_riders)."""
@@ -476,7 +489,7 @@ def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nste
     saved = np.empty((2, n, 3))                       # compensations at the interval's start
     everyone = control.size == n
     all_rows = forces.everyone
-    needy_mask = np.zeros(n, np.bool_)
+    needy_mask = zeroed(np.empty(n, np.bool_))
     dt_scale = (5040.0 * tolerance) ** (1.0 / 7.0)     # (7! tolerance)^(1/7)
     # the step was over 4x too long (b7 ~ dt^7); but never within the round-off of b7 / |a|,
     # or tiny tolerances would reject every step
@@ -486,9 +499,9 @@ def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nste
     fixed_h = min(dt_out, max_step)
     if tolerance == 0.0:
         dt = fixed_h
-    movers = np.zeros(0, np.int64) if actors is None else actors.actors
-    burn = np.zeros((0, 8)) if actors is None else actors.burn
-    rider = np.zeros(n, np.bool_)
+    movers = np.empty(0, np.int64) if actors is None else actors.actors
+    burn = np.empty((0, 8)) if actors is None else actors.burn
+    rider = zeroed(np.empty(n, np.bool_))
     for q in range(riders.size):
         rider[riders[q]] = True
     frame = 0
@@ -594,10 +607,10 @@ def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nste
                 needy = _needy_riders(riders, b, a0, h, dt_scale, needy_mask, riders_converged)
                 if needy.size:
                     _substep_riders(needy, h, dt_scale, reject_above, control, forces, fa,
-                                    lean_below, t_start + elapsed, nodes, c_gb, d_bg, pos, csx, vel, csv,
-                                    a0, b, g, x, v, a, b7, stats, movers, burn, elapsed,
-                                    needy_mask)
-            _finish_step(all_rows if needy.size == 0 else all_rows[~needy_mask], pos, vel,
+                                    lean_below, t_start + elapsed, nodes, c_gb, d_bg, pos,
+                                    csx, vel, csv, a0, b, g, x, v, a, b7, stats, movers, burn,
+                                    elapsed, needy_mask)
+            _finish_step(all_rows if needy.size == 0 else _unmasked(needy_mask), pos, vel,
                          csx, csv, a0, b, h)
             needy_mask[needy] = False
             stats[STEPS] += 1

@@ -12,6 +12,7 @@ Runge-Kutta step).
 import numpy as np
 
 from .._jit import kernel
+from .arrays import zeroed
 from .control import add_thrust, drift_thrust, rk_thrust_fix
 from . import tape
 from .forces import (FA_DRAG, FA_ENDS, FA_SRC, FA_TAPE, FA_TAPE_AT, FA_TAPED, accelerations,
@@ -45,6 +46,10 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
     if actors is not None:
         movers, burn = actors.actors, actors.burn
     ht = hoist_step(state, rules, actors)
+    # a variable, not the expression in the call: with `rules is not None` written into the
+    # tape.collided call, the compiled kernel entered the force loop's parallel region (no
+    # work) on every call of a 3-body scene (seen in gdb; tests/test_jit.py guards it)
+    collisions = rules is not None
     kicked, was = everyone, False
     for step in range(nsteps):
         t = t0 + step * dt
@@ -79,7 +84,8 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
                 drag_kick(fa, vel, acc, h, kicked, wind)
         tape.integrated(taped, tape_, at, ends, src, pos, vel, mass, played)
         stop = end(state, rules, actors, ht, t, dt)
-        tape.collided(taped, tape_, at, ends, src, pos, vel, mass, played)
+        tape.collided(taped, tape_, at, ends, src, pos, vel, mass, played,
+                      collisions)
         frame = capture(frames, frame, step + 1, ht)
         if stop:
             return step + 1, status(state, True)
@@ -101,7 +107,7 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
     # stage accelerations (the derivative of velocity); zeros, not empty: a step played from a
     # prediction's tape leaves the pulling rows unset, and they must not carry NaN into pos
     # before the tape restores them
-    kv = np.zeros((S, n, 3))
+    kv = zeroed(np.empty((S, n, 3)))
     x = state.acc
     everyone = forces.everyone
     passive = forces.passive
@@ -109,9 +115,10 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
     fa, lean_below = hoist(forces)          # as in splitting_steps
     taped, tape_, at, ends, src = (fa[FA_TAPED], fa[FA_TAPE], fa[FA_TAPE_AT], fa[FA_ENDS],
                                    fa[FA_SRC])
-    no_mask = np.zeros(0, np.bool_)
+    no_mask = np.empty(0, np.bool_)
     frame = 0
     ht = hoist_step(state, rules, actors)
+    collisions = rules is not None          # a variable: see splitting_steps
     kicked, was = everyone, False
     for step in range(nsteps):
         t = t0 + step * dt
@@ -152,7 +159,8 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
             rk_thrust_fix(actors.actors, actors.burn, vel, a, b, dt)
         tape.integrated(taped, tape_, at, ends, src, pos, vel, mass, played)
         stop = end(state, rules, actors, ht, t, dt)
-        tape.collided(taped, tape_, at, ends, src, pos, vel, mass, played)
+        tape.collided(taped, tape_, at, ends, src, pos, vel, mass, played,
+                      collisions)
         frame = capture(frames, frame, step + 1, ht)
         if stop:
             return step + 1, status(state, True)

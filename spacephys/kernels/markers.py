@@ -11,18 +11,18 @@ from .._jit import kernel
 
 
 @kernel
-def paths(samples, rows, out):
-    """out[k, j] = samples[j, rows[k]]: samples (P, m, 3) as a prediction captures them, the
-    paths of rows (K,) into out (K, P, 3)."""
+def paths(samples, rows, dest, out):
+    """out[dest[k], j] = samples[j, rows[k]]: samples (P, m, 3) as a prediction captures
+    them, the paths of rows (K,) into out (., P, 3)."""
     P = samples.shape[0]
     for j0 in range(0, P, 32):          # in blocks of samples: a block's rows stay in cache
         j1 = min(j0 + 32, P)
         for k in range(rows.size):
-            r = rows[k]
+            r, d = rows[k], dest[k]
             for j in range(j0, j1):
-                out[k, j, 0] = samples[j, r, 0]
-                out[k, j, 1] = samples[j, r, 1]
-                out[k, j, 2] = samples[j, r, 2]
+                out[d, j, 0] = samples[j, r, 0]
+                out[d, j, 1] = samples[j, r, 1]
+                out[d, j, 2] = samples[j, r, 2]
 
 
 @kernel

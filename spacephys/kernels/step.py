@@ -45,27 +45,27 @@ def periods(rules):
 def hoist(state, rules, actors):
     """ht = (the state's arrays (state.StateArrays), the collision table's owners (empty
     without one), the actors' arrays (control.ActorArrays; None without actors), pending
-    events (control.PENDING columns), whether an actor has a proximity fuse): read once per
-    kernel call. The inlined functions below only hand ht on; reading its arrays here would
-    cost their reference counts."""
-    owner = np.zeros(0, np.int64) if rules is None else rules.owner
+    events (control.PENDING columns), whether something reads the state at each step's
+    start (the collisions' swept lines, a proximity fuse)): read once per kernel call. The
+    inlined functions below only hand ht on; reading its arrays here would cost their
+    reference counts."""
+    owner = np.empty(0, np.int64) if rules is None else rules.owner
     sa = kstate.hoist(state)
+    starts = rules is not None
     if actors is None:
-        return sa, owner, None, np.empty((0, control.PENDING)), False
+        return sa, owner, None, np.empty((0, control.PENDING)), starts
     aa = control.hoist(actors)
-    fused = False
     for q in range(aa.actors.size):
-        fused = fused or aa.fuse[aa.actors[q]] > 0.0
+        starts = starts or aa.fuse[aa.actors[q]] > 0.0
     return (sa, owner, aa, np.empty((2 * aa.actors.size + sa.pos.shape[0], control.PENDING)),
-            fused)
+            starts)
 
 
 @kernel(inline=True)
 def begin(state, rules, actors, ht, t0, dt, keep, last):
     """Before a step's integration (see the module). keep: save the start state even without
     collisions or actors (the family may undo the step); last: the call's last step."""
-    # the start state: for an undo, the collisions' swept lines, the fuses' closest approach
-    _keep(ht, keep or rules is not None or ht[4], last)
+    _keep(ht, keep or ht[4], last)            # the start state: for an undo, or ht[4]
     if actors is not None:
         begin_step(ht, t0, dt, periods(rules))
 

@@ -68,16 +68,16 @@ def integrated(taped, tape, at, ends, src, pos, vel, mass, played):
 
 
 @kernel(lean=True)
-def collided(taped, tape, at, ends, src, pos, vel, mass, played):
+def collided(taped, tape, at, ends, src, pos, vel, mass, played, collisions):
     """After the step's collisions (and a periodic box's wrap): a recorded step writes the
     pulling bodies down again; a played one stops the tape if they are not where the
-    recording's collisions left them (this prediction's bodies acted otherwise). Counts the
-    step."""
+    recording's collisions left them (this prediction's bodies acted otherwise; without
+    collisions nothing moves them there). Counts the step."""
     if taped == 0 or at[ON] == 0:
         return
     k = at[STEP]
     if played:
-        if not _same(ends, k, 7, src, pos, vel, mass):
+        if collisions and not _same(ends, k, 7, src, pos, vel, mass):
             at[ON] = 0
             return
     elif _recording(tape, at, ends, k):

@@ -20,6 +20,7 @@ import math
 import numpy as np
 
 from .._jit import kernel
+from .arrays import zeroed
 from .codes import FAILED
 from .control import F, thrust_dv
 from .forces import accelerations
@@ -407,10 +408,10 @@ def wisdom_holman_steps(state, forces, rules, actors, frames, method, dt, nsteps
     acc = state.acc
     M = np.cumsum(m)
     G = forces.G
-    movers = np.zeros(0, np.int64) if actors is None else actors.actors
-    burn = np.zeros((0, 8)) if actors is None else actors.burn
-    thrust = np.zeros((movers.size, 3))
-    none = np.zeros((movers.size, 3))
+    movers = np.empty(0, np.int64) if actors is None else actors.actors
+    burn = np.empty((0, 8)) if actors is None else actors.burn
+    thrust = zeroed(np.empty((movers.size, 3)))
+    none = zeroed(np.empty((movers.size, 3)))
     every = rules is not None or actors is not None
     ok = True
     done = 0

@@ -232,7 +232,7 @@ def format_predict(r):
     lines.append(f"100 ships predicted in one call: {r['hundred_ships_s'] * 1e3:.2f} ms "
                  f"(target 20 ms)")
     st = r["stepping_s"]
-    lines.append(f"of which the integration alone (the same steps without samples or markers): "
+    lines.append(f"a World flying the same steps (all bodies, one thread, no samples or markers): "
                  f"{st['1'] * 1e3:.3f} ms for 1 ship, {st['100'] * 1e3:.2f} ms for 100")
     h = r["hud_s"]
     lines.append(f"a HUD's call, the World a step further each time: "
