@@ -92,6 +92,8 @@ FIELDS = (
     "planned",     # (A, 2) int64: first row and row count of each actor's burns in plan
     "burn",        # (A, 10) this step's burn per actor (see the module)
     "saved",       # (A, 7) orientations and rates at the step's start, to undo a failed step
+    "pending",     # (3A + len(expires), PENDING) a step's events queued for flush: fuel and
+                   # burn time out and a detonation per actor, an expiry per body (PENDING)
 )
 structref.define_proxy(Actors, ActorsType, list(FIELDS))
 
@@ -108,18 +110,18 @@ def hoist(act):
                        act.inertia, act.torque, act.curve, act.curve_table, act.guidance,
                        act.nav, act.target, act.burn_end, act.armed_at, act.fuse, act.kill,
                        act.flags, act.expires, act.dim, act.plan, act.clock, act.planned,
-                       act.burn, act.saved)
+                       act.burn, act.saved, act.pending)
 
 
 
 @kernel
 def _make(actors, quat, omega, throttle, turn, strafe, dry, fuel, thrust, side, exhaust,
           turn_rate, inertia, torque, curve, curve_table, guidance, nav, target, burn_end,
-          armed_at, fuse, kill, flags, expires, dim, plan, clock, planned, burn, saved):
+          armed_at, fuse, kill, flags, expires, dim, plan, clock, planned, burn, saved, pending):
     return Actors(actors, quat, omega, throttle, turn, strafe, dry, fuel, thrust, side,
                   exhaust, turn_rate, inertia, torque, curve, curve_table, guidance, nav,
                   target, burn_end, armed_at, fuse, kill, flags, expires, dim, plan, clock,
-                  planned, burn, saved)
+                  planned, burn, saved, pending)
 
 
 def make(columns, actors, target, curve_table, expires, dim, plan, clock, planned):
@@ -132,7 +134,8 @@ def make(columns, actors, target, curve_table, expires, dim, plan, clock, planne
                  c["inertia"], c["torque"], c["curve"], curve_table, c["guidance"], c["nav"],
                  target, c["burn_end"], c["armed_at"], c["fuse"], c["kill"], c["flags"],
                  expires, int(dim), plan, clock, planned, np.zeros((actors.size, 10)),
-                 np.zeros((actors.size, 7)))
+                 np.zeros((actors.size, 7)),
+                 np.zeros((3 * actors.size + expires.shape[0], PENDING)))
 
 
 # ---------------------------------------------------------------- rotations
@@ -554,8 +557,9 @@ def _fly_plan(act, q, i, state, t0, dt):
 @kernel(lean=True)
 def end_burn(ht, t0, dt):
     """Book the fuel the step burned; report fuel running out and burn times ending (into
-    ht's pending rows: returns how many, for flush); count the step on the clock."""
-    state, act, pending = ht[0], ht[2], ht[3]
+    the pending rows: returns how many, for flush); count the step on the clock."""
+    state, act = ht[0], ht[2]
+    pending = act.pending
     act.clock[1] += 1.0
     actors = act.actors
     pos, mass, burn = state.pos, state.mass, act.burn
@@ -607,8 +611,9 @@ def _pend(pending, m, kind, i, j, t_in_step, px, py, pz, nx, ny, nz, speed, dist
 
 @kernel
 def flush(state, ht, m, t0):
-    """Record ht's first m pending rows as events of the step from t0, in order."""
-    pending = ht[3]
+    """Record the first m pending rows (the Actors table's) as events of the step from t0, in
+    order."""
+    pending = ht[2].pending
     ids = state.ids
     point = np.empty(3)
     normal = np.empty(3)
@@ -625,9 +630,10 @@ def flush(state, ht, m, t0):
 @kernel(lean=True)
 def after_step(ht, t0, dt, L):
     """Proximity fuses (the closest approach along both bodies' straight lines over the step)
-    and lifetimes, their events into ht's pending rows. Returns (a body died (World must
+    and lifetimes, their events into the pending rows. Returns (a body died (World must
     remove it, and may spawn its explosion), pending rows written)."""
-    state, act, pending = ht[0], ht[2], ht[3]
+    state, act = ht[0], ht[2]
+    pending = act.pending
     alive = state.alive
     pos0, pos = state.pos0, state.pos
     died = False

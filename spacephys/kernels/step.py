@@ -43,29 +43,28 @@ def periods(rules):
 
 @kernel(inline=True)
 def hoist(state, rules, actors):
-    """ht = (the state's arrays (state.StateArrays), the collision table's owners (empty
-    without one), the actors' arrays (control.ActorArrays; None without actors), pending
-    events (control.PENDING columns), whether something reads the state at each step's
+    """ht = (the state's arrays (state.StateArrays), the collision table's owners (None
+    without actors, empty without collisions: only arming reads them), the actors' arrays (control.ActorArrays; None without actors), whether
+    something reads the state at each step's
     start (the collisions' swept lines, a proximity fuse)): read once per kernel call. The
     inlined functions below only hand ht on; reading its arrays here would cost their
     reference counts."""
-    owner = np.empty(0, np.int64) if rules is None else rules.owner
     sa = kstate.hoist(state)
     starts = rules is not None
     if actors is None:
-        return sa, owner, None, np.empty((0, control.PENDING)), starts
+        return sa, None, None, starts
+    owner = np.empty(0, np.int64) if rules is None else rules.owner
     aa = control.hoist(actors)
     for q in range(aa.actors.size):
         starts = starts or aa.fuse[aa.actors[q]] > 0.0
-    return (sa, owner, aa, np.empty((2 * aa.actors.size + sa.pos.shape[0], control.PENDING)),
-            starts)
+    return sa, owner, aa, starts
 
 
 @kernel(inline=True)
 def begin(state, rules, actors, ht, t0, dt, keep, last):
     """Before a step's integration (see the module). keep: save the start state even without
     collisions or actors (the family may undo the step); last: the call's last step."""
-    _keep(ht, keep or ht[4], last)            # the start state: for an undo, or ht[4]
+    _keep(ht, keep or ht[3], last)            # the start state: for an undo, or ht[3]
     if actors is not None:
         begin_step(ht, t0, dt, periods(rules))
 
