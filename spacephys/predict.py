@@ -382,8 +382,7 @@ class _Halves:
                 c.remove(gone)
             c.tables()
             self.copies.append(c)
-        self.rows = None                 # each copy's rows in the shadow's copy
-        self.tapes = None
+        self.tapes = None                # each copy's cursor on the shadow's tape
 
     @staticmethod
     def ready(shadow, w, ids, watched, counts):
@@ -405,8 +404,7 @@ class _Halves:
         groups = (np.union1d(np.concatenate([src_ids, others]), order[:mid]),
                   np.union1d(src_ids, order[mid:]))
         halves = shadow.__dict__.get("halves")
-        if halves is None or len(halves.groups[0]) != len(groups[0]) \
-                or any(not np.array_equal(a, g) for a, g in zip(halves.groups, groups)):
+        if halves is None or not all(map(np.array_equal, halves.groups, groups)):
             halves = shadow.halves = _Halves(w, groups)
         if not halves.load(w, n):
             return None
@@ -416,7 +414,6 @@ class _Halves:
         """Each copy in w's state (the rows of its bodies), its tape cursor at w's: False
         when a cursor would not play the whole run."""
         b = w._b
-        self.rows = []
         self.tapes = []
         for c in self.copies:
             rows = w.index_of(c.ids)
@@ -428,20 +425,16 @@ class _Halves:
             c._stepper.reset(c)
             c._adaptive[:] = w._adaptive
             c._origin[:] = w._origin
-            fork = self.tape_of(w, c)
+            fork = w._forces.tape.fork(c)
             if fork is None:
                 return False
             fork.start_run(c, n)
-            if not fork.covers(n):
-                fork.end_run()
-                return False
-            self.rows.append(rows)
             self.tapes.append(fork)
+            if not fork.covers(n):
+                for f in self.tapes:
+                    f.end_run()
+                return False
         return True
-
-    @staticmethod
-    def tape_of(w, c):
-        return w._forces.tape.fork(c)
 
     def run(self, counts, watched):
         """Both copies' runs, the second on a helper thread: (their samples of the watched
