@@ -316,12 +316,15 @@ class _Shadow:
         return (not self.busy and self.key == key and world._plan is self.world_plan
                 and self.w._plan is self.plan)
 
-    def take(self, world):
-        """The World's state now (copies, in the caller's thread) for ready() to load."""
+    def take(self, world, background):
+        """The World's state now, in the caller's thread, for ready() to load: copies for a
+        prediction in the background (the World moves on meanwhile), views for one made
+        now (ready() runs before the caller gets the World back: one copy, not two)."""
         b = world._b
         n = b.n
         rules = world._plan.rules
-        self.snap = (n, {name: getattr(b, name)[:n].copy() for name in b.columns},
+        keep = (lambda a: a.copy()) if background else (lambda a: a)
+        self.snap = (n, {name: keep(getattr(b, name)[:n]) for name in b.columns},
                      world._forces.drag.copy(), world._t_base, world._steps, world._dt,
                      world._stepper.state() if self.same_integrator else None,
                      world._adaptive.copy(), list(world._actors.queued),
@@ -481,7 +484,7 @@ def _shadow(world, name, step, tolerance, background):
     shadows = world.__dict__.setdefault("_shadows", {})
     shadow = shadows.get(background)
     if shadow is not None and shadow.usable(world, key):
-        shadow.take(world)
+        shadow.take(world, background)
         return shadow
     # the tape outlives a copy remade for new tables (a plan edited, a body added): it plays
     # on if the pulling bodies are where it has them
