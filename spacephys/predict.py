@@ -234,7 +234,10 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
     if ids.dtype.kind not in "iu" or ids.ndim != 1 or not ids.size:
         raise ValueError(f"ids = {ids!r}: give one body id or a list of ids")
     ids = ids.astype(np.int64)
-    rows = world.index_of(ids, "ids")
+    if ids.size == 1:                   # a HUD's ship: the plain lookup
+        rows = np.array([world.index_of(int(ids[0]), "ids")], np.int64)
+    else:
+        rows = world.index_of(ids, "ids")
     duration = check.scalar("duration", duration, positive=True)
     if not math.isfinite(duration):
         raise ValueError(f"duration = {duration}: must be finite")
@@ -252,10 +255,10 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
             raise ValueError(f"tolerance = {tolerance}: only the adaptive integrator takes a "
                              f"tolerance ({name} is fixed-step; give dt)")
     shadow = _shadow(world, name, step, tolerance, background)
-    cand, cmass, centre = _candidates(world, ids, about)
+    cand, crows, watched = _picks(shadow, world, ids, about, target)
+    cmass = world.mass[crows].astype(np.float64)
+    centre = _centre(world) if about is None else None
     G, own = world.G, np.where(world.pulls[rows], world.mass[rows], 0.0)
-    watched = np.unique(np.concatenate([ids, cand, [] if target is None else [target]])
-                        ).astype(np.int64)
 
     def job():
         try:
@@ -528,25 +531,44 @@ def _run(w, counts, sampler):
     return events[np.argsort(events["time"], kind="stable")]      # in time order (a copy)
 
 
-def _candidates(world, ids, about):
-    """(ids (C,) of the bodies that may dominate, their masses, the field's centre (3,) or
-    None): the pulling bodies (the strongest MAX_CANDIDATES on the predicted bodies now), or
-    `about` alone."""
-    centre = None
-    if world.gravity == "central":
-        centre = np.zeros(3)
-        centre[:world.dim] = world.central_pos
+def _picks(shadow, world, ids, about, target):
+    """(ids (C,) of the bodies that may dominate, their rows, the watched ids (sorted)): the
+    pulling bodies (the strongest MAX_CANDIDATES on the predicted bodies now), or `about`
+    alone. Kept on the shadow (its tables, so the bodies and their rows, are the World's)
+    unless the choice depends on where the bodies are."""
+    key = (ids.tobytes(), about, target)
+    picks = shadow.__dict__.setdefault("picks", {})
+    if key in picks:
+        return picks[key]
+    fixed = True
     if about is not None:
-        return np.array([about], np.int64), np.array([world.mass[world.index_of(about)]]), None
-    if world.gravity != "direct":
-        return np.zeros(0, np.int64), np.zeros(0), centre
-    rows = np.flatnonzero(world.pulls)
-    if rows.size > MAX_CANDIDATES:
-        p = world.pos[world.index_of(ids)]
-        d2 = ((world.pos[rows][:, None, :] - p[None]) ** 2).sum(axis=2)
-        pull = (world.mass[rows][:, None] / np.where(d2 > 0, d2, np.inf)).max(axis=1)
-        rows = rows[np.argsort(-pull, kind="stable")[:MAX_CANDIDATES]]
-    return world.ids[rows].astype(np.int64), world.mass[rows].astype(np.float64), centre
+        rows = np.array([world.index_of(about)], np.int64)
+    elif world.gravity != "direct":
+        rows = np.zeros(0, np.int64)
+    else:
+        rows = np.flatnonzero(world.pulls)
+        if rows.size > MAX_CANDIDATES:
+            fixed = False
+            p = world.pos[world.index_of(ids)]
+            d2 = ((world.pos[rows][:, None, :] - p[None]) ** 2).sum(axis=2)
+            pull = (world.mass[rows][:, None] / np.where(d2 > 0, d2, np.inf)).max(axis=1)
+            rows = rows[np.argsort(-pull, kind="stable")[:MAX_CANDIDATES]]
+    cand = world.ids[rows].astype(np.int64)
+    watched = np.unique(np.concatenate([ids, cand, [] if target is None else [target]])
+                        ).astype(np.int64)
+    got = (cand, rows.astype(np.int64), watched)
+    if fixed:
+        picks[key] = got
+    return got
+
+
+def _centre(world):
+    """The field's centre (3,) with gravity="central", else None."""
+    if world.gravity != "central":
+        return None
+    centre = np.zeros(3)
+    centre[:world.dim] = world.central_pos
+    return centre
 
 
 def _enders(world, ev):
