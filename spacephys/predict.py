@@ -269,7 +269,8 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
             t = w.time_after(counts.astype(np.float64))     # as World.t computes the time
             if shadow.tape is not None:
                 shadow.tape.start_run(w, int(counts[-1]))
-            halves = None if background else _Halves.ready(shadow, w, ids, watched, counts)
+            halves = None if background else _Halves.ready(shadow, w, ids, rows, watched,
+                                                           counts)
             if halves is None:
                 events = _run(w, counts, sampler)
             else:
@@ -391,15 +392,14 @@ class _Halves:
         self.tapes = None                # each copy's cursor on the shadow's tape
 
     @staticmethod
-    def ready(shadow, w, ids, watched, counts):
+    def ready(shadow, w, ids, rows, watched, counts):
         """The shadow's _Halves loaded with w's state and its tape's cursors, or None when
-        the run cannot be split (see the class)."""
+        the run cannot be split (see the class); rows: the ids' rows (w's are the World's)."""
         tape, n = shadow.tape, int(counts[-1])
         if tape is None or not tape.covers(n) or ids.size < _SPLIT_PATHS \
                 or (os.cpu_count() or 1) < 2 or w._plan.rules is not None or w._actors.queued:
             return None
         b = w._b
-        rows = w.index_of(ids)
         src = w._sources()[0]
         if np.isin(rows, src).any() or not _independent(w, src):
             return None

@@ -228,11 +228,9 @@ def accelerations(f, t, pos, vel, out, targets, with_drag):
 @kernel
 def accelerations_serial(f, t, pos, vel, out, targets, with_drag):
     """accelerations on the calling thread, bit for bit the same: for a few bodies at a time
-    (Gauss-Radau's riders), where a threaded loop would only cost compile time."""
-    fa, lean_below = hoist(f)
-    if lean_below > 0:
-        lean_accelerations(fa, pos, vel, out, targets, with_drag)
-        return
+    (Gauss-Radau's riders, with user forces: without, they take lean_accelerations), where a
+    threaded loop would only cost compile time."""
+    fa, _ = hoist(f)
     has, s = _sources(fa, pos)
     if has:
         _pull_rows(targets, pos, s, f.G, f.eps2, out)
