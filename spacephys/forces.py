@@ -14,7 +14,11 @@ from numba.core.registry import CPUDispatcher
 
 from . import _validate as check
 from .kernels import forces as kforces
-from .kernels.forces import CENTRAL, DIRECT, GRAVITY_MODELS, UNIFORM
+from .kernels.forces import CENTRAL, DIRECT, GRAVITY_MODELS, TREE, UNIFORM
+
+# the models in which the bodies pull each other (the pulling ones: active, of mass > 0)
+MUTUAL = ("direct", "tree")
+THETA_MAX = 1.5       # past it a tree accepts nodes the size of their distance: no accuracy
 
 # the per-body column of held forces and accelerations: [F (3,), a (3,)]
 HELD = "held"
@@ -25,11 +29,12 @@ class ForceField:
 
     dim : 2 or 3; G : gravitational constant; gravity : a name of GRAVITY_MODELS; g : (dim,)
     the uniform field; central_mass, central_pos : the fixed body of gravity="central";
-    softening : Plummer length; drag : rate k [1/time]; wind : (dim,) [length/time].
+    softening : Plummer length; drag : rate k [1/time]; wind : (dim,) [length/time];
+    theta, quadrupole : the tree's opening angle and moments, with gravity="tree".
     """
 
     def __init__(self, dim, *, G, gravity, g=None, central_mass=None, central_pos=None,
-                 softening=0.0, drag=0.0, wind=None):
+                 softening=0.0, drag=0.0, wind=None, theta=None, quadrupole=None):
         self.dim = dim
         self.G = G
         if not isinstance(gravity, str) or gravity not in GRAVITY_MODELS:
@@ -52,6 +57,11 @@ class ForceField:
         elif central_mass is not None or central_pos is not None:
             raise ValueError(f"central_mass/central_pos are only used with gravity='central' "
                              f"(gravity={gravity!r})")
+        if gravity != "tree" and (theta is not None or quadrupole is not None):
+            raise ValueError(f"theta/quadrupole are only used with gravity='tree' "
+                             f"(gravity={gravity!r})")
+        self.theta = self.checked_theta(0.5 if theta is None else theta)
+        self.quadrupole = self.checked_quadrupole(True if quadrupole is None else quadrupole)
         self.gravity = gravity
         self.model = GRAVITY_MODELS[gravity]
         self.field = field                    # (3,): g, or the central body's position
@@ -64,6 +74,25 @@ class ForceField:
         self.user = []                        # [(fn, params (p,) float64)]
         self._typed = None                    # the kernels' typed lists of them, made on demand
         self.tape = None                      # a prediction copy's tape (spacephys/tape.py)
+
+    @staticmethod
+    def checked_theta(theta):
+        theta = check.scalar("theta", theta, positive=True)
+        if theta > THETA_MAX:
+            raise ValueError(f"theta = {theta}: must be <= {THETA_MAX} (an opening angle past "
+                             f"it accepts nodes as large as their distance)")
+        return theta
+
+    @staticmethod
+    def checked_quadrupole(quadrupole):
+        if not isinstance(quadrupole, (bool, np.bool_)):
+            raise ValueError(f"quadrupole = {quadrupole!r}: must be True or False")
+        return bool(quadrupole)
+
+    @property
+    def mutual(self):
+        """Whether the pulling bodies pull each other (direct summation or the tree)."""
+        return self.gravity in MUTUAL
 
     # ------------------------------------------------------------ user forces
     @staticmethod
@@ -134,16 +163,27 @@ class ForceField:
                              eps2=self.softening ** 2, field=self.field,
                              field_mass=self.field_mass, src=src, passive=passive, still=still,
                              drag=self.drag, held=held, user=fns, params=params,
-                             threads=threads)
+                             threads=threads, theta=self.theta, quadrupole=self.quadrupole)
         if self.tape is not None:           # a prediction's copy (spacephys/tape.py)
             self.tape.attach(table, src, ids[src])
         return table
+
+    def gravity_table(self, mass, ids, src, passive, exact):
+        """A Forces table of gravity alone (no drag, held or user forces, nobody held still);
+        exact: the tree's sum made directly."""
+        model = DIRECT if exact and self.model == TREE else self.model
+        return kforces.make(mass, ids, model=model, G=self.G, eps2=self.softening ** 2,
+                            field=self.field, field_mass=self.field_mass, src=src,
+                            passive=passive, still=np.zeros(0, np.int64), drag=np.zeros(4),
+                            theta=self.theta, quadrupole=self.quadrupole)
 
     def work(self, n, pulling):
         """Pair evaluations of the largest force loop for n bodies, `pulling` of them pulling:
         what decides whether threads can pay."""
         if self.model == DIRECT:
             return n * pulling
+        if self.model == TREE:      # a walk's lists hold some hundreds of entries
+            return n * min(pulling, 500)
         return n if self.model == CENTRAL else 0
 
     def shift(self, delta):
@@ -160,6 +200,7 @@ class ForceField:
     def state(self):
         """The named fields a checkpoint keeps (see docs/runlog.md)."""
         return {"gravity": self.gravity, "G": self.G, "softening": self.softening,
+                "theta": self.theta, "quadrupole": self.quadrupole,
                 "field": self.field.copy(), "field_mass": self.field_mass,
                 "drag": self.drag.copy(),
                 "user_functions": [f"{fn.py_func.__module__}:{fn.py_func.__qualname__}"
@@ -176,6 +217,8 @@ class ForceField:
         f.field = np.array(s["field"], np.float64)
         f.field_mass = float(s["field_mass"])
         f.softening = float(s["softening"])
+        f.theta = float(s.get("theta", 0.5))            # absent before the tree
+        f.quadrupole = bool(s.get("quadrupole", True))
         f.drag = np.array(s["drag"], np.float64)
         f.user = [(importable(name), np.array(p, np.float64))
                   for name, p in zip(s["user_functions"], s["user_params"])]

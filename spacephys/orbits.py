@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _validate as check
+from .forces import MUTUAL
 
 
 def solve_kepler(M, e):
@@ -225,9 +226,9 @@ def _parent(world, body_id, about):
         c = np.zeros(3)
         c[:world.dim] = world.central_pos
         return i, G * (world.central_mass + m), c, np.zeros(3), None
-    if world.gravity not in ("direct", "central"):
+    if world.gravity not in MUTUAL + ("central",):
         raise ValueError(f"no orbit to report with gravity={world.gravity!r}: give gravity "
-                         f"'direct' or 'central'")
+                         f"'direct', 'tree' or 'central'")
     if about is None:
         # the body pulling on it hardest (G m_j / d^2)
         d2 = np.sum((world.pos - world.pos[i]) ** 2, axis=1)

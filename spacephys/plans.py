@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _validate as check
+from .forces import MUTUAL
 from .kernels.codes import BURN_DIRECTIONS, BURN_NORMAL, BURN_ANTINORMAL, BURN_VECTOR
 
 # a plan row kept by World (Actors.plans) and in World.state(): ship id, start, stop, direction
@@ -113,7 +114,7 @@ def _frame(world, ship, frame, field):
         if world.gravity == "central":
             point[:world.dim] = world.central_pos
             return -1, point
-        if world.gravity != "direct":
+        if world.gravity not in MUTUAL:
             return -1, point                     # at rest at the origin
         from .orbits import _parent
         try:

@@ -5,6 +5,7 @@ import math
 import numpy as np
 
 from .runs import Run
+from .forces import MUTUAL
 
 _TRACKED = 60            # bodies drawn as trajectories; the rest appear as dots
 
@@ -30,7 +31,7 @@ def _energy(run, fr):
     x, v, mass = fr.pos[keep], fr.vel[keep], fr.mass[keep]
     kinetic = 0.5 * np.sum(mass * np.sum(v * v, axis=1))
     G, eps2 = float(m["G"]), float(m["softening"]) ** 2
-    if m["gravity"] == "direct":
+    if m["gravity"] in MUTUAL:
         if mass.size > 3000:
             return math.nan
         d = x[:, None, :] - x[None, :, :]

@@ -21,6 +21,7 @@ import numpy as np
 
 from . import _validate as check
 from .events import EVENT_DTYPE, EVENT_KINDS
+from .forces import MUTUAL
 from .integrators import get_integrator
 from .kernels import markers
 from .kernels.collide import owners_of
@@ -543,7 +544,7 @@ def _picks(shadow, world, ids, about, target):
     fixed = True
     if about is not None:
         rows = np.array([world.index_of(about)], np.int64)
-    elif world.gravity != "direct":
+    elif world.gravity not in MUTUAL:
         rows = np.zeros(0, np.int64)
     else:
         rows = np.flatnonzero(world.pulls)

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .events import EVENT_KINDS
+from .forces import MUTUAL
 from .scenes import SCENES
 from .world import World
 
@@ -41,7 +42,7 @@ class RunResult:
     def summary(self):
         w = self.world
         spec = w.integrator_spec
-        pulls = int(np.count_nonzero(w.pulls)) if w.gravity == "direct" else 0
+        pulls = int(np.count_nonzero(w.pulls)) if w.gravity in MUTUAL else 0
         rate = self.steps / self.wall if self.wall > 0 else float("inf")
         return "\n".join([
             f"scene         {self.scene} ({w.dim}D, {w.n} bodies: {pulls} pulling, "

@@ -15,6 +15,7 @@ import numpy as np
 
 from .entities import ExplosionSpec, MissileSpec, ShipSpec
 from .integrators import INTEGRATORS
+from .forces import MUTUAL, THETA_MAX
 from .steppers import capabilities
 from .orbits import elements_to_state
 from .plans import Burn, hohmann
@@ -30,7 +31,7 @@ _WORLD = {"dim": ("int", 2), "units": ("str", "game"), "G": ("float", None),
           "gravity": ("str", "direct"), "g": ("vec", None), "central_mass": ("float", None),
           "central_pos": ("vec", None), "softening": ("float", 0.0), "seed": ("int", 0),
           "kinds": ("strs", []), "center_of_mass": ("bool", False), "drag": ("float", 0.0),
-          "wind": ("vec", None)}
+          "wind": ("vec", None), "theta": ("float", None), "quadrupole": ("bool", None)}
 _PLACE = {"pos": ("vec", None), "vel": ("vec", None), "parent": ("str", None),
           "a": ("float", None), "e": ("float", 0.0), "i": ("float", 0.0),
           "Omega": ("float", 0.0), "omega": ("float", 0.0), "M": ("float", None),
@@ -41,7 +42,8 @@ _BODY = {"name": ("str", REQUIRED), "mass": ("float", REQUIRED), "radius": ("flo
 _RING = {"name": ("str", REQUIRED), "count": ("int", REQUIRED), "parent": ("str", REQUIRED),
          "a": ("range", REQUIRED), "e": ("range", [0.0, 0.0]), "i": ("range", [0.0, 0.0]),
          "mass": ("range", [0.0, 0.0]), "radius": ("range", [0.0, 0.0]),
-         "kind": ("str", "asteroid"), "seed": ("int", 0)}
+         "kind": ("str", "asteroid"), "seed": ("int", 0), "total_mass": ("float", None),
+         "active": ("bool", None), "Omega": ("range", None)}
 _SHIP = {"name": ("str", REQUIRED), "spec": ("table", REQUIRED), "heading": ("any", None),
          **_PLACE}
 _COLLISION = {"a": ("str", REQUIRED), "b": ("str", REQUIRED), "response": ("str", REQUIRED),
@@ -221,6 +223,11 @@ def load_scenario(path_or_text):
             chk.bad(f"{path}.e", f"must lie in [0, 1) (got {t['e']!r})")
         if chk.dim == 2 and t["i"] and any(t["i"]):
             chk.bad(f"{path}.i", "a 2D ring lies in the plane: i must be [0, 0]")
+        if t["total_mass"] is not None:
+            chk.minimum(f"{path}.total_mass", t["total_mass"], 0.0)
+            if "mass" in item:
+                chk.bad(f"{path}.total_mass", "give either mass (a range per body) or "
+                                              "total_mass (shared equally), not both")
         top["rings"][k] = t
     missiles = {}
     for name, spec in (top["missiles"] or {}).items():
@@ -308,6 +315,12 @@ def _check_world(chk, w):
         chk.bad("world.g", "missing: gravity = 'uniform' needs the field vector g")
     if w["gravity"] == "central" and w["central_mass"] is None:
         chk.bad("world.central_mass", "missing: gravity = 'central' needs it")
+    for key in ("theta", "quadrupole"):
+        if w[key] is not None and w["gravity"] != "tree":
+            chk.bad(f"world.{key}", f"only used with gravity = 'tree' (gravity = "
+                                    f"{w['gravity']!r})")
+    if w["theta"] is not None and not 0.0 < w["theta"] <= THETA_MAX:
+        chk.bad("world.theta", f"must lie in (0, {THETA_MAX}] (got {w['theta']!r})")
 
 
 def _check_place(chk, path, t, names, key):
@@ -469,22 +482,34 @@ def _add_body(w, t, ids):
 def _add_ring(w, t, ids):
     """`count` bodies on orbits about the parent with elements drawn uniformly from the
     ranges (mean anomaly, node and pericentre uniform in angle), from an RNG seeded by the
-    ring's seed: the same ring every run."""
+    ring's seed: the same ring every run. total_mass: shared equally instead of the mass
+    range. A ring whose bodies pull (active, or of a kind that pulls, with mass) orbits the
+    parent and the ring's mass inside each orbit (a self-gravitating disc, to first order)."""
     rng = np.random.default_rng(t["seed"])
     k = t["count"]
     parent = w.get(ids[t["parent"]])
     draw = lambda key: rng.uniform(*t[key], k)
     a, e, inc, mass, radius = draw("a"), draw("e"), np.radians(draw("i")), draw("mass"), \
         draw("radius")
+    if t["total_mass"] is not None:
+        mass = np.full(k, t["total_mass"] / k)
     node, peri, M = (rng.uniform(0, 2 * np.pi, k) for _ in range(3))
+    if t["Omega"] is not None:          # [x, x]: a disc, every orbit in one plane
+        node = np.radians(draw("Omega"))
     if w.dim == 2:
         node[:] = 0.0
+    pulls = t["active"] if t["active"] is not None else t["kind"] not in PASSIVE_KINDS
+    inside = np.zeros(k)
+    if pulls and w.gravity in MUTUAL:
+        by_a = np.argsort(a, kind="stable")
+        inside[by_a] = np.cumsum(mass[by_a]) - mass[by_a]
     pos, vel = np.empty((k, w.dim)), np.empty((k, w.dim))
     for j in range(k):
-        p, v = elements_to_state(w.G * (parent.mass + mass[j]), a[j], e[j], inc[j], node[j],
-                                 peri[j], M=M[j])
+        p, v = elements_to_state(w.G * (parent.mass + inside[j] + mass[j]), a[j], e[j],
+                                 inc[j], node[j], peri[j], M=M[j])
         pos[j], vel[j] = parent.pos + p[:w.dim], parent.vel + v[:w.dim]
-    w.add_bodies(mass, pos, vel, radius=radius, kind=t["kind"])
+    kw = {} if t["active"] is None else {"active": t["active"]}
+    w.add_bodies(mass, pos, vel, radius=radius, kind=t["kind"], **kw)
 
 
 def _heading(value):
@@ -511,7 +536,7 @@ def _build(data, source="<scenario>"):
     kw = {k: s[k] for k in ("dim", "units", "integrator", "dt", "softening", "gravity", "seed",
                             "drag")}
     for k in ("G", "tolerance", "max_step", "min_step", "g", "central_mass", "central_pos",
-              "wind"):
+              "wind", "theta", "quadrupole"):
         if s[k] is not None:
             kw[k] = s[k]
     with _at(source, "world"):

@@ -18,6 +18,64 @@ def uniform_sphere(n, *, seed=0, softening=1e-3, **world):
     return w
 
 
+def plummer_model(n, *, seed=0, r_max=20.0):
+    """(pos (n, 3), vel (n, 3), mass (n,)): n equal masses drawn from Plummer's sphere in
+    equilibrium, G = M = a = 1 (mass 1/n each; radii cut at r_max), centre of mass at rest at
+    the origin. Radii by inverting the cumulative mass, speeds by rejection from
+    f(q) ~ q^2 (1 - q^2)^(7/2), q the speed over the escape speed (Aarseth, Henon and
+    Wielen 1974). Kinetic energy 3 pi / 64, potential -3 pi / 32; crossing time about 3.1
+    (the virial radius 16 / (3 pi) over the rms speed sqrt(3 pi / 32))."""
+    rng = np.random.default_rng(seed)
+
+    def directions(k):
+        d = rng.normal(size=(k, 3))
+        return d / np.linalg.norm(d, axis=1)[:, None]
+
+    r = np.empty(0)
+    while r.size < n:
+        x = rng.uniform(1e-12, 1.0, 2 * n)
+        cand = 1.0 / np.sqrt(x ** (-2.0 / 3.0) - 1.0)
+        r = np.concatenate([r, cand[cand <= r_max]])
+    r = r[:n]
+    q = np.empty(0)
+    while q.size < n:
+        x, y = rng.uniform(0.0, 1.0, 2 * n), rng.uniform(0.0, 0.1, 2 * n)
+        q = np.concatenate([q, x[y < x * x * (1.0 - x * x) ** 3.5]])
+    speed = q[:n] * np.sqrt(2.0) * (1.0 + r * r) ** -0.25
+    pos, vel = r[:, None] * directions(n), speed[:, None] * directions(n)
+    pos -= pos.mean(axis=0)
+    vel -= vel.mean(axis=0)
+    return pos, vel, np.full(n, 1.0 / n)
+
+
+def cold_disc_model(n, *, seed=0, scale=0.3, r_max=1.5):
+    """(pos (n, 3), vel (n, 3), mass (n,)): n equal masses (total 1, G = 1) in an exponential
+    disc of scale length `scale` in the plane z = 0, cut at r_max, on circular orbits about the
+    centre with the speed of the mass inside (no random motion: cold)."""
+    rng = np.random.default_rng(seed)
+    r = np.empty(0)
+    while r.size < n:
+        cand = rng.gamma(2.0, scale, 2 * n)          # surface density ~ exp(-r / scale)
+        r = np.concatenate([r, cand[cand <= r_max]])
+    r = np.sort(r[:n])
+    th = rng.uniform(0.0, 2 * np.pi, n)
+    inside = np.arange(n) / n
+    speed = np.sqrt(inside / np.maximum(r, 1e-12))
+    pos = np.c_[r * np.cos(th), r * np.sin(th), np.zeros(n)]
+    vel = np.c_[-speed * np.sin(th), speed * np.cos(th), np.zeros(n)]
+    return pos, vel, np.full(n, 1.0 / n)
+
+
+def plummer_sphere(n, *, seed=0, softening=0.01, **world):
+    """A World (3D, G = 1) of Plummer's sphere, plummer_model(n, seed); gravity="tree" by
+    default."""
+    pos, vel, mass = plummer_model(n, seed=seed)
+    world.setdefault("gravity", "tree")
+    w = World(dim=3, G=1.0, softening=softening, capacity=n, **world)
+    w.add_bodies(mass, pos, vel, kind="star")
+    return w
+
+
 def kepler(e=0.5, *, a=1.0, mu=1.0, planet_mass=0.0, dim=2, **world):
     """A star of mass mu (G = 1) and a planet at pericentre of an orbit (a, e).
 

@@ -35,7 +35,7 @@ class Capabilities:
     recording's frames taken inside the kernel; dominant_mass: it is made for scenes with one
     dominant mass (its Kepler drifts are about it)."""
     drag: bool = True
-    models: tuple = ("none", "direct", "uniform", "central")
+    models: tuple = ("none", "direct", "uniform", "central", "tree")
     fixed_bodies: bool = True
     pulling_actors: bool = True
     split_invariant: bool = True
@@ -61,8 +61,10 @@ class Stepper:
         Nothing is changed."""
         caps = self.capabilities
         if world.gravity not in caps.models:
+            why = (": a tree's forces jump where a node opens, which its error control would "
+                   "chase; use a fixed-step integrator" if world.gravity == "tree" else "")
             raise ValueError(f"integrator {self.spec.name!r} needs gravity in "
-                             f"{caps.models} (gravity={world.gravity!r})")
+                             f"{caps.models} (gravity={world.gravity!r}{why})")
         src, _, still = sources
         if still.size and not caps.fixed_bodies:
             raise ValueError(f"integrator {self.spec.name!r} cannot hold bodies fixed "
@@ -144,6 +146,7 @@ class GaussRadau(Stepper):
     polynomials."""
     family = "gauss_radau"
     kernel = staticmethod(kgr.gauss_radau_steps)
+    capabilities = Capabilities(models=("none", "direct", "uniform", "central"))
 
     def __init__(self, spec):
         super().__init__(spec)

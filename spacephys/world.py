@@ -31,7 +31,7 @@ from .kernels import forces as kforces
 from .kernels import state as kstate
 from .kernels.codes import BOUNDARIES, FAILED, NONFINITE, REMOVED, RESPONSES
 from .kernels.collide import SCRATCH
-from .kernels.forces import DIRECT, GRAVITY_MODELS
+from .kernels.forces import GRAVITY_MODELS
 from .state import Bodies
 from .steppers import Plan, stepper_for
 from .units import get_units
@@ -102,8 +102,13 @@ class World:
                own to set a step)
     softening : float >= 0, Plummer softening length [length]
     gravity : "direct" (mutual, bodies of mass 0 or passive feel but do not pull),
-              "uniform" (a constant field g), "central" (a fixed body central_mass at
-              central_pos; bodies ignore each other), "none"
+              "tree" (the same, the sum by a Barnes-Hut tree: for thousands of pulling bodies
+              and more, docs/tree.md), "uniform" (a constant field g), "central" (a fixed
+              body central_mass at central_pos; bodies ignore each other), "none"
+    theta : the tree's opening angle, 0 < theta <= 1.5 (default 0.5; smaller: more accurate
+            and slower), with gravity="tree"
+    quadrupole : the tree's nodes pull with quadrupole moments (default True) or as point
+                 masses, with gravity="tree"
     g : (dim,) uniform field [length / time^2], with gravity="uniform"
     central_mass, central_pos : the fixed body, with gravity="central" (pos defaults to 0)
     max_substeps : int >= 1, most steps one advance() call may take (against the spiral of death)
@@ -117,7 +122,8 @@ class World:
     def __init__(self, dim=2, *, units="game", G=None, integrator="leapfrog", dt=1 / 240,
                  softening=0.0, gravity="direct", g=None, central_mass=None, central_pos=None,
                  tolerance=1e-9, max_step=None, min_step=0.0, step_control="auto",
-                 max_substeps=16, capacity=64, seed=0, drag=0.0, wind=None):
+                 max_substeps=16, capacity=64, seed=0, drag=0.0, wind=None, theta=None,
+                 quadrupole=None):
         if isinstance(dim, bool) or not isinstance(dim, (int, np.integer)) or dim not in (2, 3):
             raise ValueError(f"dim = {dim!r}: must be the integer 2 or 3")
         dim = int(dim)
@@ -126,7 +132,8 @@ class World:
         spec = get_integrator(integrator)
         dt = check.scalar("dt", dt, positive=True)
         forces = ForceField(dim, G=G, gravity=gravity, g=g, central_mass=central_mass,
-                            central_pos=central_pos, softening=softening, drag=drag, wind=wind)
+                            central_pos=central_pos, softening=softening, drag=drag, wind=wind,
+                            theta=theta, quadrupole=quadrupole)
         max_substeps = check.count("max_substeps", max_substeps, minimum=1)
         capacity = check.count("capacity", capacity, minimum=1)
         seed = check.count("seed", seed)
@@ -295,7 +302,7 @@ class World:
 
     def step_control_rows(self, src):
         """Whether only the pulling bodies (src rows) set an adaptive step."""
-        return self._forces.model == DIRECT and (
+        return self._forces.mutual and (
             self._step_control == "pulling" and src.size > 0
             or self._step_control == "auto" and src.size >= 2)
 
@@ -373,6 +380,24 @@ class World:
     def softening(self, value):
         self._forces.softening = check.scalar("softening", value, minimum=0.0)
         self._plan = None
+
+    @property
+    def theta(self):
+        """The tree's opening angle with gravity="tree", else None."""
+        return self._forces.theta if self.gravity == "tree" else None
+
+    @theta.setter
+    @journaled_setter("theta")
+    def theta(self, value):
+        if self.gravity != "tree":
+            raise ValueError(f"theta is only used with gravity='tree' (gravity={self.gravity!r})")
+        self._forces.theta = self._forces.checked_theta(value)
+        self._plan = None
+
+    @property
+    def quadrupole(self):
+        """Whether the tree's nodes pull with quadrupole moments, with gravity="tree"."""
+        return self._forces.quadrupole if self.gravity == "tree" else None
 
     # ---------------------------------------------------------------- forces
     def apply_force(self, body, force):
@@ -1413,21 +1438,41 @@ class World:
         return self._forces.table(b.mass[:b.n], b.ids[:b.n], *self._sources(), None,
                                   self._threads.min_pairs)
 
+    def gravity_accelerations(self, ids=None, exact=False):
+        """(k, dim) the acceleration by gravity now [length / time^2] of the bodies `ids`
+        (default: every body, in row order); drag, held and user forces and thrust left out,
+        a fixed body's given though it does not move. With gravity="tree", the tree's;
+        exact=True: the direct sum it approximates."""
+        b = self._b
+        rows = np.arange(b.n, dtype=np.int64) if ids is None else \
+            np.asarray(self.index_of(ids, "ids"), np.int64).reshape(-1)
+        src, passive, _ = self._sources()
+        f = self._forces.gravity_table(b.mass[:b.n], b.ids[:b.n], src, passive, exact)
+        out = np.zeros((b.n, 3))
+        kforces.accelerations(f, self.t, b.pos[:b.n], b.vel[:b.n], out, rows, False)
+        return out[rows, :self._dim]
+
     def kinetic_energy(self, pulling_only=False):
         b = self._b
         return diagnostics.kinetic_energy(b.vel[:b.n], self._masses(pulling_only))
 
-    def potential_energy(self, pulling_only=False):
-        """Potential energy in the gravity model (passive bodies in the pulling ones' field)."""
+    def potential_energy(self, pulling_only=False, exact=False):
+        """Potential energy in the gravity model (passive bodies in the pulling ones' field).
+        With gravity="tree", the tree's (what its forces conserve), or with exact=True the
+        direct sum over pairs (O(n^2): for checks)."""
         f = self._force_table()
         b = self._b
         passive = self._sources()[1]
-        return kforces.potential_energy(f, b.pos[:b.n], self._masses(pulling_only),
-                                            passive[:0] if pulling_only else passive)
+        passive = passive[:0] if pulling_only else passive
+        energy = kforces.potential_energy
+        if self.gravity == "tree" and not exact:
+            energy = kforces.tree_potential_energy
+        return energy(f, b.pos[:b.n], self._masses(pulling_only), passive)
 
-    def energy(self, pulling_only=False):
-        """Kinetic + potential energy [mass length^2 / time^2]."""
-        return self.kinetic_energy(pulling_only) + self.potential_energy(pulling_only)
+    def energy(self, pulling_only=False, exact=False):
+        """Kinetic + potential energy [mass length^2 / time^2] (exact: see
+        potential_energy)."""
+        return self.kinetic_energy(pulling_only) + self.potential_energy(pulling_only, exact)
 
     def momentum(self, pulling_only=False):
         """(dim,) total linear momentum sum m v [mass length / time]."""

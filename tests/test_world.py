@@ -263,7 +263,7 @@ def test_bad_input_is_named_and_changes_nothing(call, message):
     (dict(G=-1.0), "G = -1.0: must be >= 0"),
     (dict(units="cgs"), "units='cgs' is not known; valid: game, si, au-msun-yr"),
     (dict(integrator="ias15"), "integrator='ias15' is not known"),
-    (dict(gravity="tree"), "gravity='tree' is not known; valid: none, direct, uniform, central"),
+    (dict(gravity="fmm"), "gravity='fmm' is not known; valid: none, direct, uniform, central, tree"),
     (dict(gravity="uniform"), "gravity='uniform' needs g"),
     (dict(gravity="uniform", g=(0, 0, -9.8)), r"g has shape \(3,\), expected \(2,\)"),
     (dict(g=(0, -9.8)), "g = .* is only used with gravity='uniform'"),

@@ -11,7 +11,9 @@ Gravity models (`model`, spacephys.kernels.codes):
   DIRECT   direct summation F = G m1 m2 / D^2: the bodies listed in `src` (active, massive) pull
            every body; the bodies in `passive` (test particles, ships, debris) feel but never pull;
   UNIFORM  a constant field `field` (the seed's `y += gravity` near a planet's surface);
-  CENTRAL  a fixed body of mass `field_mass` at `field` pulls every body; bodies ignore each other.
+  CENTRAL  a fixed body of mass `field_mass` at `field` pulls every body; bodies ignore each other;
+  TREE     as DIRECT, the sum approximated by a Barnes-Hut tree (kernels/tree.py) with the
+           opening angle `theta`, monopole or (`quadrupole`) quadrupole moments.
 Softening is Plummer's: a = G m d / (|d|^2 + eps2)^(3/2). Two bodies at exactly the same point
 (|d|^2 + eps2 == 0) exert no force on each other: the direction is undefined, and a zero keeps
 the state finite instead of NaN.
@@ -29,13 +31,14 @@ from numba import types, typed
 from numba.experimental import structref
 
 from .._jit import NEVER, PARALLEL_MIN_PAIRS, TableType, kernel
-from . import tape
+from . import tape, tree
 from .diagnostics import add
 
 # gravity models: a code and a name each, their accelerations (accelerations) and potential
 # (potential_energy, body_energies) below
-NONE, DIRECT, UNIFORM, CENTRAL = 0, 1, 2, 3
-GRAVITY_MODELS = {"none": NONE, "direct": DIRECT, "uniform": UNIFORM, "central": CENTRAL}
+NONE, DIRECT, UNIFORM, CENTRAL, TREE = 0, 1, 2, 3, 4
+GRAVITY_MODELS = {"none": NONE, "direct": DIRECT, "uniform": UNIFORM, "central": CENTRAL,
+                  "tree": TREE}
 
 # the signature of a user force: (t [time], pos (n, 3), vel (n, 3), mass (n,), ids (n,) int64,
 # params (p,) float64, out (n, 3) accelerations to add to) -> None
@@ -55,20 +58,20 @@ class Forces(structref.StructRefProxy):
 
 
 FIELDS = (
-    "model",       # int: NONE | DIRECT | UNIFORM | CENTRAL
+    "model",       # int: NONE | DIRECT | UNIFORM | CENTRAL | TREE
     "G",           # float [length^3 / (mass time^2)]
     "eps2",        # float: Plummer softening squared [length^2]
     "field",       # (3,): the uniform acceleration (UNIFORM) or the fixed body's position (CENTRAL)
     "field_mass",  # float: the fixed body's mass (CENTRAL)
     "mass",        # (n,) [mass]
     "ids",         # (n,) int64 body ids, for user forces
-    "src",         # (ns,) int64 rows of the bodies that pull (DIRECT)
+    "src",         # (ns,) int64 rows of the bodies that pull (DIRECT, TREE)
     "passive",     # (np,) int64 rows of the others
     "still",       # (k,) int64 rows of immovable bodies: their acceleration is zero
     "everyone",    # (n,) int64 rows 0..n-1
     "drag",        # (4,) [k [1/time], wind (3,) [length/time]]
     "held",        # (n, 6) [force (3,) [mass length/time^2], acceleration (3,)], or (0, 6)
-    "scratch",     # (4, ns) DIRECT, (4, 1) CENTRAL: the sources' x, y, z, m
+    "scratch",     # (4, ns) DIRECT, TREE, (4, 1) CENTRAL: the sources' x, y, z, m
     "user",        # typed List of USER_FORCE_TYPE
     "params",      # typed List of (p,) float64, one per user force
     "user_out",    # (n, 3) scratch the user forces add into
@@ -79,27 +82,30 @@ FIELDS = (
     "tape_at",     # (5,) int64: where the tape is and whether it runs (kernels/tape); off
     "taped",       # int: 1 once the table has a tape (set_tape). A scalar, read every step
                    # and evaluation at the cost of a load; the arrays' reads cost refcounts
+    "theta",       # float: the tree's opening angle (TREE)
+    "quadrupole",  # int: 1 for the tree's quadrupole moments, 0 for monopoles only (TREE)
 )
 structref.define_proxy(Forces, ForcesType, list(FIELDS))
 
 
 @kernel
 def _make(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone, drag,
-          held, scratch, user, params, user_out, threads):
+          held, scratch, user, params, user_out, threads, theta, quadrupole):
     return Forces(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone,
                   drag, held, scratch, user, params, user_out, threads, np.zeros((0, 4, 0)),
-                  np.zeros((0, 0, 14)), np.zeros(5, np.int64), 0)
+                  np.zeros((0, 0, 14)), np.zeros(5, np.int64), 0, theta, quadrupole)
 
 
 @kernel
 def _make_plain(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone,
-                drag, held, scratch, user_out, threads):
+                drag, held, scratch, user_out, threads, theta, quadrupole):
     """_make without user forces: the empty lists made here, so that a process that never
     adds a user force never pays for typed lists in Python (0.4 s of compilation)."""
     return Forces(model, G, eps2, field, field_mass, mass, ids, src, passive, still, everyone,
                   drag, held, scratch, typed.List.empty_list(USER_FORCE_TYPE),
                   typed.List.empty_list(types.float64[::1]), user_out, threads,
-                  np.zeros((0, 4, 0)), np.zeros((0, 0, 14)), np.zeros(5, np.int64), 0)
+                  np.zeros((0, 4, 0)), np.zeros((0, 0, 14)), np.zeros(5, np.int64), 0, theta,
+                  quadrupole)
 
 
 @kernel
@@ -118,21 +124,23 @@ def no_user_forces():
 
 
 def make(mass, ids, *, model, G, eps2, field, field_mass, src, passive, still, drag, held=None,
-         user=None, params=None, threads=None):
+         user=None, params=None, threads=None, theta=0.5, quadrupole=True):
     """A Forces table for the bodies mass, ids (n,); arrays are shared, not copied (a change
     to drag or field between steps needs no new table). held : (n, 6) or None; user,
     params : typed lists (no_user_forces) or None; threads : (1,) int64, the fewest pair
-    evaluations a force loop runs on threads (default _jit.PARALLEL_MIN_PAIRS)."""
+    evaluations a force loop runs on threads (default _jit.PARALLEL_MIN_PAIRS); theta,
+    quadrupole : the tree's (TREE)."""
     n = mass.shape[0]
-    scratch = np.empty((4, src.size if model == DIRECT else 1))
+    scratch = np.empty((4, src.size if model in (DIRECT, TREE) else 1))
     args = (int(model), float(G), float(eps2), field, float(field_mass), mass, ids, src,
             passive, still, np.arange(n, dtype=np.int64), drag,
             np.zeros((0, 6)) if held is None else held, scratch)
     if threads is None:
         threads = np.array([PARALLEL_MIN_PAIRS], np.int64)
+    tree_args = (float(theta), int(bool(quadrupole)))
     if user is None:
-        return _make_plain(*args, np.zeros((0, 3)), threads)
-    return _make(*args, user, params, np.zeros((n, 3)), threads)
+        return _make_plain(*args, np.zeros((0, 3)), threads, *tree_args)
+    return _make(*args, user, params, np.zeros((n, 3)), threads, *tree_args)
 
 
 # ----------------------------------------------------------------------------- gravity
@@ -215,7 +223,10 @@ def accelerations(f, t, pos, vel, out, targets, with_drag):
     """
     fa, _ = hoist(f)
     has, s = _sources(fa, pos)
-    if has:
+    if f.model == TREE:
+        tree.accelerations(s, f.src, targets, pos, f.G, f.eps2, f.theta, f.quadrupole, out,
+                           targets.size * s.shape[1] >= f.threads[0])
+    elif has:
         _pull_all(targets, pos, s, f.G, f.eps2, out, f.threads[0])
     else:
         _field(fa, out, targets)
@@ -261,7 +272,7 @@ def hoist(f):
     # threaded path on every step of a 3-body scene (seen in gdb; not reproduced alone)
     lean_below = NEVER
     min_pairs = f.threads[0]
-    if f.user_out.shape[0]:
+    if f.user_out.shape[0] or f.model == TREE:
         lean_below = 0
     elif f.model == DIRECT and f.src.size:
         # targets * ns < min_pairs; NEVER (min_pairs) + ns would overflow
@@ -286,11 +297,11 @@ def lean_accelerations(fa, pos, vel, out, targets, with_drag):
 @kernel(inline=True)
 def _sources(fa, pos):
     """(whether the model has sources, the sources (4, ns): x, y, z, m): the pulling bodies
-    (DIRECT) gathered into the scratch, or a played step's straight from the prediction's
-    tape; the fixed body (CENTRAL)."""
+    (DIRECT, TREE) gathered into the scratch, or a played step's straight from the
+    prediction's tape; the fixed body (CENTRAL)."""
     model = fa[FA_MODEL]
     scratch = fa[FA_SCRATCH]
-    if model == DIRECT:
+    if model == DIRECT or model == TREE:
         at = fa[FA_TAPE_AT]
         if fa[FA_TAPED] != 0 and at[tape.ON] != 0:      # a prediction's copy, its tape on
             e = at[tape.EVAL]
@@ -427,15 +438,15 @@ def potential_energy(f, pos, mass, passive):
     with the masses mass (n,) (f.mass, or those of the pulling bodies only).
 
     DIRECT: -G m_i m_j / sqrt(r^2 + eps2) over pairs of sources (f.src), and over (passive,
-    source) pairs for the rows `passive`: a passive body sits in the sources' field. CENTRAL:
-    each body in the fixed body's field. UNIFORM: -m g.x. NONE: 0. The immovable bodies'
-    potential counts.
+    source) pairs for the rows `passive`: a passive body sits in the sources' field. TREE: the
+    same sum, exact (tree_potential_energy is the tree's). CENTRAL: each body in the fixed
+    body's field. UNIFORM: -m g.x. NONE: 0. The immovable bodies' potential counts.
     """
     model, src, G, eps2 = f.model, f.src, f.G, f.eps2
     field, field_mass = f.field, f.field_mass
     s = 0.0
     c = 0.0
-    if model == DIRECT:
+    if model == DIRECT or model == TREE:
         for a in range(src.size):
             i = src[a]
             for b in range(a + 1, src.size):
@@ -470,7 +481,8 @@ def body_energies(f, pos, vel, mass, out):
     of each pair potential among the sources src (other bodies get their kinetic energy
     only: give them mass 0 to leave them out); under CENTRAL and UNIFORM, its potential in
     the field. Sums to the total energy, to rounding: used to name the bodies whose energy
-    changed when the total went wrong. f : the Forces table (its model and sources)."""
+    changed when the total went wrong (under TREE too, exact: O(ns^2)). f : the Forces
+    table (its model and sources)."""
     model, src, G, eps2 = f.model, f.src, f.G, f.eps2
     field, field_mass = f.field, f.field_mass
     for i in range(mass.size):
@@ -482,7 +494,7 @@ def body_energies(f, pos, vel, mass, out):
         elif model == UNIFORM:
             out[i] -= mass[i] * (field[0] * pos[i, 0] + field[1] * pos[i, 1]
                                  + field[2] * pos[i, 2])
-    if model == DIRECT:
+    if model == DIRECT or model == TREE:
         for a in range(src.size):
             i = src[a]
             for b in range(a + 1, src.size):
@@ -491,3 +503,47 @@ def body_energies(f, pos, vel, mass, out):
                                                  pos[j, 0], pos[j, 1], pos[j, 2], mass[j], eps2)
                 out[i] += half
                 out[j] += half
+
+
+@kernel(parallel=True)
+def tree_potential_energy(f, pos, mass, passive):
+    """potential_energy under TREE as its forces see it: the light sources' pairs from the
+    tree's potential (1/2 m_i phi_i), every pair with a heavy source (kernels/tree.split)
+    summed directly, and the rows `passive` of mass > 0 in the sources' field."""
+    src = f.src
+    s = np.empty((4, src.size))
+    _gather_sources(src, pos, mass, s)
+    heavy, light, is_heavy = tree.split(s)
+    k = 0
+    for a in range(src.size):
+        k += 0 if is_heavy[a] else 1
+    for a in range(passive.size):
+        k += 1 if mass[passive[a]] != 0.0 else 0
+    rows = np.empty(k, np.int64)          # the light sources, then the passive rows
+    k = 0
+    for a in range(src.size):
+        if not is_heavy[a]:
+            rows[k] = src[a]
+            k += 1
+    nlight = k
+    for a in range(passive.size):
+        if mass[passive[a]] != 0.0:
+            rows[k] = passive[a]
+            k += 1
+    phi = np.empty(mass.size)
+    t = tree.build(light, f.theta)
+    tree.walk(t, np.empty((4, 0)), pos, rows, False, 1.0, f.eps2, f.quadrupole,
+              np.empty((0, 3)), phi, True)
+    total = 0.0
+    c = 0.0
+    nh = heavy.shape[1]
+    for a in range(rows.size):
+        i = rows[a]
+        near = tree.parts_phi(pos[i, 0], pos[i, 1], pos[i, 2], heavy, nh, f.eps2)
+        total, c = add(total, c, mass[i] * ((0.5 if a < nlight else 1.0) * phi[i] + near))
+    for a in range(src.size):
+        if is_heavy[a]:
+            i = src[a]
+            near = tree.parts_phi(pos[i, 0], pos[i, 1], pos[i, 2], heavy, nh, f.eps2)
+            total, c = add(total, c, 0.5 * mass[i] * near)
+    return f.G * (total + c)

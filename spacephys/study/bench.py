@@ -589,6 +589,9 @@ def format_table(results):
     if results["benchmark"] == "predict":
         from .prediction import format_predict
         return format_predict(results)
+    if results["benchmark"] == "tree":
+        from .treebench import format_tree
+        return format_tree(results)
     lines = [f"{results['benchmark']} benchmark on {results['machine']} "
              f"({results['numba_threads']} numba threads; {results['versions']})",
              f"{'case':40s} {'spacephys':>14s} {'REBOUND':>14s} {'speed-up':>9s} "
@@ -713,6 +716,11 @@ def _predict(quick=False):
     return predict_bench(quick)
 
 
+def _tree(quick=False):
+    from .treebench import tree
+    return tree(quick)
+
+
 BENCHMARKS = {"gravity": gravity, "integrators": integrators, "collisions": collisions,
               "fleet": fleet, "log": log, "memory": memory, "models": models,
-              "overhead": _overhead, "predict": _predict}
+              "overhead": _overhead, "predict": _predict, "tree": _tree}

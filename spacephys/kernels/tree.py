@@ -1,0 +1,703 @@
+"""Barnes-Hut tree gravity: an octree (a quadtree for bodies in a plane) rebuilt at every force
+evaluation, walked by groups of targets, monopole and quadrupole moments, Plummer softening.
+
+Written from the published algorithms: Barnes & Hut (1986) for the tree and its opening
+angle; the linear (Morton-ordered) tree of Warren & Salmon (1993); the group walk with shared
+interaction lists of Barnes (1990); the quadrupole of the softened potential as its Taylor
+expansion about the centre of mass (as GADGET-2, Springel 2005, does for the monopole).
+
+Build (`build`), from the sources s (4, ns): x, y, z, m (forces._sources), every evaluation:
+  1. Morton keys of the sources in their bounding cube: 63 bits shared by the axes along which
+     the sources spread (21 each in 3D, 31 in a plane), on threads;
+  2. a stable radix sort of the keys (equal keys keep their order: deterministic);
+  3. the nodes in depth-first order: a node is a range of the sorted sources; it splits at the
+     first level where its keys differ (no chains of one-child nodes, so fewer than 2 ns
+     nodes), and is a leaf at LEAF sources or fewer. `next` skips a node's subtree;
+  4. moments, leaves on threads then the others from their children: mass, centre of mass,
+     the second moment Q = sum m d d^T about it, the bodies' bounding box.
+A node is accepted for a group of targets when the group's bounding box is farther from the
+node's centre of mass than l / theta (l: the largest side of the bounding box of the node's
+sources; Barnes and Hut's criterion, measured from the nearest point of the group) and does
+not overlap the node's box (no target among the sources it stands for, whatever theta);
+otherwise it is opened, and a leaf's sources are summed directly, as the direct kernel does.
+
+Heavy sources (`split`: more than HEAVY of the total mass, so at most 1 / HEAVY of them: a
+planet among its ring, a galaxy's core) stay out of the tree and are summed directly for every
+target: a tree's relative error on the pull of a dominant mass would be as large as a light
+ring's whole self-gravity.
+
+Walk (`walk`, for `accelerations` and forces.tree_potential_energy): targets are sorted by their Morton keys (the sources'
+own order when the targets are the sources) and cut into groups of GROUP; each group walks
+the tree once and keeps two lists, accepted nodes and leaf sources; then every target of the
+group sums both lists. Each target's sums run in a fixed order, so the result does not
+depend on the thread count.
+
+Accelerations with r = x - com, s^2 = |r|^2 + eps2 (the Taylor expansion of the softened
+potential -G m / s about the centre of mass):
+  a = -G M r / s^3 + G [3 Q r / s^5 - 15/2 (r.Q r) r / s^7 + 3/2 tr(Q) r / s^5]
+  phi = -G M / s - G/2 [3 (r.Q r) / s^5 - tr(Q) / s^3]
+"""
+import numba
+import numpy as np
+
+from .._jit import kernel
+
+LEAF = 8            # sources in a leaf, at most (unless they share one Morton cell)
+GROUP = 128          # targets that share one walk
+LANES = 64          # groups are dealt to this many lanes, round robin, for the threads
+MIN_PARALLEL = 2048  # fewest targets whose walk runs on threads
+HEAVY = 0.01        # sources of more than this fraction of the total mass are summed directly
+
+# node float columns (nodes (K, NF))
+CX, CY, CZ, M, QXX, QXY, QXZ, QYY, QYZ, QZZ, TR15, ROPEN2, LOX, LOY, LOZ, HIX, HIY, HIZ = \
+    range(18)           # ROPEN2: (l / theta)^2; TR15: 3/2 tr(Q)
+NF = 18
+# node int columns (links (K, 4)): the node after its subtree, its sources' range, leaf or not
+NEXT, LO, HI, IS_LEAF = range(4)
+# list columns: accepted nodes (cells (11, cap)) and leaf sources (parts (4, cap))
+CELL_ROWS = 11
+
+
+# ----------------------------------------------------------------------------- keys
+
+@kernel(inline=True)
+def _box(s):
+    """(lo (3,), side, axes (3,) bool, bits per axis): the sources' bounding cube and the axes
+    they spread along."""
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for c in range(3):
+        lo[c] = np.inf
+        hi[c] = -np.inf
+    for j in range(s.shape[1]):
+        for c in range(3):
+            v = s[c, j]
+            if v < lo[c]:
+                lo[c] = v
+            if v > hi[c]:
+                hi[c] = v
+    side = 0.0
+    naxes = 0
+    axes = np.empty(3, np.bool_)
+    for c in range(3):
+        axes[c] = False
+        if s.shape[1] and hi[c] > lo[c]:
+            axes[c] = True
+            naxes += 1
+            side = max(side, hi[c] - lo[c])
+    bits = 63 // naxes if naxes else 0
+    return lo, side, axes, bits
+
+
+@kernel(inline=True)
+def _key(x, y, z, lo, side, axes, bits):
+    """The Morton key of a point: the interleaved bits of its cell along the spread axes
+    (clamped into the cube)."""
+    cells = (1 << bits) - 1
+    q = np.empty(3, np.int64)
+    p = (x, y, z)
+    n = 0
+    for c in range(3):
+        if axes[c]:
+            u = (p[c] - lo[c]) / side * cells
+            u = min(max(u, 0.0), float(cells))
+            q[n] = np.int64(u)
+            n += 1
+    key = np.int64(0)
+    for b in range(bits - 1, -1, -1):
+        for a in range(n):
+            key = (key << 1) | ((q[a] >> b) & 1)
+    return key
+
+
+@kernel(parallel=True)
+def _keys(x, y, z, rows, lo, side, axes, bits, threaded):
+    """(k,) int64 Morton keys of the points (x[r], y[r], z[r]) for r in rows."""
+    keys = np.empty(rows.size, np.int64)
+    if bits == 0:
+        for i in range(rows.size):
+            keys[i] = 0
+        return keys
+    if threaded:
+        for i in numba.prange(rows.size):
+            r = rows[i]
+            keys[i] = _key(x[r], y[r], z[r], lo, side, axes, bits)
+    else:
+        for i in range(rows.size):
+            r = rows[i]
+            keys[i] = _key(x[r], y[r], z[r], lo, side, axes, bits)
+    return keys
+
+
+@kernel
+def radix_order(keys):
+    """(k,) int64: the stable order sorting the non-negative keys ascending (LSD radix sort,
+    11-bit digits; digits on which all keys agree are skipped)."""
+    k = keys.size
+    order = np.empty(k, np.int64)
+    for i in range(k):
+        order[i] = i
+    if k < 2:
+        return order
+    tmp = np.empty(k, np.int64)
+    a = np.empty(k, np.int64)
+    b = np.empty(k, np.int64)
+    for i in range(k):
+        a[i] = keys[i]
+    count = np.empty(2049, np.int64)
+    for shift in range(0, 66, 11):
+        for d in range(2049):
+            count[d] = 0
+        for i in range(k):
+            count[((a[i] >> shift) & 2047) + 1] += 1
+        if count[((a[0] >> shift) & 2047) + 1] == k:
+            continue                    # every key has this digit
+        for d in range(2048):
+            count[d + 1] += count[d]
+        for i in range(k):
+            d = (a[i] >> shift) & 2047
+            p = count[d]
+            count[d] = p + 1
+            b[p] = a[i]
+            tmp[p] = order[i]
+        a, b = b, a
+        order, tmp = tmp, order
+    return order
+
+
+# ----------------------------------------------------------------------------- build
+
+@kernel(inline=True)
+def _digit(key, shift, mask):
+    return (key >> shift) & mask
+
+
+@kernel(inline=True)
+def _first_at_least(keys, lo, hi, value, shift, mask):
+    """The first index in [lo, hi) whose digit at shift is >= value (keys sorted, sharing
+    their digits above shift)."""
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if _digit(keys[mid], shift, mask) < value:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@kernel
+def _topology(keys, naxes, bits):
+    """links (K, 4) int64 in depth-first order: NEXT, LO, HI, IS_LEAF (see the module)."""
+    ns = keys.size
+    cap = max(16, ns // 2 + 16)
+    links = np.empty((cap, 4), np.int64)
+    mask = (1 << naxes) - 1 if naxes else 0
+    top = (bits - 1) * naxes
+    stack = np.empty((64 * 8 + 8, 3), np.int64)       # depth <= 63 levels, <= 8 children each
+    sp = 0
+    stack[0, 0] = 0
+    stack[0, 1] = ns
+    stack[0, 2] = top
+    sp = 1
+    K = 0
+    first = np.empty(9, np.int64)
+    while sp:
+        sp -= 1
+        lo = stack[sp, 0]
+        hi = stack[sp, 1]
+        shift = stack[sp, 2]
+        if K == links.shape[0]:
+            grown = np.empty((2 * K, 4), np.int64)
+            for i in range(K):
+                for c in range(4):
+                    grown[i, c] = links[i, c]
+            links = grown
+        node = K
+        K += 1
+        links[node, LO] = lo
+        links[node, HI] = hi
+        links[node, IS_LEAF] = 1
+        if hi - lo <= LEAF or naxes == 0:
+            continue
+        # the first level at which the range's keys differ (sorted: first and last suffice)
+        while shift >= 0 and _digit(keys[lo], shift, mask) == _digit(keys[hi - 1], shift, mask):
+            shift -= naxes
+        if shift < 0:
+            continue                    # every key equal: one leaf
+        links[node, IS_LEAF] = 0
+        d0 = _digit(keys[lo], shift, mask)
+        d1 = _digit(keys[hi - 1], shift, mask)
+        nc = 0
+        start = lo
+        for d in range(d0, d1 + 1):
+            end = _first_at_least(keys, start, hi, d + 1, shift, mask) if d < d1 else hi
+            if end > start:
+                first[nc] = start
+                nc += 1
+                first[nc] = end
+            start = end
+        # children pushed last first, so that the first is the next node (depth-first order)
+        for c in range(nc - 1, -1, -1):
+            stack[sp, 0] = first[c]
+            stack[sp, 1] = first[c + 1]
+            stack[sp, 2] = shift - naxes
+            sp += 1
+    # NEXT: a node's index plus its subtree's size, summed from the last node back
+    size = np.ones(K, np.int64)
+    parent = np.empty(K, np.int64)
+    # a node's parent is the nearest earlier node whose range holds it; found with a stack
+    path = np.empty(K + 1, np.int64)
+    depth = 0
+    for i in range(K):
+        while depth and links[path[depth - 1], HI] <= links[i, LO]:
+            depth -= 1
+        parent[i] = path[depth - 1] if depth else -1
+        path[depth] = i
+        depth += 1
+    for i in range(K - 1, 0, -1):
+        size[parent[i]] += size[i]
+    for i in range(K):
+        links[i, NEXT] = i + size[i]
+    return links[:K]
+
+
+@kernel(fast=False, inline=True)
+def _leaf_moments(nodes, i, lo, hi, sx):
+    m = 0.0
+    mx = 0.0
+    my = 0.0
+    mz = 0.0
+    for j in range(lo, hi):
+        w = sx[3, j]
+        m += w
+        mx += w * sx[0, j]
+        my += w * sx[1, j]
+        mz += w * sx[2, j]
+    cx = mx / m if m > 0.0 else 0.0          # m = 0: no sources (all were heavy)
+    cy = my / m if m > 0.0 else 0.0
+    cz = mz / m if m > 0.0 else 0.0
+    q = np.empty(6)
+    blo = np.empty(3)
+    bhi = np.empty(3)
+    for c in range(6):
+        q[c] = 0.0
+    for c in range(3):
+        blo[c] = np.inf
+        bhi[c] = -np.inf
+    for j in range(lo, hi):
+        w = sx[3, j]
+        dx = sx[0, j] - cx
+        dy = sx[1, j] - cy
+        dz = sx[2, j] - cz
+        q[0] += w * dx * dx
+        q[1] += w * dx * dy
+        q[2] += w * dx * dz
+        q[3] += w * dy * dy
+        q[4] += w * dy * dz
+        q[5] += w * dz * dz
+        for c in range(3):
+            v = sx[c, j]
+            blo[c] = min(blo[c], v)
+            bhi[c] = max(bhi[c], v)
+    _store(nodes, i, m, cx, cy, cz, q, blo, bhi)
+
+
+@kernel(inline=True)
+def _store(nodes, i, m, cx, cy, cz, q, blo, bhi):
+    nodes[i, M] = m
+    nodes[i, CX] = cx
+    nodes[i, CY] = cy
+    nodes[i, CZ] = cz
+    for c in range(6):
+        nodes[i, QXX + c] = q[c]
+    for c in range(3):
+        nodes[i, LOX + c] = blo[c]
+        nodes[i, HIX + c] = bhi[c]
+
+
+@kernel(parallel=True)
+def _moments(links, sx, theta, threaded):
+    """nodes (K, NF): every node's moments (see the module)."""
+    K = links.shape[0]
+    nodes = np.empty((K, NF))
+    if threaded:
+        for i in numba.prange(K):
+            if links[i, IS_LEAF]:
+                _leaf_moments(nodes, i, links[i, LO], links[i, HI], sx)
+    else:
+        for i in range(K):
+            if links[i, IS_LEAF]:
+                _leaf_moments(nodes, i, links[i, LO], links[i, HI], sx)
+    q = np.empty(6)
+    blo = np.empty(3)
+    bhi = np.empty(3)
+    for i in range(K - 1, -1, -1):
+        if links[i, IS_LEAF]:
+            continue
+        m = 0.0
+        mx = 0.0
+        my = 0.0
+        mz = 0.0
+        c = i + 1
+        while c < links[i, NEXT]:
+            w = nodes[c, M]
+            m += w
+            mx += w * nodes[c, CX]
+            my += w * nodes[c, CY]
+            mz += w * nodes[c, CZ]
+            c = links[c, NEXT]
+        cx = mx / m if m > 0.0 else nodes[i + 1, CX]
+        cy = my / m if m > 0.0 else nodes[i + 1, CY]
+        cz = mz / m if m > 0.0 else nodes[i + 1, CZ]
+        for a in range(6):
+            q[a] = 0.0
+        for a in range(3):
+            blo[a] = np.inf
+            bhi[a] = -np.inf
+        c = i + 1
+        while c < links[i, NEXT]:
+            # the parallel-axis theorem: a child's second moment moved to the parent's centre
+            w = nodes[c, M]
+            dx = nodes[c, CX] - cx
+            dy = nodes[c, CY] - cy
+            dz = nodes[c, CZ] - cz
+            q[0] += nodes[c, QXX] + w * dx * dx
+            q[1] += nodes[c, QXY] + w * dx * dy
+            q[2] += nodes[c, QXZ] + w * dx * dz
+            q[3] += nodes[c, QYY] + w * dy * dy
+            q[4] += nodes[c, QYZ] + w * dy * dz
+            q[5] += nodes[c, QZZ] + w * dz * dz
+            for a in range(3):
+                blo[a] = min(blo[a], nodes[c, LOX + a])
+                bhi[a] = max(bhi[a], nodes[c, HIX + a])
+            c = links[c, NEXT]
+        _store(nodes, i, m, cx, cy, cz, q, blo, bhi)
+    # the opening radius and 3/2 tr(Q), for the walk
+    for i in range(K):
+        side = 0.0
+        for a in range(3):
+            side = max(side, nodes[i, HIX + a] - nodes[i, LOX + a])
+        r = side / theta
+        nodes[i, ROPEN2] = r * r
+        nodes[i, TR15] = 1.5 * (nodes[i, QXX] + nodes[i, QYY] + nodes[i, QZZ])
+    return nodes
+
+
+@kernel(parallel=True)
+def build(s, theta):
+    """The tree of the sources s (4, ns): x, y, z, m, for the opening angle theta:
+    (sx (4, ns): the sources in tree order, order (ns,): their columns in s, links (K, 4),
+    nodes (K, NF), box: (lo (3,), side, axes (3,) bool, bits))."""
+    ns = s.shape[1]
+    threaded = ns >= MIN_PARALLEL
+    lo, side, axes, bits = _box(s)
+    naxes = 0
+    for c in range(3):
+        naxes += 1 if axes[c] else 0
+    rows = np.empty(ns, np.int64)
+    for i in range(ns):
+        rows[i] = i
+    keys = _keys(s[0], s[1], s[2], rows, lo, side, axes, bits, threaded)
+    order = radix_order(keys)
+    sorted_keys = np.empty(ns, np.int64)
+    sx = np.empty((4, ns))
+    for i in range(ns):
+        j = order[i]
+        sorted_keys[i] = keys[j]
+        for c in range(4):
+            sx[c, i] = s[c, j]
+    links = _topology(sorted_keys, naxes, bits)
+    nodes = _moments(links, sx, theta, threaded)
+    return sx, order, links, nodes, (lo, side, axes, bits)
+
+
+# ----------------------------------------------------------------------------- the walk
+
+@kernel(inline=True)
+def _gap2(nodes, i, glo, ghi):
+    """Squared distance from the group's box (glo, ghi (3,)) to node i's centre of mass."""
+    d2 = 0.0
+    for c in range(3):
+        v = nodes[i, CX + c]
+        g = glo[c] - v if v < glo[c] else (v - ghi[c] if v > ghi[c] else 0.0)
+        d2 += g * g
+    return d2
+
+
+@kernel(inline=True)
+def _overlap(nodes, i, glo, ghi):
+    """Whether the group's box and node i's bounding box overlap."""
+    for c in range(3):
+        if glo[c] > nodes[i, HIX + c] or ghi[c] < nodes[i, LOX + c]:
+            return False
+    return True
+
+
+@kernel(lean=True)
+def _lists(links, nodes, sx, glo, ghi, cells, parts, quadrupole):
+    """The group's interaction lists into cells (CELL_ROWS, cap), the accepted nodes (com, M,
+    Q (6), 3/2 tr Q), and parts (4, cap), the opened leaves' sources: (nc, np), or (-1, -1)
+    when either is too small. Lean: an array reassigned in the walk's loop cost reference
+    counts on every node visited (measured 6x the walk)."""
+    nc = 0
+    npart = 0
+    i = 0
+    K = links.shape[0]
+    while i < K:
+        if nodes[i, M] == 0.0:                # an empty tree: every source was heavy
+            i = links[i, NEXT]
+        elif _gap2(nodes, i, glo, ghi) > nodes[i, ROPEN2] and not _overlap(nodes, i, glo, ghi):
+            if nc == cells.shape[1]:
+                return -1, -1
+            for r in range(3):
+                cells[r, nc] = nodes[i, CX + r]
+            cells[3, nc] = nodes[i, M]
+            if quadrupole:
+                for r in range(6):
+                    cells[4 + r, nc] = nodes[i, QXX + r]
+                cells[10, nc] = nodes[i, TR15]
+            else:
+                for r in range(7):
+                    cells[4 + r, nc] = 0.0
+            nc += 1
+            i = links[i, NEXT]
+        elif links[i, IS_LEAF]:
+            lo = links[i, LO]
+            hi = links[i, HI]
+            if npart + hi - lo > parts.shape[1]:
+                return -1, -1
+            for j in range(lo, hi):
+                for r in range(4):
+                    parts[r, npart] = sx[r, j]
+                npart += 1
+            i = links[i, NEXT]
+        else:
+            i += 1
+    return nc, npart
+
+
+@kernel(fast=True)
+def _cells_pull(x, y, z, cells, nc, eps2):
+    """Acceleration / G at (x, y, z) from the accepted nodes: three floats."""
+    ax = 0.0
+    ay = 0.0
+    az = 0.0
+    for j in range(nc):
+        rx = x - cells[0, j]
+        ry = y - cells[1, j]
+        rz = z - cells[2, j]
+        s2 = rx * rx + ry * ry + rz * rz + eps2
+        inv = 1.0 / np.sqrt(s2) if s2 > 0.0 else 0.0
+        inv2 = inv * inv
+        inv3 = inv * inv2
+        inv5 = inv3 * inv2
+        qx = cells[4, j] * rx + cells[5, j] * ry + cells[6, j] * rz
+        qy = cells[5, j] * rx + cells[7, j] * ry + cells[8, j] * rz
+        qz = cells[6, j] * rx + cells[8, j] * ry + cells[9, j] * rz
+        rqr = rx * qx + ry * qy + rz * qz
+        radial = -cells[3, j] * inv3 + cells[10, j] * inv5 - 7.5 * rqr * inv5 * inv2
+        ax += radial * rx + 3.0 * inv5 * qx
+        ay += radial * ry + 3.0 * inv5 * qy
+        az += radial * rz + 3.0 * inv5 * qz
+    return ax, ay, az
+
+
+@kernel(fast=True)
+def _parts_pull(x, y, z, parts, npart, eps2):
+    """Acceleration / G at (x, y, z) from the listed sources (the direct kernel's sum)."""
+    ax = 0.0
+    ay = 0.0
+    az = 0.0
+    for j in range(npart):
+        dx = parts[0, j] - x
+        dy = parts[1, j] - y
+        dz = parts[2, j] - z
+        r2 = dx * dx + dy * dy + dz * dz + eps2
+        d3 = r2 * np.sqrt(r2)
+        w = parts[3, j] / d3 if d3 > 0.0 else 0.0
+        ax += w * dx
+        ay += w * dy
+        az += w * dz
+    return ax, ay, az
+
+
+@kernel(fast=True)
+def _cells_phi(x, y, z, cells, nc, eps2):
+    """Potential / G at (x, y, z) from the accepted nodes."""
+    phi = 0.0
+    for j in range(nc):
+        rx = x - cells[0, j]
+        ry = y - cells[1, j]
+        rz = z - cells[2, j]
+        s2 = rx * rx + ry * ry + rz * rz + eps2
+        inv = 1.0 / np.sqrt(s2) if s2 > 0.0 else 0.0
+        inv2 = inv * inv
+        inv3 = inv * inv2
+        qx = cells[4, j] * rx + cells[5, j] * ry + cells[6, j] * rz
+        qy = cells[5, j] * rx + cells[7, j] * ry + cells[8, j] * rz
+        qz = cells[6, j] * rx + cells[8, j] * ry + cells[9, j] * rz
+        rqr = rx * qx + ry * qy + rz * qz
+        # tr(Q) = TR15 / 1.5
+        phi += -cells[3, j] * inv - 1.5 * rqr * inv3 * inv2 + cells[10, j] / 3.0 * inv3
+    return phi
+
+
+@kernel(fast=True)
+def parts_phi(x, y, z, parts, npart, eps2):
+    """Potential / G at (x, y, z) from the listed sources; a source at the point itself
+    (distance 0, its own term) excluded."""
+    phi = 0.0
+    for j in range(npart):
+        dx = parts[0, j] - x
+        dy = parts[1, j] - y
+        dz = parts[2, j] - z
+        d2 = dx * dx + dy * dy + dz * dz
+        r2 = d2 + eps2
+        phi += -parts[3, j] / np.sqrt(r2) if d2 > 0.0 and r2 > 0.0 else 0.0
+    return phi
+
+
+@kernel
+def _target_groups(tree, pos, targets, same):
+    """(torder (k,): target rows in Morton order, starts (g + 1,): where each group starts in
+    it, boxes (g, 6): each group's lo, hi). same: the targets are the tree's sources in their
+    given order (targets[order[i]]): the groups are the largest nodes of at most GROUP
+    sources; otherwise runs of at most GROUP targets in Morton order."""
+    sx, order, links, nodes, box = tree
+    lo, side, axes, bits = box
+    k = targets.size
+    torder = np.empty(k, np.int64)
+    if same:
+        for i in range(k):
+            torder[i] = targets[order[i]]
+        K = links.shape[0]
+        starts = np.empty(K + 1, np.int64)
+        ng = 0
+        i = 0
+        while i < K:
+            if links[i, HI] - links[i, LO] <= GROUP or links[i, IS_LEAF]:
+                starts[ng] = links[i, LO]
+                ng += 1
+                i = links[i, NEXT]
+            else:
+                i += 1
+        starts[ng] = k
+    else:
+        keys = _keys(pos[:, 0], pos[:, 1], pos[:, 2], targets, lo, side, axes, bits, False)
+        o = radix_order(keys)
+        for i in range(k):
+            torder[i] = targets[o[i]]
+        ng = (k + GROUP - 1) // GROUP
+        starts = np.empty(ng + 1, np.int64)
+        for g in range(ng):
+            starts[g] = g * GROUP
+        starts[ng] = k
+    boxes = np.empty((ng, 6))
+    for g in range(ng):
+        for c in range(3):
+            boxes[g, c] = np.inf
+            boxes[g, 3 + c] = -np.inf
+        for i in range(starts[g], starts[g + 1]):
+            r = torder[i]
+            for c in range(3):
+                boxes[g, c] = min(boxes[g, c], pos[r, c])
+                boxes[g, 3 + c] = max(boxes[g, 3 + c], pos[r, c])
+    return torder, starts[:ng + 1], boxes
+
+
+@kernel
+def _lane(lane, nlanes, sx, links, nodes, heavy, torder, starts, boxes, pos, G, eps2, quadrupole,
+          out, phi):
+    """The groups lane, lane + nlanes, ...: accelerations into out (n, 3), or, when phi is
+    not empty, potentials into phi (n,); the heavy sources (4, nh) summed directly."""
+    nh = heavy.shape[1]
+    cells = np.empty((CELL_ROWS, 256))
+    parts = np.empty((4, 256))
+    for g in range(lane, boxes.shape[0], nlanes):
+        glo = boxes[g, :3]
+        ghi = boxes[g, 3:]
+        nc, npart = _lists(links, nodes, sx, glo, ghi, cells, parts, quadrupole)
+        while nc < 0:
+            cells = np.empty((CELL_ROWS, 2 * cells.shape[1]))
+            parts = np.empty((4, 2 * parts.shape[1]))
+            nc, npart = _lists(links, nodes, sx, glo, ghi, cells, parts, quadrupole)
+        for i in range(starts[g], starts[g + 1]):
+            r = torder[i]
+            x = pos[r, 0]
+            y = pos[r, 1]
+            z = pos[r, 2]
+            if phi.size:
+                phi[r] = G * (_cells_phi(x, y, z, cells, nc, eps2)
+                              + parts_phi(x, y, z, parts, npart, eps2)
+                              + parts_phi(x, y, z, heavy, nh, eps2))
+            else:
+                ax, ay, az = _cells_pull(x, y, z, cells, nc, eps2)
+                bx, by, bz = _parts_pull(x, y, z, parts, npart, eps2)
+                hx, hy, hz = _parts_pull(x, y, z, heavy, nh, eps2)
+                out[r, 0] = G * (ax + bx + hx)
+                out[r, 1] = G * (ay + by + hy)
+                out[r, 2] = G * (az + bz + hz)
+
+
+@kernel(parallel=True)
+def walk(tree, heavy, pos, targets, same, G, eps2, quadrupole, out, phi, threaded):
+    """out[k] = G * the pull of the tree and of the heavy sources (4, nh) on pos[k] for k in
+    targets (or phi[k] = G * their potential, phi (n,) not empty); on threads when
+    `threaded` and there are enough targets."""
+    torder, starts, boxes = _target_groups(tree, pos, targets, same)
+    sx, _, links, nodes, _ = tree
+    ng = boxes.shape[0]
+    if threaded and targets.size >= MIN_PARALLEL:
+        nl = min(LANES, ng)
+        for lane in numba.prange(nl):
+            _lane(lane, nl, sx, links, nodes, heavy, torder, starts, boxes, pos, G, eps2,
+                  quadrupole, out, phi)
+    else:
+        _lane(0, 1, sx, links, nodes, heavy, torder, starts, boxes, pos, G, eps2, quadrupole,
+              out, phi)
+
+
+@kernel
+def split(s):
+    """(heavy (4, nh), light (4, nl), is_heavy (ns,) bool): the sources of more than HEAVY of the total mass (a
+    planet among its ring, a galaxy's core: at most 1 / HEAVY of them), summed directly so
+    that their pull is exact, and the others, which the tree holds."""
+    total = 0.0
+    for j in range(s.shape[1]):
+        total += s[3, j]
+    nh = 0
+    for j in range(s.shape[1]):
+        nh += 1 if s[3, j] > HEAVY * total else 0
+    heavy = np.empty((4, nh))
+    light = np.empty((4, s.shape[1] - nh))
+    is_heavy = np.empty(s.shape[1], np.bool_)
+    a = 0
+    b = 0
+    for j in range(s.shape[1]):
+        is_heavy[j] = s[3, j] > HEAVY * total
+        if is_heavy[j]:
+            for c in range(4):
+                heavy[c, a] = s[c, j]
+            a += 1
+        else:
+            for c in range(4):
+                light[c, b] = s[c, j]
+            b += 1
+    return heavy, light, is_heavy
+
+
+@kernel(parallel=True)
+def accelerations(s, src, targets, pos, G, eps2, theta, quadrupole, out, threaded):
+    """out[k] = G * the pull of the sources s (4, ns) (the rows src of pos, or a tape's) on
+    pos[k] for k in targets: the heavy ones directly, the others through a tree built for
+    it."""
+    heavy, light, _ = split(s)
+    tree = build(light, theta)
+    # the targets are the tree's sources in order: its nodes make the groups
+    same = targets.size == src.size and heavy.shape[1] == 0
+    if same:
+        for i in range(src.size):
+            if targets[i] != src[i]:
+                same = False
+                break
+    walk(tree, heavy, pos, targets, same, G, eps2, quadrupole, out, np.empty(0), threaded)
