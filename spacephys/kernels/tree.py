@@ -42,14 +42,15 @@ import numpy as np
 
 from .._jit import kernel
 
-LEAF = 8            # sources in a leaf, at most (unless they share one Morton cell)
+LEAF = 16            # sources in a leaf, at most (unless they share one Morton cell)
 GROUP = 128          # targets that share one walk
 LANES = 64          # groups are dealt to this many lanes, round robin, for the threads
 MIN_PARALLEL = 2048  # fewest targets whose walk runs on threads
 HEAVY = 0.01        # sources of more than this fraction of the total mass are summed directly
 
 # node float columns (nodes (K, NF))
-CX, CY, CZ, M, QXX, QXY, QXZ, QYY, QYZ, QZZ, TR15, ROPEN2, LOX, LOY, LOZ, HIX, HIY, HIZ = \
+# (what the walk tests comes first: one cache line, then the box's far corner and the moments)
+CX, CY, CZ, ROPEN2, LOX, LOY, LOZ, HIX, HIY, HIZ, M, QXX, QXY, QXZ, QYY, QYZ, QZZ, TR15 = \
     range(18)           # ROPEN2: (l / theta)^2; TR15: 3/2 tr(Q)
 NF = 18
 # node int columns (links (K, 4)): the node after its subtree, its sources' range, leaf or not
@@ -435,30 +436,35 @@ def _overlap(nodes, i, glo, ghi):
 
 @kernel(lean=True)
 def _lists(links, nodes, sx, glo, ghi, cells, parts, quadrupole):
-    """The group's interaction lists into cells (CELL_ROWS, cap), the accepted nodes (com, M,
-    Q (6), 3/2 tr Q), and parts (4, cap), the opened leaves' sources: (nc, np), or (-1, -1)
-    when either is too small. Lean: an array reassigned in the walk's loop cost reference
+    """The group's interaction lists into cells (CELL_ROWS, cap) float32, the accepted nodes
+    (com relative to the group's centre, M, Q (6), 3/2 tr Q), and parts (4, cap) float32, the
+    opened leaves' sources (relative to the group's centre, m): (nc, np), or (-1, -1) when
+    either is too small. Lean: an array reassigned in the walk's loop cost reference
     counts on every node visited (measured 6x the walk)."""
     nc = 0
     npart = 0
+    if nodes[0, M] == 0.0:                    # an empty tree: every source was heavy
+        return 0, 0
+    gx = 0.5 * (glo[0] + ghi[0])
+    gy = 0.5 * (glo[1] + ghi[1])
+    gz = 0.5 * (glo[2] + ghi[2])
     i = 0
     K = links.shape[0]
     while i < K:
-        if nodes[i, M] == 0.0:                # an empty tree: every source was heavy
-            i = links[i, NEXT]
-        elif _gap2(nodes, i, glo, ghi) > nodes[i, ROPEN2] and not _overlap(nodes, i, glo, ghi):
+        if _gap2(nodes, i, glo, ghi) > nodes[i, ROPEN2] and not _overlap(nodes, i, glo, ghi):
             if nc == cells.shape[1]:
                 return -1, -1
-            for r in range(3):
-                cells[r, nc] = nodes[i, CX + r]
-            cells[3, nc] = nodes[i, M]
+            cells[0, nc] = np.float32(nodes[i, CX] - gx)
+            cells[1, nc] = np.float32(nodes[i, CY] - gy)
+            cells[2, nc] = np.float32(nodes[i, CZ] - gz)
+            cells[3, nc] = np.float32(nodes[i, M])
             if quadrupole:
                 for r in range(6):
-                    cells[4 + r, nc] = nodes[i, QXX + r]
-                cells[10, nc] = nodes[i, TR15]
+                    cells[4 + r, nc] = np.float32(nodes[i, QXX + r])
+                cells[10, nc] = np.float32(nodes[i, TR15])
             else:
                 for r in range(7):
-                    cells[4 + r, nc] = 0.0
+                    cells[4 + r, nc] = np.float32(0.0)
             nc += 1
             i = links[i, NEXT]
         elif links[i, IS_LEAF]:
@@ -467,8 +473,10 @@ def _lists(links, nodes, sx, glo, ghi, cells, parts, quadrupole):
             if npart + hi - lo > parts.shape[1]:
                 return -1, -1
             for j in range(lo, hi):
-                for r in range(4):
-                    parts[r, npart] = sx[r, j]
+                parts[0, npart] = np.float32(sx[0, j] - gx)
+                parts[1, npart] = np.float32(sx[1, j] - gy)
+                parts[2, npart] = np.float32(sx[2, j] - gz)
+                parts[3, npart] = np.float32(sx[3, j])
                 npart += 1
             i = links[i, NEXT]
         else:
@@ -478,16 +486,22 @@ def _lists(links, nodes, sx, glo, ghi, cells, parts, quadrupole):
 
 @kernel(fast=True)
 def _cells_pull(x, y, z, cells, nc, eps2):
-    """Acceleration / G at (x, y, z) from the accepted nodes: three floats."""
-    ax = 0.0
-    ay = 0.0
-    az = 0.0
+    """Acceleration / G at (x, y, z) (float32, relative to the group's centre, as the cells)
+    from the accepted nodes: three float32. In single precision: twice the speed (eight
+    lanes, not four), a rounding of about 1e-6 of the force, below the tree's own error at
+    every opening angle of docs/tree.md; constants are float32 so nothing widens."""
+    ax = np.float32(0.0)
+    ay = np.float32(0.0)
+    az = np.float32(0.0)
+    one = np.float32(1.0)
+    three = np.float32(3.0)
+    half15 = np.float32(7.5)
     for j in range(nc):
         rx = x - cells[0, j]
         ry = y - cells[1, j]
         rz = z - cells[2, j]
         s2 = rx * rx + ry * ry + rz * rz + eps2
-        inv = 1.0 / np.sqrt(s2) if s2 > 0.0 else 0.0
+        inv = one / np.sqrt(s2)          # s2 > 0: an accepted node is never at a target
         inv2 = inv * inv
         inv3 = inv * inv2
         inv5 = inv3 * inv2
@@ -495,10 +509,10 @@ def _cells_pull(x, y, z, cells, nc, eps2):
         qy = cells[5, j] * rx + cells[7, j] * ry + cells[8, j] * rz
         qz = cells[6, j] * rx + cells[8, j] * ry + cells[9, j] * rz
         rqr = rx * qx + ry * qy + rz * qz
-        radial = -cells[3, j] * inv3 + cells[10, j] * inv5 - 7.5 * rqr * inv5 * inv2
-        ax += radial * rx + 3.0 * inv5 * qx
-        ay += radial * ry + 3.0 * inv5 * qy
-        az += radial * rz + 3.0 * inv5 * qz
+        radial = -cells[3, j] * inv3 + cells[10, j] * inv5 - half15 * rqr * inv5 * inv2
+        ax += radial * rx + three * inv5 * qx
+        ay += radial * ry + three * inv5 * qy
+        az += radial * rz + three * inv5 * qz
     return ax, ay, az
 
 
@@ -522,23 +536,50 @@ def _parts_pull(x, y, z, parts, npart, eps2):
 
 
 @kernel(fast=True)
+def _parts_pull32(x, y, z, parts, npart, eps2):
+    """_parts_pull in single precision, as _cells_pull: the opened leaves' sources (float32,
+    relative to the group's centre). A source at the target itself (distance 0 in float32:
+    itself, or closer than float32 resolves, where softening has taken the force to 0
+    anyway) pulls nothing, as in the direct kernel."""
+    ax = np.float32(0.0)
+    ay = np.float32(0.0)
+    az = np.float32(0.0)
+    zero = np.float32(0.0)
+    for j in range(npart):
+        dx = parts[0, j] - x
+        dy = parts[1, j] - y
+        dz = parts[2, j] - z
+        r2 = dx * dx + dy * dy + dz * dz + eps2
+        d3 = r2 * np.sqrt(r2)
+        w = parts[3, j] / d3 if d3 > zero else zero
+        ax += w * dx
+        ay += w * dy
+        az += w * dz
+    return ax, ay, az
+
+
+@kernel(fast=True)
 def _cells_phi(x, y, z, cells, nc, eps2):
-    """Potential / G at (x, y, z) from the accepted nodes."""
+    """Potential / G at (x, y, z) (float64, relative to the group's centre) from the
+    accepted nodes (float32 cells), in double precision."""
     phi = 0.0
     for j in range(nc):
-        rx = x - cells[0, j]
-        ry = y - cells[1, j]
-        rz = z - cells[2, j]
+        rx = x - np.float64(cells[0, j])
+        ry = y - np.float64(cells[1, j])
+        rz = z - np.float64(cells[2, j])
         s2 = rx * rx + ry * ry + rz * rz + eps2
         inv = 1.0 / np.sqrt(s2) if s2 > 0.0 else 0.0
         inv2 = inv * inv
         inv3 = inv * inv2
-        qx = cells[4, j] * rx + cells[5, j] * ry + cells[6, j] * rz
-        qy = cells[5, j] * rx + cells[7, j] * ry + cells[8, j] * rz
-        qz = cells[6, j] * rx + cells[8, j] * ry + cells[9, j] * rz
+        q0, q1, q2 = np.float64(cells[4, j]), np.float64(cells[5, j]), np.float64(cells[6, j])
+        q3, q4, q5 = np.float64(cells[7, j]), np.float64(cells[8, j]), np.float64(cells[9, j])
+        qx = q0 * rx + q1 * ry + q2 * rz
+        qy = q1 * rx + q3 * ry + q4 * rz
+        qz = q2 * rx + q4 * ry + q5 * rz
         rqr = rx * qx + ry * qy + rz * qz
         # tr(Q) = TR15 / 1.5
-        phi += -cells[3, j] * inv - 1.5 * rqr * inv3 * inv2 + cells[10, j] / 3.0 * inv3
+        phi += (-np.float64(cells[3, j]) * inv - 1.5 * rqr * inv3 * inv2
+                + np.float64(cells[10, j]) / 3.0 * inv3)
     return phi
 
 
@@ -611,32 +652,42 @@ def _lane(lane, nlanes, sx, links, nodes, heavy, torder, starts, boxes, pos, G, 
     """The groups lane, lane + nlanes, ...: accelerations into out (n, 3), or, when phi is
     not empty, potentials into phi (n,); the heavy sources (4, nh) summed directly."""
     nh = heavy.shape[1]
-    cells = np.empty((CELL_ROWS, 256))
-    parts = np.empty((4, 256))
+    cells = np.empty((CELL_ROWS, 256), np.float32)
+    parts = np.empty((4, 256), np.float32)
+    eps2_32 = np.float32(eps2)
     for g in range(lane, boxes.shape[0], nlanes):
         glo = boxes[g, :3]
         ghi = boxes[g, 3:]
         nc, npart = _lists(links, nodes, sx, glo, ghi, cells, parts, quadrupole)
         while nc < 0:
-            cells = np.empty((CELL_ROWS, 2 * cells.shape[1]))
-            parts = np.empty((4, 2 * parts.shape[1]))
+            cells = np.empty((CELL_ROWS, 2 * cells.shape[1]), np.float32)
+            parts = np.empty((4, 2 * parts.shape[1]), np.float32)
             nc, npart = _lists(links, nodes, sx, glo, ghi, cells, parts, quadrupole)
+        gx = 0.5 * (glo[0] + ghi[0])
+        gy = 0.5 * (glo[1] + ghi[1])
+        gz = 0.5 * (glo[2] + ghi[2])
         for i in range(starts[g], starts[g + 1]):
             r = torder[i]
             x = pos[r, 0]
             y = pos[r, 1]
             z = pos[r, 2]
             if phi.size:
-                phi[r] = G * (_cells_phi(x, y, z, cells, nc, eps2)
-                              + parts_phi(x, y, z, parts, npart, eps2)
+                # rounded as the lists are, so that a source's own term is at distance 0
+                tx = np.float64(np.float32(x - gx))
+                ty = np.float64(np.float32(y - gy))
+                tz = np.float64(np.float32(z - gz))
+                phi[r] = G * (_cells_phi(tx, ty, tz, cells, nc, eps2)
+                              + parts_phi(tx, ty, tz, parts, npart, eps2)
                               + parts_phi(x, y, z, heavy, nh, eps2))
             else:
-                ax, ay, az = _cells_pull(x, y, z, cells, nc, eps2)
-                bx, by, bz = _parts_pull(x, y, z, parts, npart, eps2)
+                ax, ay, az = _cells_pull(np.float32(x - gx), np.float32(y - gy),
+                                         np.float32(z - gz), cells, nc, eps2_32)
+                bx, by, bz = _parts_pull32(np.float32(x - gx), np.float32(y - gy),
+                                           np.float32(z - gz), parts, npart, eps2_32)
                 hx, hy, hz = _parts_pull(x, y, z, heavy, nh, eps2)
-                out[r, 0] = G * (ax + bx + hx)
-                out[r, 1] = G * (ay + by + hy)
-                out[r, 2] = G * (az + bz + hz)
+                out[r, 0] = G * (np.float64(ax) + np.float64(bx) + hx)
+                out[r, 1] = G * (np.float64(ay) + np.float64(by) + hy)
+                out[r, 2] = G * (np.float64(az) + np.float64(bz) + hz)
 
 
 @kernel(parallel=True)

@@ -471,7 +471,8 @@ def memory_used(n, steps=5):
 
 def memory(quick=False):
     """State is O(N): bytes per body (state columns, id slots, the kernels' scratch) and the
-    peak memory of a star with 10^6 test particles taking leapfrog steps."""
+    peak memory of a star with 10^6 test particles taking leapfrog steps; and the peak
+    memory per body of a Plummer sphere of as many stars under the tree."""
     import resource
     n = 100_000 if quick else 1_000_000
     w = _ring_world(1000)
@@ -482,16 +483,21 @@ def memory(quick=False):
     peak, held = memory_used(n)
     seconds = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    from .treebench import memory as tree_memory
+    tree_peak, tree_held = tree_memory(n)
     return {**header("memory", quick), "bodies": n,
             "bytes_per_body": per_body,
             "held_bytes": held, "peak_bytes": peak, "maxrss_growth_bytes": after - before,
-            "seconds": seconds}
+            "seconds": seconds, "tree_peak_bytes_per_body": tree_peak,
+            "tree_held_bytes_per_body": tree_held}
 
 
 def _orbit_world(model, n, dt, softening):
     """A star of mass 1 (G = 1) and n bodies on circular orbits at radii 1..3 in 2D, as one of
-    the gravity models: "direct" (every body of mass 1e-9 pulls), "test" (the bodies have mass
-    0: only the star pulls) or "central" (no star body: a fixed field of mass 1 at 0)."""
+    the gravity models: "direct" (every body of mass 1e-9 pulls), "tree" (the same bodies,
+    their pull summed by the tree, theta 0.5; the star, over 1% of the mass, directly), "test"
+    (the bodies have mass 0: only the star pulls) or "central" (no star body: a fixed field
+    of mass 1 at 0)."""
     from ..world import World
     rng = np.random.default_rng(0)
     r, th = rng.uniform(1.0, 3.0, n), rng.uniform(0.0, 2 * np.pi, n)
@@ -501,9 +507,9 @@ def _orbit_world(model, n, dt, softening):
     if model == "central":
         w = World(gravity="central", central_mass=1.0, **kw)
     else:
-        w = World(**kw)
+        w = World(gravity="tree" if model == "tree" else "direct", **kw)
         w.add_body(1.0, (0.0, 0.0), kind="star")
-    w.add_bodies(1e-9 if model == "direct" else 0.0, pos, vel, active=True)
+    w.add_bodies(1e-9 if model in ("direct", "tree") else 0.0, pos, vel, active=True)
     return w
 
 
@@ -536,14 +542,15 @@ def models(quick=False):
     projectiles near a planet's surface in a uniform field. Time per step (best of repeats;
     full N-body and test particles side by side with REBOUND's leapfrog, N_active = 1 for the
     test particles) and the bodies' position errors after one inner orbit, T = 2 pi, against
-    the full N-body run (the uniform field: after 4 s, against the planet as a point mass)."""
+    the full N-body run (the uniform field: after 4 s, against the planet as a point mass).
+    The tree (theta 0.5) runs the full N-body scene with its pull approximated."""
     rebound = peer.load()
     sizes = (200, 4000) if quick else (1000, 10_000)
     repeats, budget = (3, 0.05) if quick else (5, 0.3)
     dt, eps, steps = 2 * np.pi / 500, 0.01, 500
     cases = []
     for n in sizes:
-        runs = {m: _orbit_world(m, n, dt, eps) for m in ("direct", "test", "central")}
+        runs = {m: _orbit_world(m, n, dt, eps) for m in ("direct", "tree", "test", "central")}
         for w in runs.values():
             w.step(steps)
         full = runs["direct"].pos[-n:]
@@ -555,6 +562,8 @@ def models(quick=False):
         k = _steps_for(central.step, budget)
         surface.step(1)
         t_central, t_surface = _alternating(central.step, surface.step, k, repeats)
+        tree = _orbit_world("tree", n, dt, eps)
+        t_tree = _per_step(tree.step, _steps_for(tree.step, budget), repeats)
         flat, ref = _surface_world(n), _surface_world(n, reference=True)
         d = ref.pos - (0.0, -_R)
         exact = -9.81 * _R ** 2 * d / np.linalg.norm(d, axis=1)[:, None] ** 3
@@ -562,6 +571,8 @@ def models(quick=False):
         ref.step(960)
         rows = [{**direct, "model": "direct", **_errors(full, full),
                  "star_displacement": float(np.linalg.norm(runs["direct"].pos[0]))},
+                {"case": f"tree, N={n}", "model": "tree", "bodies": n + 1,
+                 "spacephys_s_per_step": t_tree, **_errors(runs["tree"].pos[-n:], full)},
                 {**test, "model": "test", **_errors(runs["test"].pos[-n:], full)},
                 {"case": f"central field, N={n}", "model": "central", "bodies": n,
                  "spacephys_s_per_step": t_central, **_errors(runs["central"].pos, full),
@@ -607,7 +618,12 @@ def format_table(results):
             f"{results['held_bytes'] / 1e6:.0f} MB ({results['held_bytes'] / n:.0f} B per "
             f"body), peak {results['peak_bytes'] / 1e6:.0f} MB "
             f"({results['peak_bytes'] / n:.0f} B per body); the process's peak resident size "
-            f"grew by {results['maxrss_growth_bytes'] / 1e6:.0f} MB"])
+            f"grew by {results['maxrss_growth_bytes'] / 1e6:.0f} MB",
+            f"a Plummer sphere of {n:,} stars under the tree (theta 0.5), built and stepped "
+            f"twice (leapfrog), in a process of its own: peak resident memory "
+            f"{results['tree_peak_bytes_per_body']:.0f} B per body (held: " +
+            ", ".join(f"{k} {v} B" for k, v in results["tree_held_bytes_per_body"].items())
+            + ")"])
     if results["benchmark"] == "models":
         o, f = results["orbits"], results["surface"]
         lines = lines[:1] + [

@@ -25,6 +25,7 @@ import time
 
 import numpy as np
 
+from ..forces import MUTUAL
 from ..integrators import INTEGRATORS
 from ..steppers import capabilities
 from ..errors import InstabilityError
@@ -42,6 +43,11 @@ SAMPLES = 20                          # energy samples over the horizon
 MAX_STEPS = 2_000_000                 # the most steps one trial run may take
 SAFETY = 0.5                          # aim the step at half the target error
 DOMINANCE = 0.1                       # a body dominates if the next heaviest has < 1/10
+# the tree (docs/tree.md, measured by `spacephys bench tree`): one force evaluation is cheaper
+# than direct summation from about this many pulling bodies (theta 0.5; measured 2 400), and
+# its RMS relative force error on a Plummer sphere at each opening angle, quadrupole on
+TREE_CROSSOVER = 2500
+TREE_RMS = {0.3: 5.2e-5, 0.5: 3.3e-4, 0.7: 1.1e-3, 1.0: 3.9e-3}
 
 
 @dataclasses.dataclass
@@ -145,7 +151,7 @@ def _orbits(w):
     if w.gravity == "central":
         centre, cvel, M, dominant = w.central_pos, np.zeros(w.dim), w.central_mass, None
         others = np.ones(n, bool)
-    elif w.gravity == "direct" and pulls.any() and \
+    elif w.gravity in MUTUAL and pulls.any() and \
             np.sort(np.where(pulls, mass, 0.0))[-2:][0] < DOMINANCE * mass[pulls].max():
         dominant = int(np.argmax(np.where(pulls, mass, -1.0)))
         centre, cvel, M = pos[dominant], vel[dominant], mass[dominant]
@@ -189,7 +195,7 @@ def _closest_pair(w, rows):
 
 def _scene(w, error, duration):
     dominant, mu, e, q, period, t_peri = _orbits(w)
-    pulling = np.flatnonzero(w.pulls) if w.gravity == "direct" else np.zeros(0, np.int64)
+    pulling = np.flatnonzero(w.pulls) if w.gravity in MUTUAL else np.zeros(0, np.int64)
     mass_ratio = 0.0
     if dominant is not None:
         mass_ratio = float(w.mass[pulling].sum() / w.mass[dominant] - 1.0)
@@ -220,9 +226,39 @@ def _scene(w, error, duration):
                  horizon=float(horizon), conserves_energy=True, chaotic=False, advice=advice)
 
 
+def _tree_advice(w, error):
+    """What the tree would do for a scene of many pulling bodies, or what it does to this
+    one (docs/tree.md has its cost and accuracy)."""
+    pulling = int(w.pulls.sum())
+    fits = [t for t, rms in sorted(TREE_RMS.items()) if rms <= error]
+    if w.gravity == "tree":
+        out = []
+        if pulling < TREE_CROSSOVER:
+            out.append(f"only {pulling} bodies pull: below about {TREE_CROSSOVER} direct "
+                       f"summation (gravity='direct') is faster than the tree, and exact")
+        if TREE_RMS.get(w.theta, math.inf) > error or not fits:
+            out.append(f"the tree's own force error (RMS {TREE_RMS.get(w.theta, math.nan):.1g} "
+                       f"at theta {w.theta:g} on a Plummer sphere, docs/tree.md) is not part "
+                       f"of the errors measured here (the reference runs the same tree): "
+                       + (f"theta {max(fits):g} keeps it within {error:g}" if fits else
+                          f"no opening angle keeps it within {error:g}: gravity='direct'"))
+        return out
+    if pulling < TREE_CROSSOVER:
+        return []
+    if not fits:
+        return [f"{pulling} bodies pull: the tree (gravity='tree') would cost O(N log N) "
+                f"instead of O(N^2), but its force error (RMS {min(TREE_RMS.values()):.1g} at "
+                f"theta 0.3) is above {error:g}: direct summation is needed"]
+    theta = max(fits)
+    return [f"{pulling} bodies pull: gravity='tree' with theta={theta:g} costs O(N log N) "
+            f"instead of O(N^2) per force evaluation (faster from about {TREE_CROSSOVER} "
+            f"pulling bodies) with relative force errors of RMS {TREE_RMS[theta]:.1g} "
+            f"(docs/tree.md), within {error:g}"]
+
+
 def _advice(w, error, dominant, mass_ratio):
     """The simpler gravity models that would meet `error` (docs/models.md has their cost)."""
-    out = []
+    out = _tree_advice(w, error) if w.gravity in MUTUAL else []
     if w.gravity != "direct" or dominant is None:
         return out
     mass, pulls = w.mass, w.pulls
@@ -282,13 +318,17 @@ class _Trials:
         self.reasons = []
         self.warm = set()
         self.position_target = error        # relaxed when the scene is chaotic
+        self.adaptive_applies = world.gravity in capabilities(ADAPTIVE).models
+        if not self.adaptive_applies:
+            self.reasons.append(f"Gauss-Radau not tried: it cannot run gravity="
+                                f"{world.gravity!r} (a tree's forces jump where a node opens)")
         # Gauss-Radau's substeps at most tau/20: the reference's always, the trials' (and the
         # returned setting's) where a collision could otherwise be stepped over
         self.short_step = min(world.max_step or math.inf, self.scene.timescale / 20)
         self.max_step = self.short_step if self.collisions else None
         # each body's length scale: its distance to the nearest pulling body (else the
         # scene's size), for the relative position error
-        pulls = np.flatnonzero(world.pulls)[:2000] if world.gravity == "direct" else \
+        pulls = np.flatnonzero(world.pulls)[:2000] if world.gravity in MUTUAL else \
             np.zeros(0, np.int64)
         size = float(np.linalg.norm(world.pos - world.pos.mean(axis=0), axis=1).max()) or 1.0
         self.size = size
@@ -420,12 +460,14 @@ class _Trials:
         w = self.w
         s = self.scene
         ref = w.copy()
-        self.fine = self.steering
+        self.fine = self.steering or not self.adaptive_applies
         if self.fine:
             ref.integrator = "yoshida8"
             ref.dt = s.horizon / (SAMPLES * math.ceil(s.horizon / (s.timescale / 50) / SAMPLES))
             chunks = [round(s.horizon / ref.dt)]
-            self.ref_name = "Yoshida 8 at tau/50 (steering ships)"
+            self.ref_name = ("Yoshida 8 at tau/50 (steering ships)" if self.steering else
+                             f"Yoshida 8 at tau/50 (Gauss-Radau cannot run gravity="
+                             f"{w.gravity!r})")
         else:
             # its output interval need not be the World's (nothing steers): only where it
             # ends matters, and its substeps are kept short enough for every contact
@@ -454,6 +496,9 @@ class _Trials:
         if w.gravity == "uniform":
             self.reasons.append("a uniform field's energy has no natural zero: judged by "
                                 "position error only")
+        elif not s.conserves_energy and w.gravity == "tree":
+            self.reasons.append("the tree keeps energy only to its force error (docs/tree.md): "
+                                "judged by position error only")
         elif not s.conserves_energy:
             self.reasons.append("the scene does not conserve energy (thrust, drag or merging "
                                 "bodies): judged by position error only")
@@ -468,7 +513,7 @@ class _Trials:
             if self.ok(row) and (best is None or row["cost"] < best["cost"]):
                 best = row
 
-        for tol in TOLERANCES[::-1]:             # 1e-9 first: it shows chaos
+        for tol in TOLERANCES[::-1] if self.adaptive_applies else ():   # 1e-9 first: chaos
             row = self.measure(ADAPTIVE, tolerance=tol)
             floor = row["position_error"]
             if tol == TOLERANCES[-1] and not self.fine and \

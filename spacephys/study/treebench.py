@@ -229,3 +229,39 @@ def format_tree(results):
     cross = results["crossover_bodies"]
     lines.append(f"crossover: {'none in the range' if cross is None else f'{cross:,.0f} bodies'}")
     return "\n".join(lines)
+
+
+def _memory_child(n):
+    """In a process of its own: the peak resident memory a Plummer sphere of n stars under
+    the tree adds while it is built and takes two leapfrog steps, per body (the peak counter
+    reset after the kernels are loaded and the model drawn). Prints JSON."""
+    import json
+    from pathlib import Path
+    from ..scenes import plummer_sphere
+    plummer_sphere(5000, theta=0.5).step(2)              # the kernels, loaded or compiled
+    pos, vel, mass = plummer_model(n, seed=0)
+    status = Path("/proc/self/status")
+    Path("/proc/self/clear_refs").write_text("5")         # peak RSS := current RSS
+
+    def kb(field):
+        line = next(x for x in status.read_text().splitlines() if x.startswith(field))
+        return int(line.split()[1]) * 1024
+    base = kb("VmRSS:")
+    w = _world(pos, mass, "tree", 0.5)
+    w.step(2)
+    peak = kb("VmHWM:")
+    print(json.dumps({"bodies": n, "peak_growth_bytes": peak - base,
+                      "held": w.bytes_per_body()}))
+
+
+def memory(n):
+    """(peak bytes per body, held bytes per body by part) of a tree World of n bodies
+    stepping, measured in a child process (_memory_child)."""
+    import json
+    import subprocess
+    import sys
+    code = f"from spacephys.study.treebench import _memory_child; _memory_child({int(n)})"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    r = json.loads(out.strip().splitlines()[-1])
+    return r["peak_growth_bytes"] / n, r["held"]
