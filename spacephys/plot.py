@@ -191,7 +191,10 @@ def animate_run(path, out, *, most_frames=150, fps=20):
             fr = data[k]
             dots.set_offsets(fr.pos[:, :2] if fr.ids.size else np.zeros((0, 2)))
             dots.set_color([cmap(int(c) % 10) for c in fr.kind])
-            sizes = 6 + 60 * fr.radius / (fr.radius.max() or 1.0)
+            # a dot of 6 points, smaller for thousands of bodies (a galaxy is a cloud of
+            # its stars, not one blot), larger for the bodies with the larger radii
+            dot = 6 * min(1.0, 1000 / max(fr.ids.size, 1)) ** 0.75
+            sizes = dot + 60 * fr.radius / (fr.radius.max() or 1.0)
             dots.set_sizes(sizes)
             label.set_text(f"t = {fr.t:.4g}, {fr.ids.size} bodies "
                            f"({', '.join(sorted({kinds[int(c)] for c in fr.kind}))})")
