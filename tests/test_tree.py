@@ -281,3 +281,83 @@ def test_a_target_inside_a_nodes_box_opens_it_whatever_theta():
     d.add_body(0.0, (0.95, 0.95, 0.95))
     rms, _ = _errors(w.gravity_accelerations([probe]), d.gravity_accelerations([probe]))
     assert rms < 1e-4          # measured 1.7e-6; without the box test 6.7
+
+
+def test_a_recorded_tree_run_replays_bit_for_bit(tmp_path):
+    """A recorded Plummer sphere under the tree, theta changed mid-run (a journaled
+    setting): the replay ends on the same bits."""
+    w = plummer_sphere(500, seed=13, softening=0.05, dt=0.01, theta=0.7)
+    w.record(tmp_path / "tree.h5", every=5)
+    w.step(20)
+    w.theta = 0.4
+    w.step(20)
+    w.recording.close()
+    result = sp.replay(tmp_path / "tree.h5")
+    assert result.ok, result.message
+    assert result.world.theta == 0.4
+    assert np.array_equal(result.world.pos, w.pos) and np.array_equal(result.world.vel, w.vel)
+
+
+@pytest.mark.parametrize("world, ring, path", [
+    ('gravity = "tree"\ntheta = 2.0', "", "world.theta"),
+    ('gravity = "tree"\ntheta = 0.0', "", "world.theta"),
+    ('theta = 0.5', "", "world.theta"),
+    ('gravity = "direct"\nquadrupole = false', "", "world.quadrupole"),
+    ('gravity = "tree"', "total_mass = 1.0\nmass = [0.1, 0.2]", "rings[0].total_mass"),
+    ('gravity = "tree"', "total_mass = -1.0", "rings[0].total_mass"),
+])
+def test_a_scenario_with_bad_tree_settings_is_refused_naming_the_key(world, ring, path):
+    text = f"""
+[world]
+dim = 2
+dt = 0.01
+duration = 1.0
+{world}
+
+[[bodies]]
+name = "planet"
+mass = 1.0
+pos = [0.0, 0.0]
+
+[[rings]]
+name = "ring"
+count = 10
+parent = "planet"
+a = [1.0, 2.0]
+{ring}
+"""
+    with pytest.raises(sp.ScenarioError) as e:
+        sp.load_scenario(text)
+    assert any(p == path for p, _ in e.value.problems), e.value.problems
+
+
+def test_a_ring_of_pulling_bodies_orbits_the_mass_inside_it():
+    """total_mass shared equally; an active ring's bodies orbit the parent and the ring's
+    mass inside their orbit: circular speed sqrt(G (M + m_inside + m) / a)."""
+    w, ids = sp.load_scenario("""
+[world]
+dim = 2
+dt = 0.01
+duration = 1.0
+gravity = "tree"
+
+[[bodies]]
+name = "planet"
+mass = 1.0
+pos = [0.0, 0.0]
+
+[[rings]]
+name = "ring"
+count = 200
+parent = "planet"
+a = [1.0, 2.0]
+total_mass = 0.5
+kind = "star"
+seed = 3
+""").build()
+    ring = np.arange(1, 201)
+    assert np.allclose(w.mass[ring], 0.5 / 200, rtol=0, atol=0)
+    r = np.linalg.norm(w.pos[ring], axis=1)
+    inside = np.array([(r < x).sum() for x in r]) * 0.5 / 200
+    speed = np.linalg.norm(w.vel[ring], axis=1)
+    np.testing.assert_allclose(speed, np.sqrt((1.0 + inside + 0.5 / 200) / r), rtol=1e-12)

@@ -8,6 +8,7 @@ against its own exact sum (pytreegrav's softening kernel is not Plummer's), over
 bodies drawn at random, reported as its RMS and maximum.
 """
 import time
+from importlib import metadata
 
 import numpy as np
 
@@ -176,7 +177,7 @@ def tree(quick=False):
     crossover_rows, crossover = _crossover((500, 1000, 2000, 4000, 8000), repeats)
     return {**header("tree", quick, rebound),
             "softening": EPS, "pytreegrav_softening": SPLINE_PER_PLUMMER * EPS,
-            "pytreegrav_version": getattr(pytreegrav, "__version__", "1.x"),
+            "pytreegrav_version": metadata.version("pytreegrav"),
             "cases": cases, "equal_error": equal_error(cases),
             "crossover_rows": crossover_rows, "crossover_bodies": crossover}
 
