@@ -25,10 +25,12 @@ import numpy as np
 import spacephys as sp
 
 worlds = []
-for gravity in ("none", "direct"):
+for gravity in ("none", "direct", "tree"):
     for integrator in ("leapfrog", "yoshida6", "rk4", "gauss_radau", "wisdom_holman"):
         if integrator == "wisdom_holman" and gravity == "none":
             continue
+        if integrator in ("gauss_radau", "wisdom_holman") and gravity == "tree":
+            continue                    # they refuse the tree
         for ship in (False, True):
             w = sp.World(2, dt=0.01, gravity=gravity, integrator=integrator)
             w.add_body(1.0, [0.0, 0.0])
@@ -48,7 +50,8 @@ print("child", os.waitstatus_to_exitcode(status))
 
 
 def test_a_small_scene_never_starts_the_thread_pool():
-    """A 3-body scene's steps stay on the calling thread in every family (its force loops are
+    """A 3-body scene's steps stay on the calling thread in every family and under the tree
+    (its force loops are
     far below the threaded size): a process that forked after stepping one can step it again
     in the child (GNU OpenMP terminates a forked child once its parent entered a parallel
     region; a recording server forks so, tests/test_reliability.py). numba turns np.zeros and

@@ -298,16 +298,10 @@ def test_a_recorded_tree_run_replays_bit_for_bit(tmp_path):
     assert np.array_equal(result.world.pos, w.pos) and np.array_equal(result.world.vel, w.vel)
 
 
-@pytest.mark.parametrize("world, ring, path", [
-    ('gravity = "tree"\ntheta = 2.0', "", "world.theta"),
-    ('gravity = "tree"\ntheta = 0.0', "", "world.theta"),
-    ('theta = 0.5', "", "world.theta"),
-    ('gravity = "direct"\nquadrupole = false', "", "world.quadrupole"),
-    ('gravity = "tree"', "total_mass = 1.0\nmass = [0.1, 0.2]", "rings[0].total_mass"),
-    ('gravity = "tree"', "total_mass = -1.0", "rings[0].total_mass"),
-])
-def test_a_scenario_with_bad_tree_settings_is_refused_naming_the_key(world, ring, path):
-    text = f"""
+def _ring_scenario(world, ring, count=10):
+    """A scenario text: a planet and a ring of `count` bodies about it; world, ring: extra
+    keys of [world] and of the ring."""
+    return f"""
 [world]
 dim = 2
 dt = 0.01
@@ -321,43 +315,56 @@ pos = [0.0, 0.0]
 
 [[rings]]
 name = "ring"
-count = 10
+count = {count}
 parent = "planet"
 a = [1.0, 2.0]
 {ring}
 """
+
+
+@pytest.mark.parametrize("world, ring, path", [
+    ('gravity = "tree"\ntheta = 2.0', "", "world.theta"),
+    ('gravity = "tree"\ntheta = 0.0', "", "world.theta"),
+    ('theta = 0.5', "", "world.theta"),
+    ('gravity = "direct"\nquadrupole = false', "", "world.quadrupole"),
+    ('gravity = "tree"', "total_mass = 1.0\nmass = [0.1, 0.2]", "rings[0].total_mass"),
+    ('gravity = "tree"', "total_mass = -1.0", "rings[0].total_mass"),
+])
+def test_a_scenario_with_bad_tree_settings_is_refused_naming_the_key(world, ring, path):
     with pytest.raises(sp.ScenarioError) as e:
-        sp.load_scenario(text)
+        sp.load_scenario(_ring_scenario(world, ring))
     assert any(p == path for p, _ in e.value.problems), e.value.problems
 
 
 def test_a_ring_of_pulling_bodies_orbits_the_mass_inside_it():
     """total_mass shared equally; an active ring's bodies orbit the parent and the ring's
     mass inside their orbit: circular speed sqrt(G (M + m_inside + m) / a)."""
-    w, ids = sp.load_scenario("""
-[world]
-dim = 2
-dt = 0.01
-duration = 1.0
-gravity = "tree"
-
-[[bodies]]
-name = "planet"
-mass = 1.0
-pos = [0.0, 0.0]
-
-[[rings]]
-name = "ring"
-count = 200
-parent = "planet"
-a = [1.0, 2.0]
-total_mass = 0.5
-kind = "star"
-seed = 3
-""").build()
+    text = _ring_scenario('gravity = "tree"', 'total_mass = 0.5\nkind = "star"\nseed = 3', 200)
+    w, ids = sp.load_scenario(text).build()
     ring = np.arange(1, 201)
-    assert np.allclose(w.mass[ring], 0.5 / 200, rtol=0, atol=0)
+    assert np.array_equal(w.mass[ring], np.full(200, 0.5 / 200))
     r = np.linalg.norm(w.pos[ring], axis=1)
     inside = np.array([(r < x).sum() for x in r]) * 0.5 / 200
     speed = np.linalg.norm(w.vel[ring], axis=1)
     np.testing.assert_allclose(speed, np.sqrt((1.0 + inside + 0.5 / 200) / r), rtol=1e-12)
+
+
+def test_a_prediction_under_the_tree_is_the_path_flown():
+    """A ship among a cluster's stars, predicted under the tree with the World's integrator
+    and dt: the World then flies the predicted path bit for bit."""
+    pos, vel, mass = plummer_model(1500, seed=15)
+    w = sp.World(dim=3, G=1.0, softening=0.05, dt=0.01, gravity="tree", theta=0.6)
+    w.add_bodies(mass, pos, vel)
+    ship = w.add_ship(sp.ShipSpec(dry_mass=1e-9), (3.0, 0.0, 0.0), (0.0, 0.4, 0.0))
+    p = w.predict(ship, 0.5, points=51)
+    w.step(50)
+    assert np.array_equal(p.pos[0, -1], w.get(ship).pos)
+
+
+def test_only_test_particles_under_the_tree_feel_nothing():
+    """Nobody pulls (every body of mass 0): an empty tree, zero accelerations."""
+    w = sp.World(dim=2, gravity="tree")
+    w.add_bodies(0.0, np.random.default_rng(16).normal(size=(50, 2)))
+    assert np.array_equal(w.gravity_accelerations(), np.zeros((50, 2)))
+    w.step(3)
+    assert np.isfinite(w.pos).all()

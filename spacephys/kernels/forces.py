@@ -31,7 +31,7 @@ from numba import types, typed
 from numba.experimental import structref
 
 from .._jit import NEVER, PARALLEL_MIN_PAIRS, TableType, kernel
-from . import tape, tree
+from . import pairs, tape, tree
 from .diagnostics import add
 
 # gravity models: a code and a name each, their accelerations (accelerations) and potential
@@ -145,27 +145,6 @@ def make(mass, ids, *, model, G, eps2, field, field_mass, src, passive, still, d
 
 # ----------------------------------------------------------------------------- gravity
 
-@kernel(fast=True)
-def _pull(x, y, z, s, eps2):
-    """Acceleration / G at (x, y, z) from point masses s[3] at (s[0], s[1], s[2]), s a (4, ns)
-    array: three floats."""
-    ax = 0.0
-    ay = 0.0
-    az = 0.0
-    for j in range(s.shape[1]):
-        dx = s[0, j] - x
-        dy = s[1, j] - y
-        dz = s[2, j] - z
-        r2 = dx * dx + dy * dy + dz * dz + eps2
-        d3 = r2 * np.sqrt(r2)
-        # a select, not a branch, so the loop still vectorises; d3 == 0 is the coincident case
-        w = s[3, j] / d3 if d3 > 0.0 else 0.0
-        ax += w * dx
-        ay += w * dy
-        az += w * dz
-    return ax, ay, az
-
-
 @kernel(fast=True, parallel=True, inline=True)
 def _pull_all(targets, pos, s, G, eps2, out, min_pairs):
     """out[k] = G * pull of the sources on pos[k] for every k in targets; on threads from
@@ -177,7 +156,7 @@ def _pull_all(targets, pos, s, G, eps2, out, min_pairs):
     if targets.size * s.shape[1] >= min_pairs:
         for a in numba.prange(targets.size):
             k = targets[a]
-            ax, ay, az = _pull(pos[k, 0], pos[k, 1], pos[k, 2], s, eps2)
+            ax, ay, az = pairs.pull(pos[k, 0], pos[k, 1], pos[k, 2], s, s.shape[1], eps2)
             out[k, 0] = G * ax
             out[k, 1] = G * ay
             out[k, 2] = G * az
@@ -190,7 +169,7 @@ def _pull_rows(targets, pos, s, G, eps2, out):
     """_pull_all on the calling thread."""
     for a in range(targets.size):
         k = targets[a]
-        ax, ay, az = _pull(pos[k, 0], pos[k, 1], pos[k, 2], s, eps2)
+        ax, ay, az = pairs.pull(pos[k, 0], pos[k, 1], pos[k, 2], s, s.shape[1], eps2)
         out[k, 0] = G * ax
         out[k, 1] = G * ay
         out[k, 2] = G * az
@@ -539,11 +518,11 @@ def tree_potential_energy(f, pos, mass, passive):
     nh = heavy.shape[1]
     for a in range(rows.size):
         i = rows[a]
-        near = tree.parts_phi(pos[i, 0], pos[i, 1], pos[i, 2], heavy, nh, f.eps2)
+        near = pairs.potential(pos[i, 0], pos[i, 1], pos[i, 2], heavy, nh, f.eps2)
         total, c = add(total, c, mass[i] * ((0.5 if a < nlight else 1.0) * phi[i] + near))
     for a in range(src.size):
         if is_heavy[a]:
             i = src[a]
-            near = tree.parts_phi(pos[i, 0], pos[i, 1], pos[i, 2], heavy, nh, f.eps2)
+            near = pairs.potential(pos[i, 0], pos[i, 1], pos[i, 2], heavy, nh, f.eps2)
             total, c = add(total, c, 0.5 * mass[i] * near)
     return f.G * (total + c)

@@ -41,6 +41,7 @@ import numba
 import numpy as np
 
 from .._jit import kernel
+from . import pairs
 
 LEAF = 16            # sources in a leaf, at most (unless they share one Morton cell)
 GROUP = 128          # targets that share one walk
@@ -517,48 +518,6 @@ def _cells_pull(x, y, z, cells, nc, eps2):
 
 
 @kernel(fast=True)
-def _parts_pull(x, y, z, parts, npart, eps2):
-    """Acceleration / G at (x, y, z) from the listed sources (the direct kernel's sum)."""
-    ax = 0.0
-    ay = 0.0
-    az = 0.0
-    for j in range(npart):
-        dx = parts[0, j] - x
-        dy = parts[1, j] - y
-        dz = parts[2, j] - z
-        r2 = dx * dx + dy * dy + dz * dz + eps2
-        d3 = r2 * np.sqrt(r2)
-        w = parts[3, j] / d3 if d3 > 0.0 else 0.0
-        ax += w * dx
-        ay += w * dy
-        az += w * dz
-    return ax, ay, az
-
-
-@kernel(fast=True)
-def _parts_pull32(x, y, z, parts, npart, eps2):
-    """_parts_pull in single precision, as _cells_pull: the opened leaves' sources (float32,
-    relative to the group's centre). A source at the target itself (distance 0 in float32:
-    itself, or closer than float32 resolves, where softening has taken the force to 0
-    anyway) pulls nothing, as in the direct kernel."""
-    ax = np.float32(0.0)
-    ay = np.float32(0.0)
-    az = np.float32(0.0)
-    zero = np.float32(0.0)
-    for j in range(npart):
-        dx = parts[0, j] - x
-        dy = parts[1, j] - y
-        dz = parts[2, j] - z
-        r2 = dx * dx + dy * dy + dz * dz + eps2
-        d3 = r2 * np.sqrt(r2)
-        w = parts[3, j] / d3 if d3 > zero else zero
-        ax += w * dx
-        ay += w * dy
-        az += w * dz
-    return ax, ay, az
-
-
-@kernel(fast=True)
 def _cells_phi(x, y, z, cells, nc, eps2):
     """Potential / G at (x, y, z) (float64, relative to the group's centre) from the
     accepted nodes (float32 cells), in double precision."""
@@ -580,21 +539,6 @@ def _cells_phi(x, y, z, cells, nc, eps2):
         # tr(Q) = TR15 / 1.5
         phi += (-np.float64(cells[3, j]) * inv - 1.5 * rqr * inv3 * inv2
                 + np.float64(cells[10, j]) / 3.0 * inv3)
-    return phi
-
-
-@kernel(fast=True)
-def parts_phi(x, y, z, parts, npart, eps2):
-    """Potential / G at (x, y, z) from the listed sources; a source at the point itself
-    (distance 0, its own term) excluded."""
-    phi = 0.0
-    for j in range(npart):
-        dx = parts[0, j] - x
-        dy = parts[1, j] - y
-        dz = parts[2, j] - z
-        d2 = dx * dx + dy * dy + dz * dz
-        r2 = d2 + eps2
-        phi += -parts[3, j] / np.sqrt(r2) if d2 > 0.0 and r2 > 0.0 else 0.0
     return phi
 
 
@@ -677,14 +621,14 @@ def _lane(lane, nlanes, sx, links, nodes, heavy, torder, starts, boxes, pos, G, 
                 ty = np.float64(np.float32(y - gy))
                 tz = np.float64(np.float32(z - gz))
                 phi[r] = G * (_cells_phi(tx, ty, tz, cells, nc, eps2)
-                              + parts_phi(tx, ty, tz, parts, npart, eps2)
-                              + parts_phi(x, y, z, heavy, nh, eps2))
+                              + pairs.potential(tx, ty, tz, parts, npart, eps2)
+                              + pairs.potential(x, y, z, heavy, nh, eps2))
             else:
                 ax, ay, az = _cells_pull(np.float32(x - gx), np.float32(y - gy),
                                          np.float32(z - gz), cells, nc, eps2_32)
-                bx, by, bz = _parts_pull32(np.float32(x - gx), np.float32(y - gy),
-                                           np.float32(z - gz), parts, npart, eps2_32)
-                hx, hy, hz = _parts_pull(x, y, z, heavy, nh, eps2)
+                bx, by, bz = pairs.pull(np.float32(x - gx), np.float32(y - gy),
+                                        np.float32(z - gz), parts, npart, eps2_32)
+                hx, hy, hz = pairs.pull(x, y, z, heavy, nh, eps2)
                 out[r, 0] = G * (np.float64(ax) + np.float64(bx) + hx)
                 out[r, 1] = G * (np.float64(ay) + np.float64(by) + hy)
                 out[r, 2] = G * (np.float64(az) + np.float64(bz) + hz)
