@@ -26,11 +26,13 @@ planet among its ring, a galaxy's core) stay out of the tree and are summed dire
 target: a tree's relative error on the pull of a dominant mass would be as large as a light
 ring's whole self-gravity.
 
-Walk (`walk`, for `accelerations` and forces.tree_potential_energy): targets are sorted by their Morton keys (the sources'
-own order when the targets are the sources) and cut into groups of GROUP; each group walks
-the tree once and keeps two lists, accepted nodes and leaf sources; then every target of the
-group sums both lists. Each target's sums run in a fixed order, so the result does not
-depend on the thread count.
+Walk (`walk`, for `accelerations` and forces.tree_potential_energy): the targets are cut into
+groups of at most GROUP (the tree's own nodes when the targets are its sources, otherwise runs
+in Morton order); each group walks the tree once and keeps two lists, accepted nodes and leaf
+sources, in single precision relative to the group's centre (eight lanes, not four; rounding
+about 1e-6 of the force, below the tree's own error); then every target of the group sums
+both lists, and the heavy sources in double precision. Each target's sums run in a fixed
+order, so the result does not depend on the thread count.
 
 Accelerations with r = x - com, s^2 = |r|^2 + eps2 (the Taylor expansion of the softened
 potential -G m / s about the centre of mass):
@@ -263,8 +265,9 @@ def _topology(keys, naxes, bits):
     return links[:K]
 
 
-@kernel(fast=False, inline=True)
+@kernel(inline=True)
 def _leaf_moments(nodes, i, lo, hi, sx):
+    """Node i's moments from its sources sx[:, lo:hi] (see _store)."""
     m = 0.0
     mx = 0.0
     my = 0.0
@@ -542,7 +545,7 @@ def _cells_phi(x, y, z, cells, nc, eps2):
     return phi
 
 
-@kernel
+@kernel(parallel=True)       # it calls _keys, which holds a prange (see _jit.kernel)
 def _target_groups(tree, pos, targets, same):
     """(torder (k,): target rows in Morton order, starts (g + 1,): where each group starts in
     it, boxes (g, 6): each group's lo, hi). same: the targets are the tree's sources in their
