@@ -131,14 +131,16 @@ def _crossover(sizes, repeats):
     return rows, cross
 
 
-def tree(quick=False):
+def tree(quick=False, sizes=None):
     """The tree benchmark (see the module): for each size, our tree at several opening
     angles, pytreegrav's (monopole, its default, and quadrupole), REBOUND's tree (to 10^5
     bodies: one thread) and our direct summation (to 10^5), the crossover with direct, and
-    the speed-up over pytreegrav at equal RMS error."""
+    the speed-up over pytreegrav at equal RMS error. sizes: the bodies of each case (default
+    10^3 .. 10^6, --quick to 10^5)."""
     import pytreegrav
     rebound = peer.load()
-    sizes = (1_000, 10_000, 100_000) if quick else (1_000, 10_000, 100_000, 1_000_000)
+    if sizes is None:
+        sizes = (1_000, 10_000, 100_000) if quick else (1_000, 10_000, 100_000, 1_000_000)
     repeats = 2 if quick else 3
     ours_thetas = (0.5, 0.7, 1.0)
     theirs_thetas = (0.5, 0.7, 1.0)
