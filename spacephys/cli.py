@@ -147,7 +147,7 @@ def main(argv=None):
     bench = sub.add_parser("bench", help="benchmark side by side with REBOUND")
     bench.add_argument("what", choices=["gravity", "integrators", "collisions", "fleet", "log",
                                         "tradeoff", "peers", "memory", "models", "overhead",
-                                        "predict", "tree"])
+                                        "predict", "tree", "queries"])
     bench.add_argument("--out", default="tradeoff", metavar="DIR",
                        help="tradeoff, peers: where the CSV, JSON and plots go (default ./tradeoff)")
     bench.add_argument("--quick", action="store_true", help="fewer repeats, smaller cases")

@@ -546,6 +546,11 @@ class World:
         return _readonly(self._b.kind[:self._b.n])
 
     @property
+    def category(self):
+        """(n,) int64 collision-filter bits: what each body is (queries' mask= tests them)."""
+        return _readonly(self._b.category[:self._b.n])
+
+    @property
     def active(self):
         """(n,) bool: the bodies allowed to pull (by default all but ships, missiles and
         debris); w.pulls says which actually do."""
@@ -1437,6 +1442,27 @@ class World:
         b = self._b
         return self._forces.table(b.mass[:b.n], b.ids[:b.n], *self._sources(), None,
                                   self._threads.min_pairs)
+
+    # ---------------------------------------------------------------- spatial queries
+    def query_radius(self, centers, r, kinds=None, mask=None):
+        """The bodies within distance r of each center (the gap to their surface: a body of
+        radius R counts from |d| <= r + R), optionally of `kinds` (names) or with a category
+        bit in `mask`: an sp.Hits (hits[q] -> (ids, distances), sorted by distance then id).
+        centers (dim,) or (Q, dim); r >= 0, a number or (Q,). Periodic boundaries wrap."""
+        from .queries import query_radius
+        return query_radius(self, centers, r, kinds, mask)
+
+    def query_box(self, lo, hi, kinds=None, mask=None):
+        """The bodies overlapping each axis-aligned box lo..hi ((dim,) or (Q, dim) each): an
+        sp.Hits sorted by the distance of their centres from the box's centre."""
+        from .queries import query_box
+        return query_box(self, lo, hi, kinds, mask)
+
+    def nearest(self, points, k=1, kinds=None, mask=None):
+        """The k bodies nearest each point (by the gap to their surface): (ids (Q, k),
+        distances (Q, k)), sorted; -1 and inf past the bodies there are."""
+        from .queries import nearest
+        return nearest(self, points, k, kinds, mask)
 
     def gravity_accelerations(self, ids=None, exact=False):
         """(k, dim) the acceleration by gravity now [length / time^2] of the bodies `ids`

@@ -71,3 +71,39 @@ def stable_argsort(keys, k):
         order, tmp = tmp, order
         width *= 2
     return order
+
+
+@kernel
+def radix_order(keys):
+    """(k,) int64: the stable order sorting the non-negative keys ascending (LSD radix sort,
+    11-bit digits; digits on which all keys agree are skipped)."""
+    k = keys.size
+    order = np.empty(k, np.int64)
+    for i in range(k):
+        order[i] = i
+    if k < 2:
+        return order
+    tmp = np.empty(k, np.int64)
+    a = np.empty(k, np.int64)
+    b = np.empty(k, np.int64)
+    for i in range(k):
+        a[i] = keys[i]
+    count = np.empty(2049, np.int64)
+    for shift in range(0, 66, 11):
+        for d in range(2049):
+            count[d] = 0
+        for i in range(k):
+            count[((a[i] >> shift) & 2047) + 1] += 1
+        if count[((a[0] >> shift) & 2047) + 1] == k:
+            continue                    # every key has this digit
+        for d in range(2048):
+            count[d + 1] += count[d]
+        for i in range(k):
+            d = (a[i] >> shift) & 2047
+            p = count[d]
+            count[d] = p + 1
+            b[p] = a[i]
+            tmp[p] = order[i]
+        a, b = b, a
+        order, tmp = tmp, order
+    return order

@@ -9,7 +9,7 @@ expansion about the centre of mass (as GADGET-2, Springel 2005, does for the mon
 Build (`build`), from the sources s (4, ns): x, y, z, m (forces._sources), every evaluation:
   1. Morton keys of the sources in their bounding cube: 63 bits shared by the axes along which
      the sources spread (21 each in 3D, 31 in a plane), on threads;
-  2. a stable radix sort of the keys (equal keys keep their order: deterministic);
+  2. a stable radix sort of the keys (arrays.radix_order) (equal keys keep their order: deterministic);
   3. the nodes in depth-first order: a node is a range of the sorted sources; it splits at the
      first level where its keys differ (no chains of one-child nodes, so fewer than 2 ns
      nodes), and is a leaf at LEAF sources or fewer. `next` skips a node's subtree;
@@ -43,7 +43,7 @@ import numba
 import numpy as np
 
 from .._jit import kernel
-from . import pairs
+from . import arrays, pairs
 
 LEAF = 16            # sources in a leaf, at most (unless they share one Morton cell)
 GROUP = 128          # targets that share one walk
@@ -131,42 +131,6 @@ def _keys(x, y, z, rows, lo, side, axes, bits, threaded):
             r = rows[i]
             keys[i] = _key(x[r], y[r], z[r], lo, side, axes, bits)
     return keys
-
-
-@kernel
-def radix_order(keys):
-    """(k,) int64: the stable order sorting the non-negative keys ascending (LSD radix sort,
-    11-bit digits; digits on which all keys agree are skipped)."""
-    k = keys.size
-    order = np.empty(k, np.int64)
-    for i in range(k):
-        order[i] = i
-    if k < 2:
-        return order
-    tmp = np.empty(k, np.int64)
-    a = np.empty(k, np.int64)
-    b = np.empty(k, np.int64)
-    for i in range(k):
-        a[i] = keys[i]
-    count = np.empty(2049, np.int64)
-    for shift in range(0, 66, 11):
-        for d in range(2049):
-            count[d] = 0
-        for i in range(k):
-            count[((a[i] >> shift) & 2047) + 1] += 1
-        if count[((a[0] >> shift) & 2047) + 1] == k:
-            continue                    # every key has this digit
-        for d in range(2048):
-            count[d + 1] += count[d]
-        for i in range(k):
-            d = (a[i] >> shift) & 2047
-            p = count[d]
-            count[d] = p + 1
-            b[p] = a[i]
-            tmp[p] = order[i]
-        a, b = b, a
-        order, tmp = tmp, order
-    return order
 
 
 # ----------------------------------------------------------------------------- build
@@ -403,7 +367,7 @@ def build(s, theta):
     for i in range(ns):
         rows[i] = i
     keys = _keys(s[0], s[1], s[2], rows, lo, side, axes, bits, threaded)
-    order = radix_order(keys)
+    order = arrays.radix_order(keys)
     sorted_keys = np.empty(ns, np.int64)
     sx = np.empty((4, ns))
     for i in range(ns):
@@ -572,7 +536,7 @@ def _target_groups(tree, pos, targets, same):
         starts[ng] = k
     else:
         keys = _keys(pos[:, 0], pos[:, 1], pos[:, 2], targets, lo, side, axes, bits, False)
-        o = radix_order(keys)
+        o = arrays.radix_order(keys)
         for i in range(k):
             torder[i] = targets[o[i]]
         ng = (k + GROUP - 1) // GROUP

@@ -603,6 +603,9 @@ def format_table(results):
     if results["benchmark"] == "tree":
         from .treebench import format_tree
         return format_tree(results)
+    if results["benchmark"] == "queries":
+        from .querybench import format_queries
+        return format_queries(results)
     lines = [f"{results['benchmark']} benchmark on {results['machine']} "
              f"({results['numba_threads']} numba threads; {results['versions']})",
              f"{'case':40s} {'spacephys':>14s} {'REBOUND':>14s} {'speed-up':>9s} "
@@ -737,6 +740,11 @@ def _tree(quick=False):
     return tree(quick)
 
 
+def _queries(quick=False):
+    from .querybench import queries
+    return queries(quick)
+
+
 BENCHMARKS = {"gravity": gravity, "integrators": integrators, "collisions": collisions,
               "fleet": fleet, "log": log, "memory": memory, "models": models,
-              "overhead": _overhead, "predict": _predict, "tree": _tree}
+              "overhead": _overhead, "predict": _predict, "tree": _tree, "queries": _queries}

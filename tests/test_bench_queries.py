@@ -1,0 +1,17 @@
+"""`spacephys bench queries` (a quick run): every query beside cKDTree gives the same answers;
+the figures themselves are the benchmark's (README)."""
+from spacephys.study import bench, querybench
+
+
+def test_the_queries_match_ckdtree_and_are_timed():
+    results = querybench.queries(quick=True)
+    cases = results["cases"]
+    assert len(cases) == 8
+    for c in cases:
+        assert c["spacephys_s"] > 0
+        if c["scipy_s"] is not None:
+            assert c["same_answers"] is True and c["ratio"] > 0
+        if "mean_found" in c:
+            assert 5 < c["mean_found"] < 20          # r chosen for about 10 bodies
+    table = bench.format_table(results)
+    assert "cKDTree" in table and table.count("True") == 6

@@ -1,0 +1,199 @@
+"""Spatial queries (World.query_radius, query_box, nearest) against brute force: the same bodies
+in the same order, the same distances, across cell edges, periodic seams, giants and kinds;
+bad input named."""
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import spacephys as sp
+
+BOX = 5.0                       # the scene's half-width (and the periodic box's)
+
+
+def _image(d, period):
+    """As kernels/queries._image, in numpy: the nearest periodic image (period 0: none)."""
+    out = d.copy()
+    for c in range(3):
+        if period[c] > 0.0:
+            out[..., c] -= period[c] * np.floor(out[..., c] / period[c] + 0.5)
+    return out
+
+
+def _brute(w, rows, centres, period):
+    """(gap (Q, n), centre distance (Q, n), per-axis |d| (Q, n, 3)) for every query x body."""
+    pos = np.zeros((w.n, 3))
+    pos[:, :w.dim] = w.pos
+    d = _image(pos[None, :, :] - centres[:, None, :], period)
+    dist = np.sqrt(d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1] + d[..., 2] * d[..., 2])
+    gap = np.maximum(dist - w.radius[None, :], 0.0)
+    return gap, dist, np.abs(d)
+
+
+def _sorted_ids(w, rows, key):
+    """Ids of rows sorted by key, then id."""
+    order = np.lexsort((w.ids[rows], key[rows]))
+    return w.ids[rows][order], key[rows][order]
+
+
+# coordinates that land on cell edges and the periodic seam often, and anywhere else too
+coord = st.one_of(st.sampled_from([-BOX, -2.5, -1.0, 0.0, 0.5, 1.0, 2.5, BOX - 1e-9]),
+                  st.floats(-BOX, BOX, allow_nan=False, width=64))
+
+
+@st.composite
+def scenes(draw):
+    dim = draw(st.sampled_from([2, 3]))
+    n = draw(st.integers(0, 40))
+    periodic = draw(st.booleans())
+    w = sp.World(dim=dim, gravity="none", capacity=max(n, 1))
+    w.add_kind("rock")
+    if periodic:
+        w.set_boundary("periodic", lo=[-BOX] * dim, hi=[BOX] * dim)
+    if n:
+        pos = np.array([[draw(coord) for _ in range(dim)] for _ in range(n)])
+        radius = np.array([draw(st.one_of(st.just(0.0), st.floats(0.0, 1.5),
+                                          st.floats(2.0, 6.0))) for _ in range(n)])
+        kinds = [draw(st.sampled_from(["body", "rock", "debris"])) for _ in range(n)]
+        w.add_bodies(1.0, pos, radius=radius, kind=kinds)
+    q = draw(st.integers(1, 6))
+    centres = np.array([[draw(st.one_of(coord, st.floats(-3 * BOX, 3 * BOX)))
+                         for _ in range(dim)] for _ in range(q)])
+    return w, centres
+
+
+def _period(w):
+    mode, lo, hi, _ = w.boundary
+    p = np.zeros(3)
+    if mode == "periodic":
+        p[:w.dim] = hi - lo
+    return p
+
+
+def _c3(w, centres):
+    c = np.zeros((centres.shape[0], 3))
+    c[:, :w.dim] = centres
+    return c
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(scenes(), st.floats(0.0, 8.0), st.sampled_from([None, ["rock"], ["body", "debris"]]))
+def test_query_radius_is_brute_force(scene, r, kinds):
+    w, centres = scene
+    hits = w.query_radius(centres, r, kinds=kinds)
+    gap, _, _ = _brute(w, None, _c3(w, centres), _period(w))
+    ok = np.ones(w.n, bool) if kinds is None else \
+        np.isin(w.kind, [w.kind_code(k) for k in kinds])
+    assert len(hits) == centres.shape[0]
+    for q in range(centres.shape[0]):
+        rows = np.flatnonzero(ok & (gap[q] <= r))
+        want_ids, want_d = _sorted_ids(w, rows, gap[q])
+        ids, d = hits[q]
+        assert np.array_equal(ids, want_ids)
+        np.testing.assert_allclose(d, want_d, rtol=1e-12, atol=0)
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(scenes(), st.integers(1, 6))
+def test_nearest_is_brute_force(scene, k):
+    w, centres = scene
+    ids, d = w.nearest(centres, k=k)
+    gap, _, _ = _brute(w, None, _c3(w, centres), _period(w))
+    assert ids.shape == d.shape == (centres.shape[0], k)
+    for q in range(centres.shape[0]):
+        want_ids, want_d = _sorted_ids(w, np.arange(w.n), gap[q])
+        m = min(k, w.n)
+        assert np.array_equal(ids[q, :m], want_ids[:m])
+        np.testing.assert_allclose(d[q, :m], want_d[:m], rtol=1e-12, atol=0)
+        assert np.all(ids[q, m:] == -1) and np.all(np.isinf(d[q, m:]))
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(scenes(), st.floats(0.0, 4.0), st.floats(0.0, 4.0))
+def test_query_box_is_brute_force(scene, hx, hy):
+    w, centres = scene
+    half = np.zeros((centres.shape[0], w.dim))
+    half[:, 0], half[:, 1] = hx, hy
+    if w.dim == 3:
+        half[:, 2] = 0.5 * (hx + hy)
+    hits = w.query_box(centres - half, centres + half)
+    # the box's centre and half-widths as the kernel derives them from lo and hi
+    lo, hi = _c3(w, centres - half), _c3(w, centres + half)
+    _, dist, ad = _brute(w, None, 0.5 * (lo + hi), _period(w))
+    excess = np.maximum(ad - 0.5 * (hi - lo)[:, None, :], 0.0)
+    out = np.sqrt((excess * excess).sum(axis=2))
+    inside = np.maximum(out - w.radius[None, :], 0.0) <= 0.0
+    for q in range(centres.shape[0]):
+        want_ids, want_d = _sorted_ids(w, np.flatnonzero(inside[q]), dist[q])
+        ids, d = hits[q]
+        assert np.array_equal(ids, want_ids)
+        np.testing.assert_allclose(d, want_d, rtol=1e-12, atol=0)
+
+
+def test_a_query_finds_bodies_across_the_periodic_seam():
+    """A body just inside the right edge is 0.2 from a point just inside the left one."""
+    w = sp.World(dim=2, gravity="none")
+    w.set_boundary("periodic", lo=(0.0, 0.0), hi=(10.0, 10.0))
+    a = w.add_body(1.0, (9.9, 5.0))
+    w.add_body(1.0, (5.0, 5.0))
+    ids, d = w.query_radius((0.1, 5.0), 0.5)[0]
+    assert ids.tolist() == [a] and d[0] == pytest.approx(0.2, rel=1e-12)
+    ids, d = w.nearest((0.1, 5.0), k=2)
+    assert ids[0, 0] == a and d[0, 0] == pytest.approx(0.2, rel=1e-12)
+
+
+def test_a_large_scene_agrees_with_scipy():
+    """20 000 point bodies: radius and nearest queries equal scipy's cKDTree's answers."""
+    from scipy.spatial import cKDTree
+    rng = np.random.default_rng(1)
+    w = sp.World(dim=3, gravity="none", capacity=20_000)
+    w.add_bodies(1.0, rng.uniform(0, 100, (20_000, 3)))
+    c = rng.uniform(-5, 105, (500, 3))
+    tree = cKDTree(w.pos)
+    ids, d = w.nearest(c, k=4)
+    dd, ii = tree.query(c, k=4)
+    assert np.array_equal(ids, w.ids[ii])
+    np.testing.assert_allclose(d, dd, rtol=1e-12)
+    hits = w.query_radius(c, 4.0)
+    for q, found in enumerate(tree.query_ball_point(c, 4.0)):
+        assert sorted(hits[q][0].tolist()) == sorted(w.ids[found].tolist())
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda w: w.query_radius((0.0, 0.0), -1.0), "r"),
+    (lambda w: w.query_radius((0.0, float("nan")), 1.0), "centers"),
+    (lambda w: w.query_radius((0.0, 0.0, 0.0), 1.0), "centers"),
+    (lambda w: w.nearest((0.0, 0.0), k=0), "k"),
+    (lambda w: w.nearest((0.0, 0.0), k=1.5), "k"),
+    (lambda w: w.query_radius((0.0, 0.0), 1.0, kinds=["dragon"]), "kinds"),
+    (lambda w: w.query_radius((0.0, 0.0), 1.0, kinds=[]), "kinds"),
+    (lambda w: w.query_radius((0.0, 0.0), 1.0, mask=1.5), "mask"),
+    (lambda w: w.query_box((1.0, 0.0), (0.0, 1.0)), "lo"),
+    (lambda w: w.query_box([(0.0, 0.0)], [(1.0, 1.0), (2.0, 2.0)]), "boxes"),
+])
+def test_bad_queries_are_refused_naming_the_field(call, message):
+    w = sp.World(dim=2, gravity="none")
+    w.add_body(1.0, (0.0, 0.0))
+    with pytest.raises(ValueError, match=message):
+        call(w)
+
+
+def test_kinds_and_mask_filter_the_candidates():
+    w = sp.World(dim=2, gravity="none")
+    a = w.add_body(1.0, (0.0, 0.0), kind="planet", category=0b01)
+    b = w.add_body(1.0, (1.0, 0.0), kind="debris", category=0b10)
+    assert w.query_radius((0.0, 0.0), 2.0)[0][0].tolist() == [a, b]
+    assert w.query_radius((0.0, 0.0), 2.0, kinds="debris")[0][0].tolist() == [b]
+    assert w.query_radius((0.0, 0.0), 2.0, mask=0b01)[0][0].tolist() == [a]
+    assert w.nearest((0.0, 0.0), k=1, kinds=["debris"])[0].tolist() == [[b]]
+
+
+def test_a_body_on_the_grids_far_edge_is_found_from_beyond_it():
+    """Found by the property test: the last body sits on the grid's upper edge (its cell
+    index is clamped into the last cell) and the query's range starts just past that edge
+    (0.5 from the body, r = 0.5): the range must still include the last cell."""
+    w = sp.World(dim=2, gravity="none")
+    a = w.add_body(1.0, (-2.5, 0.5))
+    w.add_body(1.0, (-2.5, 0.0), radius=6.0)
+    assert sorted(w.query_radius((-2.5, 1.0), 0.5)[0][0].tolist()) == sorted([a, a + 1])
+    assert w.nearest((-2.5, 9.0), k=2)[0][0].tolist() == [a + 1, a]
