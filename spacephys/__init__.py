@@ -28,7 +28,7 @@ _LAZY = {
     "RunResult": "runner", "run_scenario": "runner",
     "Scenario": "scenario", "ScenarioError": "scenario", "load_scenario": "scenario",
     "Recommendation": "study.recommend", "recommend": "study.recommend",
-    "lambert": "lambert", "Prediction": "predict", "Hits": "queries",
+    "lambert": "lambert", "Prediction": "predict", "Hits": "queries", "RayHits": "queries",
 }
 
 __all__ = [
@@ -43,7 +43,7 @@ __all__ = [
     "recommend", "Recommendation",
     "Elements", "elements_to_state", "state_from_elements", "state_to_elements",
     "true_anomaly", "kepler_state", "period", "solve_kepler",
-    "Burn", "hohmann", "lambert", "Prediction", "Hits",
+    "Burn", "hohmann", "lambert", "Prediction", "Hits", "RayHits",
     "set_threads", "get_threads",
     "__version__",
 ]

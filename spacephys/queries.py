@@ -130,3 +130,122 @@ def nearest(world, points, k=1, kinds=None, mask=None):
     hits, dist = kq.nearest(pos, radius, ids, rows, lo, period, p, k)
     out = np.where(hits >= 0, ids[np.maximum(hits, 0)], -1) if ids.size else hits
     return out, dist
+
+
+@dataclass(frozen=True)
+class RayHits:
+    """What a batch of Q rays hit: those of ray q are the rows offsets[q]:offsets[q+1] (at
+    most one with first=True), nearest first; ray_hits[q] gives them as a RayHits of one
+    ray's rows (offsets [0, m])."""
+    offsets: np.ndarray        # (Q + 1,) int64
+    ids: np.ndarray            # (H,) int64 body ids, -1 where a wall was hit
+    walls: np.ndarray          # (H,) int64 wall indices (w.walls), -1 where a body was hit
+    distances: np.ndarray      # (H,) [length] along the ray
+    points: np.ndarray         # (H, dim) where the ray meets the surface
+    normals: np.ndarray        # (H, dim) unit, against the ray
+
+    def __len__(self):
+        return self.offsets.size - 1
+
+    def __getitem__(self, q):
+        a, b = self.offsets[q], self.offsets[q + 1]
+        return RayHits(np.array([0, b - a]), self.ids[a:b], self.walls[a:b],
+                       self.distances[a:b], self.points[a:b], self.normals[a:b])
+
+    def counts(self):
+        """(Q,) int64: how many hits each ray has."""
+        return np.diff(self.offsets)
+
+
+def _wall_hits(world, o, d, tmax):
+    """(t (Q, W), normals (Q, W, 3)): where each ray meets each wall (inf: never). Planes
+    either side; segments in 2D (in 3D a segment is a line a ray cannot hit)."""
+    walls = world.walls
+    Q, W = o.shape[0], walls.shape[0]
+    t = np.full((Q, W), np.inf)
+    nrm = np.zeros((Q, W, 3))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for k in range(W):
+            kind, p, v = walls[k, 0], walls[k, 1:4], walls[k, 4:7]
+            if kind == 0:                                   # plane through p, normal v
+                n = v / np.linalg.norm(v)
+                den = d @ n
+                tk = ((p - o) @ n) / den
+                ok = (den != 0.0) & (tk >= 0.0) & (tk <= tmax)
+                side = np.where(den < 0.0, 1.0, -1.0)[:, None] * n
+            elif world.dim == 2:                            # segment p..v
+                s = v - p
+                cross = d[:, 0] * s[1] - d[:, 1] * s[0]
+                ap = p - o
+                tk = (ap[:, 0] * s[1] - ap[:, 1] * s[0]) / cross
+                u = (ap[:, 0] * d[:, 1] - ap[:, 1] * d[:, 0]) / cross
+                ok = (cross != 0.0) & (tk >= 0.0) & (tk <= tmax) & (u >= 0.0) & (u <= 1.0)
+                perp = np.array([-s[1], s[0], 0.0]) / np.hypot(s[0], s[1])
+                side = np.where((d @ perp) > 0.0, -1.0, 1.0)[:, None] * perp
+            else:
+                continue
+            t[ok, k] = tk[ok]
+            nrm[:, k] = side
+    return t, nrm
+
+
+def raycast(world, origins, directions, max_distance, kinds=None, mask=None, first=True,
+            walls=True):
+    """Rays from origins along directions ((dim,) or (Q, dim) each; directions non-zero, made
+    unit) up to max_distance (> 0, finite; a number or (Q,)): the bodies (of `kinds` /
+    `mask`) and walls they meet, as a RayHits: the nearest per ray (first=True) or every
+    one, nearest first (ties: bodies by id, then walls by index). A ray that starts inside
+    a body meets it at distance 0 with the normal against the ray. Periodic boundaries: the
+    ray runs on through the opposite side (bodies); walls do not repeat."""
+    o = _points("origins", origins, world.dim)
+    d = _points("directions", directions, world.dim)
+    if d.shape[0] != o.shape[0]:
+        raise ValueError(f"directions has {d.shape[0]} rays, origins {o.shape[0]}")
+    norm = np.linalg.norm(d, axis=1)
+    if np.any(norm == 0.0):
+        q = int(np.flatnonzero(norm == 0.0)[0])
+        raise ValueError(f"directions[{q}] = {d[q, :world.dim].tolist()}: a direction must "
+                         f"not be zero")
+    d = d / norm[:, None]
+    tmax = check.per_body("max_distance", max_distance, o.shape[0], minimum=0.0)
+    tmax = np.ascontiguousarray(tmax, np.float64)
+    rows = _candidates(world, kinds, mask)
+    pos, radius, ids = _state(world)
+    lo, period = _box(world)
+    offsets, hits, t = kq.raycasts(pos, radius, ids, rows, lo, period, o, d, tmax, first)
+    ray = np.repeat(np.arange(o.shape[0]), np.diff(offsets))
+    point = o[ray] + t[:, None] * d[ray]
+    rel = point - pos[hits]
+    rel -= period * np.floor(rel / np.where(period > 0, period, 1.0) + 0.5) * (period > 0)
+    length = np.linalg.norm(rel, axis=1)
+    # a ray from inside (t = 0) meets the surface head on; a point body, likewise
+    normal = np.where((length[:, None] > 0.0) & (t[:, None] > 0.0),
+                      rel / np.where(length > 0, length, 1.0)[:, None], -d[ray])
+    body = (ray, ids[hits], np.full(hits.size, -1), t, point, normal)
+    if walls and world.walls.shape[0]:
+        wt, wn = _wall_hits(world, o, d, tmax)
+        if first:
+            k = np.argmin(wt, axis=1)
+            best = wt[np.arange(o.shape[0]), k]
+            keep = np.isfinite(best)
+            wray, wk, wtt = np.flatnonzero(keep), k[keep], best[keep]
+        else:
+            wray, wk = np.nonzero(np.isfinite(wt))
+            wtt = wt[wray, wk]
+        wall = (wray, np.full(wray.size, -1), wk, wtt, o[wray] + wtt[:, None] * d[wray],
+                wn[wray, wk])
+        parts = [np.concatenate([b, w]) for b, w in zip(body, wall)]
+        kind = np.r_[np.zeros(hits.size), np.ones(wray.size)]
+        order = np.lexsort((parts[2], parts[1], kind, parts[3], parts[0]))
+        parts = [p[order] for p in parts]
+        if first:                              # the nearest of body and wall per ray
+            keep = np.r_[True, parts[0][1:] != parts[0][:-1]] if parts[0].size else \
+                np.zeros(0, bool)
+            parts = [p[keep] for p in parts]
+        ray, rid, rwall, t, point, normal = parts
+    else:
+        ray, rid, rwall = body[0], body[1], body[2]
+    offsets = np.searchsorted(ray, np.arange(o.shape[0] + 1))
+    dim = world.dim
+    return RayHits(offsets.astype(np.int64), rid.astype(np.int64), rwall.astype(np.int64), t,
+                   point[:, :dim], normal[:, :dim])

@@ -1458,6 +1458,16 @@ class World:
         from .queries import query_box
         return query_box(self, lo, hi, kinds, mask)
 
+    def raycast(self, origins, directions, max_distance, kinds=None, mask=None, first=True,
+                walls=True):
+        """Rays from origins along directions ((dim,) or (Q, dim); non-zero) up to
+        max_distance (finite, >= 0): the bodies (of `kinds`, or with a category bit in
+        `mask`) and walls (walls=True) they meet, an sp.RayHits (ids, walls, distances,
+        points, normals per hit; hits[q] for ray q), the nearest per ray (first=True) or
+        every one, nearest first. Periodic boundaries: rays run on through the seam."""
+        from .queries import raycast
+        return raycast(self, origins, directions, max_distance, kinds, mask, first, walls)
+
     def nearest(self, points, k=1, kinds=None, mask=None):
         """The k bodies nearest each point (by the gap to their surface): (ids (Q, k),
         distances (Q, k)), sorted; -1 and inf past the bodies there are."""

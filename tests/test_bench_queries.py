@@ -6,12 +6,12 @@ from spacephys.study import bench, querybench
 def test_the_queries_match_ckdtree_and_are_timed():
     results = querybench.queries(quick=True)
     cases = results["cases"]
-    assert len(cases) == 8
+    assert len(cases) == 12
     for c in cases:
         assert c["spacephys_s"] > 0
         if c["scipy_s"] is not None:
             assert c["same_answers"] is True and c["ratio"] > 0
-        if "mean_found" in c:
+        if "mean_found" in c and "rays" not in c["case"]:
             assert 5 < c["mean_found"] < 20          # r chosen for about 10 bodies
     table = bench.format_table(results)
     assert "cKDTree" in table and table.count("True") == 6

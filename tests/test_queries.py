@@ -197,3 +197,122 @@ def test_a_body_on_the_grids_far_edge_is_found_from_beyond_it():
     w.add_body(1.0, (-2.5, 0.0), radius=6.0)
     assert sorted(w.query_radius((-2.5, 1.0), 0.5)[0][0].tolist()) == sorted([a, a + 1])
     assert w.nearest((-2.5, 9.0), k=2)[0][0].tolist() == [a + 1, a]
+
+
+# ----------------------------------------------------------------------------- ray casts
+
+def _ray_t(o, d, p, R):
+    """numpy's ray_sphere (kernels/queries.py, the same operations): first t >= 0 where
+    o + t d touches the sphere, 0 inside, nan never."""
+    w = p - o
+    b = w @ d
+    c = (w * w).sum(axis=-1) - R * R
+    h = w - b[:, None] * d
+    disc = R * R - (h * h).sum(axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = c / (b + np.sqrt(disc))
+    return np.where(c <= 0.0, 0.0, np.where((b <= 0.0) | (disc < 0.0), np.nan, t))
+
+
+def _brute_rays(w, o, d, tmax, period):
+    """Per ray: (ids sorted by t then id, t) of every body met: each body's image nearest the
+    ray's origin and that image's neighbours tried (the rays are shorter than the box)."""
+    pos = np.zeros((w.n, 3))
+    pos[:, :w.dim] = w.pos
+    shifts = [np.zeros(3)]
+    if period.any():
+        axes = [(-1, 0, 1) if p > 0 else (0,) for p in period]
+        shifts = [np.array([a, b, c]) * period for a in axes[0] for b in axes[1]
+                  for c in axes[2]]
+    out = []
+    for q in range(o.shape[0]):
+        best = np.full(w.n, np.nan)
+        near = o[q] + _image(pos - o[q], period)         # each body's image nearest the origin
+        for s in shifts:
+            t = _ray_t(o[q], d[q], near + s, w.radius)
+            best = np.fmin(best, t)
+        ok = np.isfinite(best) & (best <= tmax[q])
+        rows = np.flatnonzero(ok)
+        order = np.lexsort((w.ids[rows], best[rows]))
+        out.append((w.ids[rows][order], best[rows][order]))
+    return out
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(scenes(), st.data())
+def test_raycast_is_brute_force(scene, data):
+    w, centres = scene
+    q = centres.shape[0]
+    dirs = np.array([[data.draw(st.floats(-1, 1)) for _ in range(w.dim)] for _ in range(q)])
+    dirs[np.linalg.norm(dirs, axis=1) == 0.0, 0] = 1.0
+    periodic = w.boundary[0] == "periodic"
+    tmax = np.array([data.draw(st.floats(0.0, 3.0 if periodic else 20.0)) for _ in range(q)])
+    o, d = _c3(w, centres), _c3(w, dirs)
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    want = _brute_rays(w, o, d, tmax, _period(w))
+    every = w.raycast(centres, dirs, tmax, first=False)
+    nearest = w.raycast(centres, dirs, tmax)
+    for r in range(q):
+        hit = every[r]
+        assert np.array_equal(hit.ids, want[r][0])
+        np.testing.assert_allclose(hit.distances, want[r][1], rtol=1e-12, atol=1e-300)
+        one = nearest[r]
+        assert np.array_equal(one.ids, want[r][0][:1])
+        np.testing.assert_allclose(one.distances, want[r][1][:1], rtol=1e-12)
+        # the point is on the body's surface, the normal a unit vector against the ray
+        if hit.ids.size:
+            assert np.allclose(np.linalg.norm(hit.normals, axis=1), 1.0)
+
+
+def test_a_ray_meets_walls_and_bodies_in_order():
+    w = sp.World(dim=2, gravity="none")
+    a = w.add_body(1.0, (5.0, 0.0), radius=1.0)
+    w.add_segment((8.0, -2.0), (8.0, 2.0))
+    w.add_plane((12.0, 0.0), (-1.0, 0.0))
+    every = w.raycast((0.0, 0.0), (1.0, 0.0), 20.0, first=False)[0]
+    assert every.ids.tolist() == [a, -1, -1] and every.walls.tolist() == [-1, 0, 1]
+    np.testing.assert_allclose(every.distances, [4.0, 8.0, 12.0], rtol=1e-15)
+    np.testing.assert_allclose(every.points, [[4.0, 0.0], [8.0, 0.0], [12.0, 0.0]])
+    np.testing.assert_allclose(every.normals, [[-1.0, 0.0]] * 3, atol=1e-15)
+    first = w.raycast((6.5, 0.0), (1.0, 0.0), 20.0)[0]          # past the body: the segment
+    assert first.walls.tolist() == [0] and first.distances[0] == pytest.approx(1.5)
+    inside = w.raycast((5.2, 0.0), (0.0, 1.0), 20.0)[0]         # from inside the body
+    assert inside.ids.tolist() == [a] and inside.distances[0] == 0.0
+    np.testing.assert_allclose(inside.normals, [[0.0, -1.0]])
+
+
+def test_a_ray_crosses_the_periodic_seam():
+    w = sp.World(dim=2, gravity="none")
+    w.set_boundary("periodic", lo=(0.0, 0.0), hi=(10.0, 10.0))
+    a = w.add_body(1.0, (1.0, 5.0), radius=0.5)
+    hit = w.raycast((9.0, 5.0), (1.0, 0.0), 5.0)[0]
+    assert hit.ids.tolist() == [a] and hit.distances[0] == pytest.approx(1.5, rel=1e-12)
+
+
+def test_many_rays_agree_with_a_brute_force_on_a_large_scene():
+    rng = np.random.default_rng(3)
+    w = sp.World(dim=3, gravity="none", capacity=3000)
+    w.add_bodies(1.0, rng.uniform(0, 100, (3000, 3)), radius=rng.uniform(0.2, 2.0, 3000))
+    o = rng.uniform(-10, 110, (200, 3))
+    d = rng.normal(size=(200, 3))
+    tmax = np.full(200, 80.0)
+    want = _brute_rays(w, o, d / np.linalg.norm(d, axis=1)[:, None], tmax, np.zeros(3))
+    got = w.raycast(o, d, tmax, first=False)
+    first = w.raycast(o, d, tmax)
+    for q in range(200):
+        assert np.array_equal(got[q].ids, want[q][0])
+        assert np.array_equal(first[q].ids, want[q][0][:1])
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda w: w.raycast((0.0, 0.0), (0.0, 0.0), 1.0), "directions"),
+    (lambda w: w.raycast((0.0, 0.0), (float("nan"), 1.0), 1.0), "directions"),
+    (lambda w: w.raycast((0.0, 0.0), (1.0, 0.0), -1.0), "max_distance"),
+    (lambda w: w.raycast((0.0, 0.0), (1.0, 0.0), float("inf")), "max_distance"),
+    (lambda w: w.raycast((0.0, 0.0), (1.0, 0.0), 1.0, kinds="dragon"), "kinds"),
+])
+def test_bad_rays_are_refused_naming_the_field(call, message):
+    w = sp.World(dim=2, gravity="none")
+    w.add_body(1.0, (0.0, 0.0))
+    with pytest.raises(ValueError, match=message):
+        call(w)

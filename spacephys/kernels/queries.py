@@ -1,5 +1,5 @@
 """Spatial queries between steps: which bodies lie within a distance of a point, inside a box,
-nearest to a point. A uniform grid of the candidate bodies' centres is built for each call
+nearest to a point, along a ray. A uniform grid of the candidate bodies' centres is built for each call
 (a counting sort: linear in the bodies); bodies larger than a cell ("giants") are tested
 against every query directly.
 
@@ -380,3 +380,265 @@ def _nearest_row(pos, radius, ident, g, points, q, k, period, hits, dist):
     for j in range(k):
         hits[q, j] = best_i[j] if j < filled else -1
         dist[q, j] = best_d[j] if j < filled else np.inf
+
+
+# ----------------------------------------------------------------------------- ray casts
+
+@kernel(inline=True)
+def ray_sphere(ox, oy, oz, dx, dy, dz, px, py, pz, R):
+    """The first t >= 0 at which the ray o + t d (d a unit vector) touches the sphere (p, R):
+    0 when o is inside it, -1 when it never does."""
+    wx = px - ox
+    wy = py - oy
+    wz = pz - oz
+    b = wx * dx + wy * dy + wz * dz
+    c = wx * wx + wy * wy + wz * wz - R * R
+    if c <= 0.0:
+        return 0.0
+    if b <= 0.0:
+        return -1.0                          # outside and moving away
+    # R^2 less the squared distance of the centre from the ray's line, from the rejection
+    # w - b d (not b^2 - c, which cancels: a point 1e-9 off a ray 1.5 long would count)
+    hx = wx - b * dx
+    hy = wy - b * dy
+    hz = wz - b * dz
+    disc = R * R - (hx * hx + hy * hy + hz * hz)
+    if disc < 0.0:
+        return -1.0
+    return c / (b + math.sqrt(disc))         # the nearer root, without cancellation
+
+
+@kernel(inline=True)
+def _axis_cell(i, n, period):
+    """(cell index in the grid or -1, the image's shift) of walk index i on one axis."""
+    if period > 0.0:
+        w = i % n
+        return w, (i - w) // n * period
+    if i < 0 or i >= n:
+        return -1, 0.0
+    return i, 0.0
+
+
+@kernel
+def cast(g, ident, period, o, d, tmax, first, stamp, slot, mark, out_rows, out_t, cap):
+    """The gridded bodies the ray o + t d (d unit, 0 <= t <= tmax) touches: a walk through
+    the grid's cells along the ray (Amanatides and Woo 1987), each cell's neighbours within
+    the largest radius tested too; periodic axes walked through their images. first: the
+    nearest only (count 0 or 1, ties to the lower id); otherwise every one, once (stamp
+    (k,) holds `mark` where a body was met by this ray and slot (k,) where it was written:
+    met again, through another cell or image, the nearer meeting is kept), the first cap
+    written. Returns the count of hits (first: written to out_rows[0], out_t[0])."""
+    origin, cell, ncell, start, items, giants, rmax, gpos, grad = g
+    # clip to the grid's box (open axes), grown by the largest radius
+    t0 = 0.0
+    t1 = tmax
+    for c in range(3):
+        if period[c] > 0.0:
+            continue
+        lo = origin[c] - rmax
+        hi = origin[c] + ncell[c] * cell[c] + rmax
+        if d[c] == 0.0:
+            if o[c] < lo or o[c] > hi:
+                return 0
+        else:
+            a = (lo - o[c]) / d[c]
+            b = (hi - o[c]) / d[c]
+            t0 = max(t0, min(a, b))
+            t1 = min(t1, max(a, b))
+    if t0 > t1:
+        return 0
+    cur = np.empty(3, np.int64)
+    step = np.empty(3, np.int64)
+    tnext = np.empty(3)
+    tdelta = np.empty(3)
+    reach = np.empty(3, np.int64)
+    for c in range(3):
+        u = (o[c] + t0 * d[c] - origin[c]) / cell[c]
+        cur[c] = int(math.floor(u))          # within reach of the grid: t0 is clipped
+        reach[c] = int(math.ceil(rmax / cell[c]))
+        if d[c] > 0.0:
+            step[c] = 1
+            tnext[c] = (origin[c] + (cur[c] + 1) * cell[c] - o[c]) / d[c]
+            tdelta[c] = cell[c] / d[c]
+        elif d[c] < 0.0:
+            step[c] = -1
+            tnext[c] = (origin[c] + cur[c] * cell[c] - o[c]) / d[c]
+            tdelta[c] = -cell[c] / d[c]
+        else:
+            step[c] = 0
+            tnext[c] = np.inf
+            tdelta[c] = np.inf
+    n = 0
+    best = np.inf
+    t_cell = t0
+    while t_cell <= t1:
+        # a body met at t lies within rmax of the ray's point at t, so in the neighbourhood
+        # of the cell that point is in: past the nearest meeting, nothing nearer is left
+        if first and n and best < t_cell:
+            break
+        for ax in range(cur[0] - reach[0], cur[0] + reach[0] + 1):
+            ix, sx = _axis_cell(ax, ncell[0], period[0])
+            if ix < 0:
+                continue
+            for ay in range(cur[1] - reach[1], cur[1] + reach[1] + 1):
+                iy, sy = _axis_cell(ay, ncell[1], period[1])
+                if iy < 0:
+                    continue
+                for az in range(cur[2] - reach[2], cur[2] + reach[2] + 1):
+                    iz, sz = _axis_cell(az, ncell[2], period[2])
+                    if iz < 0:
+                        continue
+                    key = (ix * ncell[1] + iy) * ncell[2] + iz
+                    for e in range(start[key], start[key + 1]):
+                        t = ray_sphere(o[0], o[1], o[2], d[0], d[1], d[2], gpos[e, 0] + sx,
+                                       gpos[e, 1] + sy, gpos[e, 2] + sz, grad[e])
+                        if t < 0.0 or t > tmax:
+                            continue
+                        if not first and stamp[e] == mark:
+                            # met already (through another cell, or another image: keep
+                            # the nearer meeting)
+                            k = slot[e]
+                            if k < cap and t < out_t[k]:
+                                out_t[k] = t
+                            continue
+                        if not first:
+                            stamp[e] = mark
+                            slot[e] = n
+                        if first:
+                            if t < best or (t == best and ident[items[e]] < ident[out_rows[0]]):
+                                best = t
+                                out_rows[0] = items[e]
+                                out_t[0] = t
+                                n = 1
+                        else:
+                            if n < cap:
+                                out_rows[n] = items[e]
+                                out_t[n] = t
+                            n += 1
+        c = 0                                    # across the nearest face
+        if tnext[1] < tnext[c]:
+            c = 1
+        if tnext[2] < tnext[c]:
+            c = 2
+        if tnext[c] == np.inf:
+            break
+        t_cell = tnext[c]
+        cur[c] += step[c]
+        tnext[c] += tdelta[c]
+    return n
+
+
+@kernel(inline=True)
+def _giant_t(pos, radius, i, o, d, period):
+    """ray_sphere for body i: the least t over its image nearest the ray's origin and that
+    image's neighbours on periodic axes (a body wider than a cell may reach into the ray
+    from any of them), -1 if none."""
+    best = -1.0
+    c0 = _image(pos[i, 0] - o[0], period[0])
+    c1 = _image(pos[i, 1] - o[1], period[1])
+    c2 = _image(pos[i, 2] - o[2], period[2])
+    for a in range(-1, 2):
+        if a and period[0] == 0.0:
+            continue
+        for b in range(-1, 2):
+            if b and period[1] == 0.0:
+                continue
+            for c in range(-1, 2):
+                if c and period[2] == 0.0:
+                    continue
+                t = ray_sphere(o[0], o[1], o[2], d[0], d[1], d[2],
+                               o[0] + c0 + a * period[0], o[1] + c1 + b * period[1],
+                               o[2] + c2 + c * period[2], radius[i])
+                if t >= 0.0 and (best < 0.0 or t < best):
+                    best = t
+    return best
+
+
+@kernel
+def _ray(pos, radius, ident, g, period, origins, dirs, tmax, q, first, stamp, slot, mark,
+         rows_out, t_out, cap):
+    """One ray's hits: the grid's walk, then the giants; returns the count."""
+    o = origins[q]
+    d = dirs[q]
+    n = cast(g, ident, period, o, d, tmax[q], first, stamp, slot, mark, rows_out, t_out, cap)
+    giants = g[5]
+    for e in range(giants.size):
+        i = giants[e]
+        t = _giant_t(pos, radius, i, o, d, period)
+        if t < 0.0 or t > tmax[q]:
+            continue
+        if first:
+            if n == 0 or t < t_out[0] or (t == t_out[0] and ident[i] < ident[rows_out[0]]):
+                rows_out[0] = i
+                t_out[0] = t
+                n = 1
+        else:
+            if n < cap:
+                rows_out[n] = i
+                t_out[n] = t
+            n += 1
+    return n
+
+
+@kernel
+def _lane(pos, radius, ident, g, period, origins, dirs, tmax, lane, lanes, first, counts,
+          offsets, hits, ts):
+    """The rays lane, lane + lanes, ...: first: the nearest hit into hits[q], ts[q]; else
+    counts[q] (offsets empty) or the hits themselves, sorted (offsets given)."""
+    stamp = np.empty(0 if first else g[4].size, np.int64)
+    slot = np.empty(stamp.size, np.int64)
+    for e in range(stamp.size):
+        stamp[e] = -1
+    for q in range(lane, origins.shape[0], lanes):
+        if first:
+            counts[q] = _ray(pos, radius, ident, g, period, origins, dirs, tmax, q, True,
+                             stamp, slot, 0, hits[q:q + 1], ts[q:q + 1], 1)
+        elif offsets.size == 0:
+            counts[q] = _ray(pos, radius, ident, g, period, origins, dirs, tmax, q, False,
+                             stamp, slot, q, hits[:0], ts[:0], 0)
+        else:
+            a, b = offsets[q], offsets[q + 1]
+            # a mark of its own for the second pass: the first pass's stamps are stale
+            _ray(pos, radius, ident, g, period, origins, dirs, tmax, q, False, stamp, slot,
+                 q + origins.shape[0], hits[a:b], ts[a:b], b - a)
+            _sort_hits(hits, ts, a, b, ident)
+
+
+@kernel(parallel=True)
+def raycasts(pos, radius, ident, rows, lo, period, origins, dirs, tmax, first):
+    """Rays origins[q] + t dirs[q] (unit), 0 <= t <= tmax[q], against the bodies `rows`:
+    (offsets (Q + 1,), hits (H,) rows, t (H,)), each ray's hits sorted by t then id; with
+    first, at most one per ray (the nearest)."""
+    g = grid(pos, radius, rows, lo, period, 0.0)
+    nq = origins.shape[0]
+    lanes = min(nq, 8) if nq >= MIN_PARALLEL else 1
+    counts = np.empty(nq, np.int64)
+    offsets = np.empty(nq + 1, np.int64)
+    hits = np.empty(nq if first else 0, np.int64)
+    ts = np.empty(nq if first else 0)
+    none = np.empty(0, np.int64)
+    for rnd in range(1 if first else 2):
+        marks = none if rnd == 0 else offsets
+        if lanes > 1:
+            for lane in numba.prange(lanes):
+                _lane(pos, radius, ident, g, period, origins, dirs, tmax, lane, lanes, first,
+                      counts, marks, hits, ts)
+        else:
+            _lane(pos, radius, ident, g, period, origins, dirs, tmax, 0, 1, first, counts,
+                  marks, hits, ts)
+        if rnd == 0:
+            offsets[0] = 0
+            for q in range(nq):
+                offsets[q + 1] = offsets[q] + (counts[q] if not first else min(counts[q], 1))
+            if not first:
+                hits = np.empty(offsets[nq], np.int64)
+                ts = np.empty(offsets[nq])
+    if first:                                   # the rays that hit, in order
+        n = 0
+        for q in range(nq):
+            if counts[q]:
+                hits[n] = hits[q]
+                ts[n] = ts[q]
+                n += 1
+        return offsets, hits[:n].copy(), ts[:n].copy()
+    return offsets, hits, ts

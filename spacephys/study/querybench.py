@@ -3,7 +3,9 @@ bodies and queries, the grid (ours) and the tree (theirs) built inside every tim
 same answers checked.
 
 Bodies: point bodies uniform in a square (2D) or cube (3D) of side 1 000; queries uniform in
-the same region. Radius queries use the r that holds about 10 bodies on average.
+the same region. Radius queries use the r that holds about 10 bodies on average. Rays (no
+peer): from the query points in random directions, 100 long, among the same bodies given a
+radius of 0.5.
 """
 import math
 import time
@@ -53,6 +55,17 @@ def _case(dim, n, nq, repeats):
         rows.append({"case": f"{nq} nearest (k = {k}), {dim}D", "bodies": n, "queries": nq,
                      "spacephys_s": t_ours, "scipy_s": t_theirs, "ratio": t_theirs / t_ours,
                      "same_answers": same})
+    # rays: the nearest body along each, up to 100, among bodies of radius 0.5 (no peer)
+    shapes = World(dim=dim, gravity="none", capacity=n)
+    shapes.add_bodies(1.0, w.pos, radius=0.5)
+    dirs = rng.normal(size=(nq, dim))
+    shapes.raycast(centres[:2], dirs[:2], 100.0)
+    for first in (True, False):
+        t_ours, hits = _best(lambda: shapes.raycast(centres, dirs, 100.0, first=first), repeats)
+        rows.append({"case": f"{nq} rays ({'nearest' if first else 'every'} hit), {dim}D",
+                     "bodies": n, "queries": nq, "mean_found": float(hits.counts().mean()),
+                     "spacephys_s": t_ours, "scipy_s": None, "ratio": None,
+                     "same_answers": None})
     # boxes of the same area/volume as the balls (no peer)
     half = 0.5 * (ball ** (1.0 / dim)) * r
     w.query_box(centres[:2] - half, centres[:2] + half)
