@@ -316,3 +316,24 @@ def test_bad_rays_are_refused_naming_the_field(call, message):
     w.add_body(1.0, (0.0, 0.0))
     with pytest.raises(ValueError, match=message):
         call(w)
+
+
+def test_a_ray_from_the_grids_far_edge_meets_the_body_there():
+    """Found by the property test: a ray starting exactly on a point body that sits on the
+    grid's upper edge (kept in the last cell) meets it at 0."""
+    w = sp.World(dim=2, gravity="none")
+    w.add_body(1.0, (-5.0, -5.0))
+    b = w.add_body(1.0, (-2.5, -5.0))
+    hit = w.raycast((-2.5, -5.0), (1.0, 0.0), 0.0, first=False)[0]
+    assert hit.ids.tolist() == [b] and hit.distances.tolist() == [0.0]
+
+
+def test_a_body_on_the_periodic_boxs_upper_edge_is_its_lower_edge():
+    """Found by the property test: a body at y = hi of a periodic box is at y = lo: a ray
+    from there meets it (its cell and its position, kept in the box, agree)."""
+    w = sp.World(dim=2, gravity="none")
+    w.set_boundary("periodic", lo=(-5.0, -5.0), hi=(5.0, 5.0))
+    a = w.add_body(1.0, (-5.0, -5.0))
+    b = w.add_body(1.0, (-5.0, 5.0))
+    hit = w.raycast((-5.0, -5.0), (1.0, 0.0), 0.0, first=False)[0]
+    assert hit.ids.tolist() == [a, b]

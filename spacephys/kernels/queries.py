@@ -27,6 +27,16 @@ def _image(d, period):
     return d
 
 
+@kernel(inline=True)
+def _wrapped(x, lo, period):
+    """x brought into the periodic box [lo, lo + period) (period 0: as it is)."""
+    if period > 0.0:
+        x -= period * math.floor((x - lo) / period)
+        if x >= lo + period:                 # rounding: x just below lo came back to the top
+            x -= period
+    return x
+
+
 @kernel
 def grid(pos, radius, rows, lo, period, hint):
     """The grid of the bodies `rows`: (origin (3,), cell (3,) side per axis, ncell (3,),
@@ -102,9 +112,7 @@ def grid(pos, radius, rows, lo, period, hint):
             continue
         k = 0
         for c in range(3):
-            q = int(math.floor((pos[i, c] - origin[c]) / cell[c]))
-            if period[c] > 0.0:
-                q %= ncell[c]
+            q = int(math.floor((_wrapped(pos[i, c], lo[c], period[c]) - origin[c]) / cell[c]))
             q = min(max(q, 0), ncell[c] - 1)
             k = k * ncell[c] + q
         key[a] = k
@@ -117,12 +125,13 @@ def grid(pos, radius, rows, lo, period, hint):
         if key[a] >= 0:
             items[count[key[a]]] = rows[a]
             count[key[a]] += 1
-    # the gridded bodies' centres and radii in cell order: a cell's bodies side by side
+    # the gridded bodies' centres (in the periodic box, as their cells) and radii in cell
+    # order: a cell's bodies side by side
     gpos = np.empty((items.size, 3))
     grad = np.empty(items.size)
     for e in range(items.size):
         for c in range(3):
-            gpos[e, c] = pos[items[e], c]
+            gpos[e, c] = _wrapped(pos[items[e], c], lo[c], period[c])
         grad[e] = radius[items[e]]
     return origin, cell, ncell, start, items, giants, rmax, gpos, grad
 
@@ -455,6 +464,8 @@ def cast(g, ident, period, o, d, tmax, first, stamp, slot, mark, out_rows, out_t
     for c in range(3):
         u = (o[c] + t0 * d[c] - origin[c]) / cell[c]
         cur[c] = int(math.floor(u))          # within reach of the grid: t0 is clipped
+        if period[c] == 0.0 and u == ncell[c]:
+            cur[c] = ncell[c] - 1                # on the far edge, where its bodies are kept
         reach[c] = int(math.ceil(rmax / cell[c]))
         if d[c] > 0.0:
             step[c] = 1
