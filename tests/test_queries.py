@@ -337,3 +337,18 @@ def test_a_body_on_the_periodic_boxs_upper_edge_is_its_lower_edge():
     b = w.add_body(1.0, (-5.0, 5.0))
     hit = w.raycast((-5.0, -5.0), (1.0, 0.0), 0.0, first=False)[0]
     assert hit.ids.tolist() == [a, b]
+
+
+def test_rays_near_tiny_grids_of_huge_bodies():
+    """Found by fuzzing: two large bodies 1e-9 apart made a grid of 1e-9 cells that a ray
+    would search 6e9 cells wide (it hung); a body on the grid's far edge was missed by a
+    ray whose cell lies two past it. Both are brute force's answers now."""
+    w = sp.World(dim=2, gravity="none")
+    a = w.add_body(1.0, (5.0, 5.0), radius=6.0)
+    w.add_body(1.0, (4.999999999, 4.999999999), radius=1.5)
+    assert w.raycast((2.5, 5.0), (1.0, -1.0), 2.0, first=False)[0].ids.tolist() == [a]
+    v = sp.World(dim=2, gravity="none")
+    v.add_body(1.0, (4.999999999, -2.5), radius=2.0)
+    b = v.add_body(1.0, (0.0, -1.0), radius=1.5)
+    hit = v.raycast((0.0, 0.5), (-1.0, 1.0), 1.0)[0]
+    assert hit.ids.tolist() == [b] and hit.distances.tolist() == [0.0]

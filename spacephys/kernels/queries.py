@@ -87,10 +87,12 @@ def grid(pos, radius, rows, lo, period, hint):
             ncell[c] = max(1, ncell[c] // 2)
             cell[c] = (hi[c] - origin[c]) / ncell[c] if hi[c] > origin[c] else 1.0
             total *= ncell[c]
+    # the narrowest cell over the axes the bodies spread along (or that wrap): a body wider
+    # than it is a giant, tested directly, so that no search looks past the next cell
     side = 0.0
     for c in range(3):
-        if ncell[c] > 1:
-            side = max(side, cell[c]) if side == 0.0 else min(side, cell[c])
+        if hi[c] > origin[c]:
+            side = cell[c] if side == 0.0 else min(side, cell[c])
     # giants: bodies wider than a cell are tested directly
     ng = 0
     rmax = 0.0
@@ -428,6 +430,19 @@ def _axis_cell(i, n, period):
     return i, 0.0
 
 
+@kernel(inline=True)
+def _from(cur, reach, n, period):
+    """The first walk cell of a neighbourhood on one axis (open axes: within the grid; a body
+    on the grid's far edge, geometrically in cell n, is kept in cell n - 1)."""
+    return cur - reach if period > 0.0 else min(max(cur - reach, 0), n - 1)
+
+
+@kernel(inline=True)
+def _to(cur, reach, n, period):
+    """The last walk cell of a neighbourhood on one axis (open axes: not past the grid)."""
+    return cur + reach if period > 0.0 else min(cur + reach, n - 1)
+
+
 @kernel
 def cast(g, ident, period, o, d, tmax, first, stamp, slot, mark, out_rows, out_t, cap):
     """The gridded bodies the ray o + t d (d unit, 0 <= t <= tmax) touches: a walk through
@@ -487,15 +502,18 @@ def cast(g, ident, period, o, d, tmax, first, stamp, slot, mark, out_rows, out_t
         # of the cell that point is in: past the nearest meeting, nothing nearer is left
         if first and n and best < t_cell:
             break
-        for ax in range(cur[0] - reach[0], cur[0] + reach[0] + 1):
+        for ax in range(_from(cur[0], reach[0], ncell[0], period[0]),
+                        _to(cur[0], reach[0], ncell[0], period[0]) + 1):
             ix, sx = _axis_cell(ax, ncell[0], period[0])
             if ix < 0:
                 continue
-            for ay in range(cur[1] - reach[1], cur[1] + reach[1] + 1):
+            for ay in range(_from(cur[1], reach[1], ncell[1], period[1]),
+                            _to(cur[1], reach[1], ncell[1], period[1]) + 1):
                 iy, sy = _axis_cell(ay, ncell[1], period[1])
                 if iy < 0:
                     continue
-                for az in range(cur[2] - reach[2], cur[2] + reach[2] + 1):
+                for az in range(_from(cur[2], reach[2], ncell[2], period[2]),
+                                _to(cur[2], reach[2], ncell[2], period[2]) + 1):
                     iz, sz = _axis_cell(az, ncell[2], period[2])
                     if iz < 0:
                         continue
