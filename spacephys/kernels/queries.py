@@ -340,7 +340,9 @@ def _nearest_one(pos, radius, ident, g, x, y, z, k, period, best_i, best_d):
             r += out * out
         side = max(side, cell[c] if ncell[c] > 1 else 0.0)
     r = math.sqrt(r) + (side if side > 0.0 else 1.0)
+    rounds = 0
     while True:
+        rounds += 1
         filled = 0
         for e in range(giants.size):
             i = giants[e]
@@ -349,6 +351,9 @@ def _nearest_one(pos, radius, ident, g, x, y, z, k, period, best_i, best_d):
         x0, x1 = _range(x, r + rmax, origin[0], cell[0], ncell[0], period[0])
         y0, y1 = _range(y, r + rmax, origin[1], cell[1], ncell[1], period[1])
         z0, z1 = _range(z, r + rmax, origin[2], cell[2], ncell[2], period[2])
+        if rounds > 60 or not r < 1e300:
+            # a bound, whatever the reach's arithmetic does far out: every cell, once
+            x0, x1, y0, y1, z0, z1 = 0, ncell[0] - 1, 0, ncell[1] - 1, 0, ncell[2] - 1
         for cx in range(x0, x1 + 1):
             for cy in range(y0, y1 + 1):
                 for cz in range(z0, z1 + 1):
