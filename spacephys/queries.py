@@ -45,23 +45,12 @@ def _points(name, value, dim):
 
 
 def _candidates(world, kinds, mask):
-    """int64 rows of the bodies a query may find: of one of `kinds` (names or codes; None:
-    every kind) and whose category shares a bit with `mask` (None: every body)."""
-    n = world.n
-    ok = np.ones(n, bool)
+    """int64 rows of the bodies a query may find: of one of the kind codes `kinds` (None:
+    every kind; World checks them) and whose category shares a bit with `mask` (None:
+    every body)."""
+    ok = np.ones(world.n, bool)
     if kinds is not None:
-        names = [kinds] if isinstance(kinds, (str, int, np.integer)) else list(kinds)
-        if not names:
-            raise ValueError("kinds = []: give at least one kind, or None for every kind")
-        codes = []
-        for k in names:
-            c = world.kinds.index(k) if isinstance(k, str) and k in world.kinds else \
-                (check.count("kinds", k) if not isinstance(k, str) else len(world.kinds))
-            if c >= len(world.kinds):
-                raise ValueError(f"kinds: {k!r} is not a declared kind; declared: "
-                                 f"{', '.join(world.kinds)}")
-            codes.append(c)
-        ok &= np.isin(world.kind, codes)
+        ok &= np.isin(world.kind, kinds)
     if mask is not None:
         if isinstance(mask, (bool, np.bool_)) or not isinstance(mask, (int, np.integer)):
             raise ValueError(f"mask = {mask!r}: expected an integer of category bits")

@@ -1444,19 +1444,30 @@ class World:
                                   self._threads.min_pairs)
 
     # ---------------------------------------------------------------- spatial queries
+    def _query_kinds(self, kinds):
+        """A query's kinds= (a name or code, or a list of them) as codes, checked as every
+        kind argument is (None: every kind)."""
+        if kinds is None:
+            return None
+        one = isinstance(kinds, (str, int, np.integer))
+        k = 1 if one else len(kinds)
+        if k == 0:
+            raise ValueError("kinds = []: give at least one kind, or None for every kind")
+        return self._kind_codes(kinds, k, "kinds")
+
     def query_radius(self, centers, r, kinds=None, mask=None):
         """The bodies within distance r of each center (the gap to their surface: a body of
         radius R counts from |d| <= r + R), optionally of `kinds` (names) or with a category
         bit in `mask`: an sp.Hits (hits[q] -> (ids, distances), sorted by distance then id).
         centers (dim,) or (Q, dim); r >= 0, a number or (Q,). Periodic boundaries wrap."""
         from .queries import query_radius
-        return query_radius(self, centers, r, kinds, mask)
+        return query_radius(self, centers, r, self._query_kinds(kinds), mask)
 
     def query_box(self, lo, hi, kinds=None, mask=None):
         """The bodies overlapping each axis-aligned box lo..hi ((dim,) or (Q, dim) each): an
         sp.Hits sorted by the distance of their centres from the box's centre."""
         from .queries import query_box
-        return query_box(self, lo, hi, kinds, mask)
+        return query_box(self, lo, hi, self._query_kinds(kinds), mask)
 
     def raycast(self, origins, directions, max_distance, kinds=None, mask=None, first=True,
                 walls=True):
@@ -1466,13 +1477,14 @@ class World:
         points, normals per hit; hits[q] for ray q), the nearest per ray (first=True) or
         every one, nearest first. Periodic boundaries: rays run on through the seam."""
         from .queries import raycast
-        return raycast(self, origins, directions, max_distance, kinds, mask, first, walls)
+        return raycast(self, origins, directions, max_distance, self._query_kinds(kinds),
+                       mask, first, walls)
 
     def nearest(self, points, k=1, kinds=None, mask=None):
         """The k bodies nearest each point (by the gap to their surface): (ids (Q, k),
         distances (Q, k)), sorted; -1 and inf past the bodies there are."""
         from .queries import nearest
-        return nearest(self, points, k, kinds, mask)
+        return nearest(self, points, k, self._query_kinds(kinds), mask)
 
     def gravity_accelerations(self, ids=None, exact=False):
         """(k, dim) the acceleration by gravity now [length / time^2] of the bodies `ids`

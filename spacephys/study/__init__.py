@@ -2,8 +2,10 @@
 the reference problems (validate) and sp.recommend. They use the World's public API and one
 World -> REBOUND adapter (rebound.py)."""
 
+import math
 import os
 import platform
+import time
 
 
 def header(name, quick, rebound=None):
@@ -16,3 +18,13 @@ def header(name, quick, rebound=None):
     return {"benchmark": name, "quick": quick,
             "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
             "numba_threads": numba.get_num_threads(), "versions": versions}
+
+
+def best_of(fn, repeats):
+    """(the least wall seconds of `repeats` calls of fn(), the last call's result)."""
+    best, out = math.inf, None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - start)
+    return best, out

@@ -8,20 +8,10 @@ peer): from the query points in random directions, 100 long, among the same bodi
 radius of 0.5.
 """
 import math
-import time
 
 import numpy as np
 
-from . import header
-
-
-def _best(fn, repeats):
-    best, out = math.inf, None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - start)
-    return best, out
+from . import best_of, header
 
 
 def _case(dim, n, nq, repeats):
@@ -38,8 +28,8 @@ def _case(dim, n, nq, repeats):
 
     # radius queries
     w.query_radius(centres[:2], r)
-    t_ours, hits = _best(lambda: w.query_radius(centres, r), repeats)
-    t_theirs, found = _best(lambda: cKDTree(w.pos).query_ball_point(centres, r), repeats)
+    t_ours, hits = best_of(lambda: w.query_radius(centres, r), repeats)
+    t_theirs, found = best_of(lambda: cKDTree(w.pos).query_ball_point(centres, r), repeats)
     same = all(sorted(hits[q][0].tolist()) == sorted(found[q]) for q in range(nq))
     rows.append({"case": f"{nq} radius queries, {dim}D", "bodies": n, "queries": nq,
                  "mean_found": float(hits.counts().mean()), "spacephys_s": t_ours,
@@ -47,8 +37,8 @@ def _case(dim, n, nq, repeats):
     # nearest
     for k in (1, 10):
         w.nearest(centres[:2], k=k)
-        t_ours, (ids, d) = _best(lambda: w.nearest(centres, k=k), repeats)
-        t_theirs, (dd, ii) = _best(lambda: cKDTree(w.pos).query(centres, k=k), repeats)
+        t_ours, (ids, d) = best_of(lambda: w.nearest(centres, k=k), repeats)
+        t_theirs, (dd, ii) = best_of(lambda: cKDTree(w.pos).query(centres, k=k), repeats)
         ii = ii.reshape(nq, k)
         same = bool(np.array_equal(ids, w.ids[ii]) and
                     np.allclose(d, dd.reshape(nq, k), rtol=1e-12, atol=0))
@@ -61,7 +51,7 @@ def _case(dim, n, nq, repeats):
     dirs = rng.normal(size=(nq, dim))
     shapes.raycast(centres[:2], dirs[:2], 100.0)
     for first in (True, False):
-        t_ours, hits = _best(lambda: shapes.raycast(centres, dirs, 100.0, first=first), repeats)
+        t_ours, hits = best_of(lambda: shapes.raycast(centres, dirs, 100.0, first=first), repeats)
         rows.append({"case": f"{nq} rays ({'nearest' if first else 'every'} hit), {dim}D",
                      "bodies": n, "queries": nq, "mean_found": float(hits.counts().mean()),
                      "spacephys_s": t_ours, "scipy_s": None, "ratio": None,
@@ -69,7 +59,7 @@ def _case(dim, n, nq, repeats):
     # boxes of the same area/volume as the balls (no peer)
     half = 0.5 * (ball ** (1.0 / dim)) * r
     w.query_box(centres[:2] - half, centres[:2] + half)
-    t_ours, hits = _best(lambda: w.query_box(centres - half, centres + half), repeats)
+    t_ours, hits = best_of(lambda: w.query_box(centres - half, centres + half), repeats)
     rows.append({"case": f"{nq} box queries, {dim}D", "bodies": n, "queries": nq,
                  "mean_found": float(hits.counts().mean()), "spacephys_s": t_ours,
                  "scipy_s": None, "ratio": None, "same_answers": None})

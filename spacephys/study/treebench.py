@@ -7,13 +7,12 @@ of a few repeats. Every error is the relative error |a - a_exact| / |a_exact| of
 against its own exact sum (pytreegrav's softening kernel is not Plummer's), over up to 2 000
 bodies drawn at random, reported as its RMS and maximum.
 """
-import time
 from importlib import metadata
 
 import numpy as np
 
 from ..scenes import cold_disc_model, plummer_model
-from . import header
+from . import best_of, header
 from . import rebound as peer
 
 EPS = 0.01                 # Plummer softening [length] (Plummer's sphere: scale length 1)
@@ -31,16 +30,6 @@ def _world(pos, mass, gravity, theta=None, quadrupole=None, eps=EPS):
               **tree)
     w.add_bodies(mass, pos, kind="star")
     return w
-
-
-def _best(fn, repeats):
-    best = float("inf")
-    out = None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - start)
-    return best, out
 
 
 def _errors(a, exact):
@@ -66,7 +55,7 @@ def accuracy(n=10_000, thetas=(0.3, 0.5, 0.7, 1.0)):
             for theta in thetas:
                 w = _world(pos, mass, "tree", theta, quadrupole)
                 w.gravity_accelerations(ids[:1])
-                seconds, a = _best(lambda: w.gravity_accelerations(), 3)
+                seconds, a = best_of(lambda: w.gravity_accelerations(), 3)
                 rms, worst = _errors(a[ids], exact)
                 rows.append({"model": model, "dim": dim, "bodies": n, "theta": theta,
                              "quadrupole": quadrupole, "rms_error": rms, "max_error": worst,
@@ -78,7 +67,7 @@ def _pytreegrav_case(pytreegrav, pos, mass, theta, quadrupole, ids, repeats):
     h = np.full(mass.size, SPLINE_PER_PLUMMER * EPS)
     run = lambda: pytreegrav.Accel(pos, mass, h, theta=theta, parallel=True,
                                    quadrupole=quadrupole)
-    seconds, a = _best(run, repeats)
+    seconds, a = best_of(run, repeats)
     exact = pytreegrav.AccelTarget(pos[ids], pos, mass, softening_target=h[ids],
                                    softening_source=h, method="bruteforce", parallel=True)
     rms, worst = _errors(a[ids], exact)
@@ -100,7 +89,7 @@ def _rebound_case(pos, mass, theta, ids, exact):
     for m, p in zip(mass, pos):
         sim.add(m=float(m), x=p[0], y=p[1], z=p[2])
     sim.steps(1)
-    seconds, _ = _best(lambda: sim.steps(1), 2)
+    seconds, _ = best_of(lambda: sim.steps(1), 2)
     acc = np.array([[sim.particles[int(i)].ax, sim.particles[int(i)].ay,
                      sim.particles[int(i)].az] for i in ids])
     rms, worst = _errors(acc, exact)
@@ -117,7 +106,7 @@ def _crossover(sizes, repeats):
         for gravity in ("direct", "tree"):
             w = _world(pos, mass, gravity, 0.5 if gravity == "tree" else None)
             w.gravity_accelerations()
-            t[gravity] = _best(lambda: w.gravity_accelerations(), repeats)[0]
+            t[gravity] = best_of(lambda: w.gravity_accelerations(), repeats)[0]
         rows.append({"bodies": n, "direct_s": t["direct"], "tree_s": t["tree"]})
     cross = None
     for a, b in zip(rows, rows[1:]):
@@ -153,7 +142,7 @@ def tree(quick=False, sizes=None):
             for theta in ours_thetas if quadrupole else (0.7,):
                 w = _world(pos, mass, "tree", theta, quadrupole)
                 w.gravity_accelerations(ids[:1])
-                seconds, a = _best(lambda: w.gravity_accelerations(), repeats)
+                seconds, a = best_of(lambda: w.gravity_accelerations(), repeats)
                 rms, worst = _errors(a[ids], exact)
                 cases.append({"code": "spacephys tree", "bodies": n, "theta": theta,
                               "quadrupole": quadrupole, "seconds": seconds,
@@ -167,7 +156,7 @@ def tree(quick=False, sizes=None):
                               "rms_error": rms, "max_error": worst})
         if n <= 100_000:
             w = _world(pos, mass, "direct")
-            seconds, a = _best(lambda: w.gravity_accelerations(), 1 if n >= 100_000 else repeats)
+            seconds, a = best_of(lambda: w.gravity_accelerations(), 1 if n >= 100_000 else repeats)
             cases.append({"code": "spacephys direct", "bodies": n, "theta": None,
                           "quadrupole": None, "seconds": seconds,
                           "rms_error": _errors(a[ids], exact)[0], "max_error": 0.0})
