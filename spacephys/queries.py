@@ -146,9 +146,27 @@ class RayHits:
         return np.diff(self.offsets)
 
 
-def _wall_hits(world, o, d, tmax):
-    """(t (Q, W), normals (Q, W, 3)): where each ray meets each wall (inf: never). Planes
-    either side; segments in 2D (in 3D a segment is a line a ray cannot hit)."""
+def _ray_circle(o, d, c, r):
+    """(t, normal) where o + t d (d unit, rows) first touches the circle or sphere (c, r):
+    t = 0 when o is inside, inf when never."""
+    w = c - o
+    b = (w * d).sum(axis=1)
+    cc = (w * w).sum(axis=1) - r * r
+    h = w - b[:, None] * d
+    disc = r * r - (h * h).sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where(cc <= 0.0, 0.0, np.where((b > 0.0) & (disc >= 0.0),
+                                              cc / (b + np.sqrt(np.maximum(disc, 0.0))),
+                                              np.inf))
+        rel = o + t[:, None] * d - c
+        n = rel / np.linalg.norm(rel, axis=1)[:, None]
+    return t, np.where(np.isfinite(n) & (t[:, None] > 0.0), n, -d)
+
+
+def _wall_hits(world, o, d, tmax, extra):
+    """(t (Q, W), normals (Q, W, 3)): where each ray, or each circle of radius extra moving
+    along it, first meets each wall (inf: never). Planes from either side; segments in 2D
+    (as capsules of the circle's radius; in 3D a segment is a line nothing meets)."""
     walls = world.walls
     Q, W = o.shape[0], walls.shape[0]
     t = np.full((Q, W), np.inf)
@@ -158,23 +176,34 @@ def _wall_hits(world, o, d, tmax):
             kind, p, v = walls[k, 0], walls[k, 1:4], walls[k, 4:7]
             if kind == 0:                                   # plane through p, normal v
                 n = v / np.linalg.norm(v)
-                den = d @ n
-                tk = ((p - o) @ n) / den
-                ok = (den != 0.0) & (tk >= 0.0) & (tk <= tmax)
-                side = np.where(den < 0.0, 1.0, -1.0)[:, None] * n
-            elif world.dim == 2:                            # segment p..v
+                s0 = (o - p) @ n
+                side = np.where(s0 >= 0.0, 1.0, -1.0)       # the side the body is on
+                gap = np.abs(s0) - extra
+                closing = -(d @ n) * side                   # speed toward the plane
+                tk = np.where(gap <= 0.0, 0.0, np.where(closing > 0.0, gap / closing, np.inf))
+                nk = side[:, None] * n
+            elif world.dim == 2:                            # segment p..v, a capsule
                 s = v - p
-                cross = d[:, 0] * s[1] - d[:, 1] * s[0]
-                ap = p - o
-                tk = (ap[:, 0] * s[1] - ap[:, 1] * s[0]) / cross
-                u = (ap[:, 0] * d[:, 1] - ap[:, 1] * d[:, 0]) / cross
-                ok = (cross != 0.0) & (tk >= 0.0) & (tk <= tmax) & (u >= 0.0) & (u <= 1.0)
-                perp = np.array([-s[1], s[0], 0.0]) / np.hypot(s[0], s[1])
-                side = np.where((d @ perp) > 0.0, -1.0, 1.0)[:, None] * perp
+                L = np.hypot(s[0], s[1])
+                perp = np.array([-s[1], s[0], 0.0]) / L
+                s0 = (o - p) @ perp
+                side = np.where(s0 >= 0.0, 1.0, -1.0)
+                closing = -(d @ perp) * side
+                gap = np.abs(s0) - extra
+                tk = np.where(gap <= 0.0, 0.0, np.where(closing > 0.0, gap / closing, np.inf))
+                u = ((o + tk[:, None] * d - p) @ s) / (L * L)
+                tk = np.where((u >= 0.0) & (u <= 1.0), tk, np.inf)
+                nk = side[:, None] * perp
+                for end in (p, v):                          # the round ends
+                    te, ne = _ray_circle(o, d, end, extra)
+                    nearer = te < tk
+                    tk = np.where(nearer, te, tk)
+                    nk = np.where(nearer[:, None], ne, nk)
             else:
                 continue
+            ok = np.isfinite(tk) & (tk <= tmax)
             t[ok, k] = tk[ok]
-            nrm[:, k] = side
+            nrm[ok, k] = nk[ok]
     return t, nrm
 
 
@@ -198,10 +227,18 @@ def raycast(world, origins, directions, max_distance, kinds=None, mask=None, fir
     d = d / norm[:, None]
     tmax = check.per_body("max_distance", max_distance, o.shape[0], minimum=0.0)
     tmax = np.ascontiguousarray(tmax, np.float64)
+    return _cast(world, o, d, tmax, np.zeros(o.shape[0]), np.full(o.shape[0], -1),
+                 kinds, mask, first, walls)
+
+
+def _cast(world, o, d, tmax, extra, skip, kinds, mask, first, walls):
+    """raycast's work, for rays (extra 0) and moving circles (extra: their radii, skip:
+    their own rows): o, d (Q, 3), d unit; tmax (Q,)."""
     rows = _candidates(world, kinds, mask)
     pos, radius, ids = _state(world)
     lo, period = _box(world)
-    offsets, hits, t = kq.raycasts(pos, radius, ids, rows, lo, period, o, d, tmax, first)
+    offsets, hits, t = kq.raycasts(pos, radius, ids, rows, lo, period, o, d, tmax, extra,
+                                   skip, first)
     ray = np.repeat(np.arange(o.shape[0]), np.diff(offsets))
     point = o[ray] + t[:, None] * d[ray]
     rel = point - pos[hits]
@@ -212,7 +249,7 @@ def raycast(world, origins, directions, max_distance, kinds=None, mask=None, fir
                       rel / np.where(length > 0, length, 1.0)[:, None], -d[ray])
     body = (ray, ids[hits], np.full(hits.size, -1), t, point, normal)
     if walls and world.walls.shape[0]:
-        wt, wn = _wall_hits(world, o, d, tmax)
+        wt, wn = _wall_hits(world, o, d, tmax, extra)
         if first:
             k = np.argmin(wt, axis=1)
             best = wt[np.arange(o.shape[0]), k]
@@ -238,3 +275,35 @@ def raycast(world, origins, directions, max_distance, kinds=None, mask=None, fir
     dim = world.dim
     return RayHits(offsets.astype(np.int64), rid.astype(np.int64), rwall.astype(np.int64), t,
                    point[:, :dim], normal[:, :dim])
+
+
+def shapecast(world, shape, displacement, kinds=None, mask=None, walls=True):
+    """The first body or wall a circle (2D) or sphere (3D) meets moving by displacement
+    ((dim,) or (Q, dim), not zero): shape is a body id (or (Q,) ids: their own pos and
+    radius, the body itself ignored) or (pos (dim,) or (Q, dim), radius >= 0: a number or
+    (Q,)). A RayHits of at most one hit per shape: distances along the move (distance /
+    |displacement| is the time of impact, 0..1), points the shape's centre at first
+    contact, normals from what it meets toward it."""
+    if isinstance(shape, tuple):
+        if len(shape) != 2:
+            raise ValueError(f"shape = {shape!r}: a body id, ids, or (pos, radius)")
+        o = _points("shape pos", shape[0], world.dim)
+        extra = check.per_body("shape radius", shape[1], o.shape[0], minimum=0.0)
+        skip = np.full(o.shape[0], -1)
+    else:
+        rows = np.atleast_1d(world.index_of(shape, "shape"))
+        o = np.zeros((rows.size, 3))
+        o[:, :world.dim] = world.pos[rows]
+        extra = world.radius[rows].copy()
+        skip = rows
+    dvec = _points("displacement", displacement, world.dim)
+    if dvec.shape[0] == 1 and o.shape[0] > 1:
+        dvec = np.repeat(dvec, o.shape[0], axis=0)
+    if dvec.shape[0] != o.shape[0]:
+        raise ValueError(f"displacement has {dvec.shape[0]} moves for {o.shape[0]} shapes")
+    length = np.linalg.norm(dvec, axis=1)
+    if np.any(length == 0.0):
+        q = int(np.flatnonzero(length == 0.0)[0])
+        raise ValueError(f"displacement[{q}] is zero: a shape cast needs a move")
+    return _cast(world, o, dvec / length[:, None], length, np.ascontiguousarray(extra, float),
+                 np.ascontiguousarray(skip, np.int64), kinds, mask, True, walls)

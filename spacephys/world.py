@@ -1480,6 +1480,15 @@ class World:
         return raycast(self, origins, directions, max_distance, self._query_kinds(kinds),
                        mask, first, walls)
 
+    def shapecast(self, shape, displacement, kinds=None, mask=None, walls=True):
+        """The first body or wall a circle (2D) or sphere (3D) would meet moving by
+        displacement ((dim,) or (Q, dim), not zero): shape a body id or ids (their pos and
+        radius; the body itself ignored) or (pos, radius). An sp.RayHits of at most one hit
+        per shape: distances along the move (over |displacement|: the time of impact),
+        points the shape's centre at first contact, normals toward it."""
+        from .queries import shapecast
+        return shapecast(self, shape, displacement, self._query_kinds(kinds), mask, walls)
+
     def nearest(self, points, k=1, kinds=None, mask=None):
         """The k bodies nearest each point (by the gap to their surface): (ids (Q, k),
         distances (Q, k)), sorted; -1 and inf past the bodies there are."""

@@ -1,6 +1,6 @@
-"""Spatial queries (World.query_radius, query_box, nearest) against brute force: the same bodies
-in the same order, the same distances, across cell edges, periodic seams, giants and kinds;
-bad input named."""
+"""Spatial queries (World.query_radius, query_box, nearest, raycast, shapecast) against brute
+force: the same bodies in the same order, the same distances, across cell edges, periodic
+seams, giants and kinds; bad input named."""
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -343,3 +343,91 @@ def test_rays_near_tiny_grids_of_huge_bodies():
     b = v.add_body(1.0, (0.0, -1.0), radius=1.5)
     hit = v.raycast((0.0, 0.5), (-1.0, 1.0), 1.0)[0]
     assert hit.ids.tolist() == [b] and hit.distances.tolist() == [0.0]
+
+
+# ----------------------------------------------------------------------------- shape casts
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(scenes(), st.data())
+def test_shapecast_is_a_ray_against_grown_bodies(scene, data):
+    """A circle of radius a moving by D meets what a ray meets among the bodies grown by a:
+    brute force, every image tried; the time of impact is the distance over |D|."""
+    w, centres = scene
+    q = centres.shape[0]
+    a = np.array([data.draw(st.floats(0.0, 2.0)) for _ in range(q)])
+    disp = np.array([[data.draw(st.floats(-3, 3)) for _ in range(w.dim)] for _ in range(q)])
+    disp[np.linalg.norm(disp, axis=1) == 0.0, 0] = 1.0
+    hits = w.shapecast((centres, a), disp)
+    o, d = _c3(w, centres), _c3(w, disp)
+    length = np.linalg.norm(d, axis=1)
+    for r in range(q):
+        grown = w.copy()
+        for i in range(w.n):
+            grown.set_body(int(w.ids[i]), radius=float(w.radius[i] + a[r]))
+        want = _brute_rays(grown, o[r:r + 1], d[r:r + 1] / length[r], length[r:r + 1],
+                           _period(w))[0]
+        got = hits[r]
+        assert np.array_equal(got.ids, want[0][:1])
+        np.testing.assert_allclose(got.distances, want[1][:1], rtol=1e-12)
+
+
+def test_a_body_cast_ignores_itself_and_meets_walls_as_capsules():
+    w = sp.World(dim=2, gravity="none")
+    ship = w.add_body(1.0, (0.0, 0.0), radius=1.0)
+    rock = w.add_body(1.0, (10.0, 0.0), radius=2.0)
+    w.add_segment((0.0, 5.0), (4.0, 5.0))
+    w.add_plane((0.0, -8.0), (0.0, 1.0))
+    hit = w.shapecast(ship, (20.0, 0.0))[0]
+    assert hit.ids.tolist() == [rock] and hit.distances[0] == pytest.approx(7.0, rel=1e-14)
+    np.testing.assert_allclose(hit.points, [[7.0, 0.0]], atol=1e-14)   # the centre at contact
+    np.testing.assert_allclose(hit.normals, [[-1.0, 0.0]], atol=1e-15)
+    up = w.shapecast(ship, (0.0, 10.0))[0]                 # the segment's face, 5 - 1 away
+    assert up.walls.tolist() == [0] and up.distances[0] == pytest.approx(4.0, rel=1e-14)
+    np.testing.assert_allclose(up.normals, [[0.0, -1.0]], atol=1e-15)
+    corner = w.shapecast(((6.0, 0.0), 1.0), (-4.0, 8.0))[0]  # towards the segment's round end
+    assert corner.walls.tolist() == [0]
+    end = corner.points[0]
+    assert np.linalg.norm(end - (4.0, 5.0)) == pytest.approx(1.0, rel=1e-12)
+    down = w.shapecast(ship, (0.0, -20.0))[0]              # the plane, 8 - 1 away
+    assert down.walls.tolist() == [1] and down.distances[0] == pytest.approx(7.0, rel=1e-14)
+    assert w.shapecast(ship, (0.0, -5.0)).counts().tolist() == [0]
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda w: w.shapecast(0, (0.0, 0.0)), "displacement"),
+    (lambda w: w.shapecast(((0.0, 0.0), -1.0), (1.0, 0.0)), "shape radius"),
+    (lambda w: w.shapecast(12345, (1.0, 0.0)), "shape"),
+    (lambda w: w.shapecast(((0.0, 0.0),), (1.0, 0.0)), "shape"),
+])
+def test_bad_shape_casts_are_refused_naming_the_field(call, message):
+    w = sp.World(dim=2, gravity="none")
+    w.add_body(1.0, (0.0, 0.0))
+    with pytest.raises(ValueError, match=message):
+        call(w)
+
+
+def test_bodies_cast_among_many_agree_with_brute_force():
+    """Bodies of the scene cast by id (each ignoring itself), small ones among many and
+    giants: the first body each meets is brute force's, over a circle wider than a cell."""
+    rng = np.random.default_rng(5)
+    w = sp.World(dim=2, gravity="none", capacity=4000)
+    w.add_bodies(1.0, rng.uniform(0, 200, (4000, 2)), radius=rng.uniform(0.0, 0.3, 4000))
+    w.set_body(int(w.ids[7]), radius=9.0)                 # giants, cast and met
+    w.set_body(int(w.ids[8]), radius=12.0)
+    movers = w.ids[:300]
+    w.set_body(int(w.ids[0]), radius=4.0)
+    disp = rng.normal(size=(300, 2)) * 30.0
+    got = w.shapecast(movers, disp)
+    pos = np.zeros((w.n, 3))
+    pos[:, :2] = w.pos
+    for q in range(300):
+        row = w.index_of(movers[q])
+        o = pos[row]
+        d = np.r_[disp[q], 0.0]
+        length = np.linalg.norm(d)
+        t = _ray_t(o, d / length, pos, w.radius + w.radius[row])
+        t[row] = np.nan
+        ok = np.flatnonzero(np.isfinite(t) & (t <= length))
+        want = ok[np.lexsort((w.ids[ok], t[ok]))][:1]
+        assert got[q].ids.tolist() == w.ids[want].tolist(), q
+        np.testing.assert_allclose(got[q].distances, t[want], rtol=1e-12)

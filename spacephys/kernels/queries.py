@@ -449,15 +449,19 @@ def _to(cur, reach, n, period):
 
 
 @kernel
-def cast(g, ident, period, o, d, tmax, first, stamp, slot, mark, out_rows, out_t, cap):
+def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, mark, out_rows, out_t,
+         cap):
     """The gridded bodies the ray o + t d (d unit, 0 <= t <= tmax) touches: a walk through
     the grid's cells along the ray (Amanatides and Woo 1987), each cell's neighbours within
     the largest radius tested too; periodic axes walked through their images. first: the
     nearest only (count 0 or 1, ties to the lower id); otherwise every one, once (stamp
     (k,) holds `mark` where a body was met by this ray and slot (k,) where it was written:
     met again, through another cell or image, the nearer meeting is kept), the first cap
-    written. Returns the count of hits (first: written to out_rows[0], out_t[0])."""
+    written. Returns the count of hits (first: written to out_rows[0], out_t[0]). extra: a
+    radius added to every body's (a shape cast: the moving circle's); skip: a row left out
+    (the moving body's own), -1 for none."""
     origin, cell, ncell, start, items, giants, rmax, gpos, grad = g
+    rmax = rmax + extra
     # clip to the grid's box (open axes), grown by the largest radius
     t0 = 0.0
     t1 = tmax
@@ -524,8 +528,10 @@ def cast(g, ident, period, o, d, tmax, first, stamp, slot, mark, out_rows, out_t
                         continue
                     key = (ix * ncell[1] + iy) * ncell[2] + iz
                     for e in range(start[key], start[key + 1]):
+                        if items[e] == skip:
+                            continue
                         t = ray_sphere(o[0], o[1], o[2], d[0], d[1], d[2], gpos[e, 0] + sx,
-                                       gpos[e, 1] + sy, gpos[e, 2] + sz, grad[e])
+                                       gpos[e, 1] + sy, gpos[e, 2] + sz, grad[e] + extra)
                         if t < 0.0 or t > tmax:
                             continue
                         if not first and stamp[e] == mark:
@@ -563,7 +569,7 @@ def cast(g, ident, period, o, d, tmax, first, stamp, slot, mark, out_rows, out_t
 
 
 @kernel(inline=True)
-def _giant_t(pos, radius, i, o, d, period):
+def _giant_t(pos, radius, i, o, d, period, extra):
     """ray_sphere for body i: the least t over its image nearest the ray's origin and that
     image's neighbours on periodic axes (a body wider than a cell may reach into the ray
     from any of them), -1 if none."""
@@ -582,23 +588,26 @@ def _giant_t(pos, radius, i, o, d, period):
                     continue
                 t = ray_sphere(o[0], o[1], o[2], d[0], d[1], d[2],
                                o[0] + c0 + a * period[0], o[1] + c1 + b * period[1],
-                               o[2] + c2 + c * period[2], radius[i])
+                               o[2] + c2 + c * period[2], radius[i] + extra)
                 if t >= 0.0 and (best < 0.0 or t < best):
                     best = t
     return best
 
 
 @kernel
-def _ray(pos, radius, ident, g, period, origins, dirs, tmax, q, first, stamp, slot, mark,
-         rows_out, t_out, cap):
+def _ray(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, q, first, stamp,
+         slot, mark, rows_out, t_out, cap):
     """One ray's hits: the grid's walk, then the giants; returns the count."""
     o = origins[q]
     d = dirs[q]
-    n = cast(g, ident, period, o, d, tmax[q], first, stamp, slot, mark, rows_out, t_out, cap)
+    n = cast(g, ident, period, o, d, tmax[q], extra[q], skip[q], first, stamp, slot, mark,
+             rows_out, t_out, cap)
     giants = g[5]
     for e in range(giants.size):
         i = giants[e]
-        t = _giant_t(pos, radius, i, o, d, period)
+        if i == skip[q]:
+            continue
+        t = _giant_t(pos, radius, i, o, d, period, extra[q])
         if t < 0.0 or t > tmax[q]:
             continue
         if first:
@@ -615,8 +624,8 @@ def _ray(pos, radius, ident, g, period, origins, dirs, tmax, q, first, stamp, sl
 
 
 @kernel
-def _lane(pos, radius, ident, g, period, origins, dirs, tmax, lane, lanes, first, counts,
-          offsets, hits, ts):
+def _lane(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, lane, lanes, first,
+          counts, offsets, hits, ts):
     """The rays lane, lane + lanes, ...: first: the nearest hit into hits[q], ts[q]; else
     counts[q] (offsets empty) or the hits themselves, sorted (offsets given)."""
     stamp = np.empty(0 if first else g[4].size, np.int64)
@@ -625,25 +634,27 @@ def _lane(pos, radius, ident, g, period, origins, dirs, tmax, lane, lanes, first
         stamp[e] = -1
     for q in range(lane, origins.shape[0], lanes):
         if first:
-            counts[q] = _ray(pos, radius, ident, g, period, origins, dirs, tmax, q, True,
-                             stamp, slot, 0, hits[q:q + 1], ts[q:q + 1], 1)
+            counts[q] = _ray(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip,
+                             q, True, stamp, slot, 0, hits[q:q + 1], ts[q:q + 1], 1)
         elif offsets.size == 0:
-            counts[q] = _ray(pos, radius, ident, g, period, origins, dirs, tmax, q, False,
-                             stamp, slot, q, hits[:0], ts[:0], 0)
+            counts[q] = _ray(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip,
+                             q, False, stamp, slot, q, hits[:0], ts[:0], 0)
         else:
             a, b = offsets[q], offsets[q + 1]
             # a mark of its own for the second pass: the first pass's stamps are stale
-            _ray(pos, radius, ident, g, period, origins, dirs, tmax, q, False, stamp, slot,
-                 q + origins.shape[0], hits[a:b], ts[a:b], b - a)
+            _ray(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, q, False,
+                 stamp, slot, q + origins.shape[0], hits[a:b], ts[a:b], b - a)
             _sort_hits(hits, ts, a, b, ident)
 
 
 @kernel(parallel=True)
-def raycasts(pos, radius, ident, rows, lo, period, origins, dirs, tmax, first):
+def raycasts(pos, radius, ident, rows, lo, period, origins, dirs, tmax, extra, skip, first):
     """Rays origins[q] + t dirs[q] (unit), 0 <= t <= tmax[q], against the bodies `rows`:
     (offsets (Q + 1,), hits (H,) rows, t (H,)), each ray's hits sorted by t then id; with
-    first, at most one per ray (the nearest)."""
-    g = grid(pos, radius, rows, lo, period, 0.0)
+    first, at most one per ray (the nearest). extra (Q,): a radius added to every body's
+    for ray q (a moving circle's: a shape cast); skip (Q,): a row ray q ignores (-1: none)."""
+    # cells about as wide as the moving circles: their neighbourhoods stay a few cells
+    g = grid(pos, radius, rows, lo, period, extra.sum() / max(extra.size, 1))
     nq = origins.shape[0]
     lanes = min(nq, 8) if nq >= MIN_PARALLEL else 1
     counts = np.empty(nq, np.int64)
@@ -655,11 +666,11 @@ def raycasts(pos, radius, ident, rows, lo, period, origins, dirs, tmax, first):
         marks = none if rnd == 0 else offsets
         if lanes > 1:
             for lane in numba.prange(lanes):
-                _lane(pos, radius, ident, g, period, origins, dirs, tmax, lane, lanes, first,
-                      counts, marks, hits, ts)
+                _lane(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, lane,
+                      lanes, first, counts, marks, hits, ts)
         else:
-            _lane(pos, radius, ident, g, period, origins, dirs, tmax, 0, 1, first, counts,
-                  marks, hits, ts)
+            _lane(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, 0, 1, first,
+                  counts, marks, hits, ts)
         if rnd == 0:
             offsets[0] = 0
             for q in range(nq):
