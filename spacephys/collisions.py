@@ -28,6 +28,34 @@ class CollisionRules:
         self.box = np.zeros((2, 3))
         self.box_restitution = 1.0
         self.cell = None                   # None: chosen from the radii (see giants)
+        self._touch_set(np.zeros((0, 3), np.int64))
+
+    def _touch_set(self, pairs):
+        """The pairs in touch (collide.FIELDS: ids a < b, 1 for a sensor), with room to grow
+        without the kernel reallocating (it may: `caught_up` takes its array back)."""
+        self.touch = np.zeros((max(16, 2 * len(pairs)), 3), np.int64)
+        self.touch[:len(pairs)] = pairs
+        self.ntouch = np.array([len(pairs), self.touch.shape[0]], np.int64)
+
+    def touching(self):
+        """(P, 3) int64: the pairs overlapping (sensor, 1) or touching (contact, 0) at the end
+        of the last step, ids a < b."""
+        return self.touch[:self.ntouch[0]].copy()
+
+    def set_touching(self, pairs):
+        """Make `pairs` (as touching() gives) the pairs in touch, in the arrays the kernels
+        share when they fit; returns False when new arrays were needed (tables to rebuild)."""
+        if len(pairs) > self.touch.shape[0]:
+            self._touch_set(pairs)
+            return False
+        self.touch[:len(pairs)] = pairs
+        self.ntouch[0] = len(pairs)
+        return True
+
+    def caught_up(self, rules):
+        """After a kernel call: the touch array the kernel grew, if it did."""
+        if self.ntouch[1] != self.touch.shape[0]:
+            self.touch = collide.touch_of(rules)
 
     def add_kind(self):
         """Room for one more kind (every pair with it ignored)."""
@@ -156,10 +184,11 @@ class CollisionRules:
         biggest = ordered[giants] if giants < ordered.size else 0.0
         return np.sort(rows[:giants]).astype(np.int64), 2.0 * biggest if biggest > 0 else 1.0
 
-    def table(self, kind, radius, category, mask, fixed, owner, dim, scratch):
+    def table(self, kind, radius, category, mask, fixed, owner, dim, index, scratch):
         """The collision pass's Rules for the bodies (n,) columns given (shared), or None
         when nothing can collide. owner : (n,) int64 launcher rows of unarmed missiles;
-        scratch : name -> (n, ...) arrays for collide.SCRATCH."""
+        index : the bodies' slot -> row table; scratch : name -> (n, ...) arrays for
+        collide.SCRATCH."""
         if not self.enabled():
             return None
         n = kind.shape[0]
@@ -173,14 +202,16 @@ class CollisionRules:
         gridded &= meets.any(axis=1)[kind]
         return collide.make(kind, radius, category, mask, fixed, self.response,
                             self.restitution, self.walls, self.boundary, self.box,
-                            self.box_restitution, cell, dim, owner, giants, gridded, scratch)
+                            self.box_restitution, cell, dim, owner, giants, gridded, index,
+                            self.touch, self.ntouch, scratch)
 
     # ------------------------------------------------------------ state
     def state(self):
         return {"response": self.response.copy(), "restitution": self.restitution.copy(),
                 "walls": self.walls.copy(), "boundary": int(self.boundary),
                 "box": self.box.copy(), "box_restitution": float(self.box_restitution),
-                "cell": -1.0 if self.cell is None else float(self.cell)}
+                "cell": -1.0 if self.cell is None else float(self.cell),
+                "touching": self.touching()}
 
     @classmethod
     def from_state(cls, s):
@@ -192,4 +223,5 @@ class CollisionRules:
         r.box = np.array(s["box"], np.float64)
         r.box_restitution = float(s["box_restitution"])
         r.cell = None if float(s["cell"]) < 0 else float(s["cell"])
+        r._touch_set(np.array(s.get("touching", np.zeros((0, 3))), np.int64).reshape(-1, 3))
         return r

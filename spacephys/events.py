@@ -4,12 +4,15 @@ import numpy as np
 
 from .kernels.codes import EVENT_KINDS
 from .kernels.codes import EV_BOUNCE as BOUNCE, EV_MERGE as MERGE, EV_DESTROY as DESTROY
-from .kernels.codes import EV_SENSOR as SENSOR, EV_WALL as WALL, EV_LAUNCH as LAUNCH
+from .kernels.codes import EV_SENSOR_BEGIN as SENSOR_BEGIN, EV_SENSOR_END as SENSOR_END
+from .kernels.codes import EV_CONTACT_BEGIN as CONTACT_BEGIN, EV_CONTACT_END as CONTACT_END
+from .kernels.codes import EV_WALL as WALL, EV_LAUNCH as LAUNCH
 from .kernels.codes import EV_BURNOUT as BURNOUT, EV_FUEL_EMPTY as FUEL_EMPTY
 from .kernels.codes import EV_DETONATION as DETONATION, EV_EXPIRY as EXPIRY
 
-__all__ = ["EVENT_DTYPE", "EVENT_KINDS", "BOUNCE", "MERGE", "DESTROY", "SENSOR", "WALL",
-           "LAUNCH", "BURNOUT", "FUEL_EMPTY", "DETONATION", "EXPIRY", "kind_name"]
+__all__ = ["EVENT_DTYPE", "EVENT_KINDS", "BOUNCE", "MERGE", "DESTROY", "SENSOR_BEGIN",
+           "SENSOR_END", "CONTACT_BEGIN", "CONTACT_END", "WALL", "LAUNCH", "BURNOUT",
+           "FUEL_EMPTY", "DETONATION", "EXPIRY", "kind_name"]
 
 EVENT_DTYPE = np.dtype([
     ("kind", np.int16),          # one of EVENT_KINDS
@@ -26,7 +29,10 @@ EVENT_DTYPE = np.dtype([
 ])
 """One record per event; the id fields are generational ids as in World.ids.
 
-Per kind: a collision (bounce, merge, destroy, sensor, wall) as described above; launch: a the
+Per kind: a collision (bounce, merge, destroy, wall) as described above; sensor_begin and
+sensor_end: a sensor pair starts or stops overlapping, contact_begin and contact_end: an
+elastic or bounce pair starts or stops resting in contact (README, "Begin and end": at the
+moment, the point on a's surface, normal a -> b, speed the closing speed); launch: a the
 missile, b its launcher, the point where it appeared; burnout (the burn time ended) and
 fuel_empty: a the ship or missile, b = -1, at the moment it happened; detonation: a the
 missile, b its target, the point the missile was at, normal toward the target, closing speed,

@@ -333,7 +333,8 @@ class _Shadow:
                      world._forces.drag.copy(), world._t_base, world._steps, world._dt,
                      world._stepper.state() if self.same_integrator else None,
                      world._adaptive.copy(), list(world._actors.queued),
-                     None if rules is None else owners_of(rules).copy(), world._origin.copy())
+                     None if rules is None else owners_of(rules).copy(), world._origin.copy(),
+                     world._collisions.touching())
         self.busy = True
 
     def ready(self):
@@ -341,7 +342,8 @@ class _Shadow:
         w = self.w
         if self.snap is None:
             return w                      # just made: the copy is the state
-        n, cols, drag, t_base, steps, dt, carried, adaptive, queued, owner, origin = self.snap
+        n, cols, drag, t_base, steps, dt, carried, adaptive, queued, owner, origin, touching = \
+            self.snap
         self.snap = None
         b = w._b
         for name in b.columns:
@@ -361,6 +363,8 @@ class _Shadow:
         w._actors.queued = queued
         if owner is not None:
             owners_of(w._plan.rules)[:] = owner
+        if not w._collisions.set_touching(touching):
+            w._plan = None
         w._origin[:] = origin
         return w
 

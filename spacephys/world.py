@@ -1133,7 +1133,7 @@ class World:
                                     self._threads.min_pairs)
         rules = self._collisions.table(b.kind[:n].astype(np.int64), b.radius[:n],
                                        b.category[:n], b.mask[:n], b.fixed[:n],
-                                       self._actors.owners(), self._dim, scratch)
+                                       self._actors.owners(), self._dim, b.index, scratch)
         plan = Plan(self, state, forces, rules, self._actors.table(actors),
                     self._stepper.method(self, sources), alive,
                     self._forces.work(n, sources[0].size))
@@ -1234,6 +1234,8 @@ class World:
             if self._event_count[0] > self._events.shape[0]:
                 self._events = kstate.events_of(plan.state)        # the kernel grew it
                 self._plan = None
+            if plan.rules is not None:
+                self._collisions.caught_up(plan.rules)
             if frames is not None:
                 sink.captured(self, *frames, done)
             self._steps += done

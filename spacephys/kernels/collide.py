@@ -27,11 +27,17 @@ from numba.experimental import structref
 from .._jit import TableType, kernel
 from .arrays import grown_pairs, stable_argsort
 from .codes import (BOUNCE, BREAK_A, DESTROY_A, DESTROY_B, DESTROY_BOTH, ELASTIC, EV_BOUNCE,
-                    EV_DESTROY, EV_MERGE, EV_SENSOR, EV_WALL, IGNORE, MERGE, PERIODIC, PLANE,
-                    REFLECT, REFLECTING, SENSOR, TOUCH_ENDS)
+                    EV_CONTACT_BEGIN, EV_CONTACT_END, EV_DESTROY, EV_MERGE, EV_SENSOR_BEGIN,
+                    EV_SENSOR_END, EV_WALL, IGNORE, MERGE, PERIODIC, PLANE, REFLECT, REFLECTING,
+                    SENSOR, TOUCH_ENDS)
 from .state import record
 
 _MAX_PASSES = 32
+# bodies in contact (elastic, bounce) are touching while the gap between their surfaces is at
+# most this fraction of the sum of their radii: a resting body's gap after its bounce is
+# rounding, a settling one's e g dt^2; a visible gap is a separation
+CONTACT_SLOP = 1e-3
+_SLOT_MASK = (1 << 32) - 1                # an id's slot (state.py: (generation << 32) | slot)
 
 
 @structref.register
@@ -61,6 +67,13 @@ FIELDS = (
     "giants",        # (G,) int64 rows of bodies far larger than the cell: tested against all
     "gridded",       # (n,) bool: the bodies entered in the grid (not giants, and of a kind
                      # that can meet some body other than a giant)
+    "index",         # (slots,) int64: the World's slot -> row table (ids to rows)
+    "touch",         # (cap, 3) int64: the pairs overlapping (sensors) or touching (contacts)
+                     # at the end of the last step: ids a < b, 1 for a sensor pair, 0 a contact
+    "ntouch",        # (2,) int64: the pairs in touch, and touch's capacity (grown in kernel)
+    "found",         # (cap, 2) int64: this step's sensor meetings and bounces, rows i < j...
+    "found_t",       # (cap,) float64: ...at their times (fractions of the step)
+    "nfound",        # (1,) int64
     # per-body scratch of the pass, reused from step to step
     "A", "B", "D", "lo", "hi",                 # (n, 3) float64: lines, impulses, boxes
     "tb",                                      # (n,) float64: where each line begins
@@ -78,22 +91,30 @@ def owners_of(rules):
 
 @kernel
 def _make(kind, radius, category, mask, fixed, response, restitution, walls, boundary, box,
-          box_restitution, cell, dim, owner, giants, gridded, A, B, D, lo, hi, tb, ever,
-          touched, in_focus, is_giant, merged, partners):
+          box_restitution, cell, dim, owner, giants, gridded, index, touch, ntouch, A, B, D,
+          lo, hi, tb, ever, touched, in_focus, is_giant, merged, partners):
     return Rules(kind, radius, category, mask, fixed, response, restitution, walls, boundary,
-                 box, box_restitution, cell, dim, owner, giants, gridded, A, B, D, lo, hi, tb,
-                 ever, touched, in_focus, is_giant, merged, partners)
+                 box, box_restitution, cell, dim, owner, giants, gridded, index, touch, ntouch,
+                 np.empty((16, 2), np.int64), np.empty(16), np.zeros(1, np.int64), A, B, D,
+                 lo, hi, tb, ever, touched, in_focus, is_giant, merged, partners)
 
 
 def make(kind, radius, category, mask, fixed, response, restitution, walls, boundary, box,
-         box_restitution, cell, dim, owner, giants, gridded, scratch):
-    """A Rules table (arrays shared, not copied); scratch : dict of the per-body scratch
-    arrays named in FIELDS, n rows each."""
+         box_restitution, cell, dim, owner, giants, gridded, index, touch, ntouch, scratch):
+    """A Rules table (arrays shared, not copied); index : the World's slot -> row table;
+    touch, ntouch : the pairs in touch (FIELDS), the World's; scratch : dict of the per-body
+    scratch arrays named in FIELDS, n rows each."""
     return _make(kind, radius, category, mask, fixed, response, restitution, walls,
                  int(boundary), box, float(box_restitution), float(cell), int(dim), owner,
-                 giants, gridded, *(scratch[k] for k in ("A", "B", "D", "lo", "hi", "tb",
-                                                          "ever", "touched", "in_focus",
-                                                          "is_giant", "merged", "partners")))
+                 giants, gridded, index, touch, ntouch,
+                 *(scratch[k] for k in ("A", "B", "D", "lo", "hi", "tb", "ever", "touched",
+                                        "in_focus", "is_giant", "merged", "partners")))
+
+
+@kernel
+def touch_of(rules):
+    """The table's pairs in touch (its array: the kernel may have grown it)."""
+    return rules.touch
 
 
 @kernel
@@ -617,7 +638,7 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, ru
     fixed_j = rules.fixed[j]
     when = t0 + t * dt
     if resp == SENSOR:
-        record(state, EV_SENSOR, ids[i], ids[j], when, t * dt, point, n, -closing, 0.0, dist)
+        _meet(rules, i, j, t)            # its begin and end are found at the step's end
         return 0
     if resp in REFLECTING:
         if closing >= 0.0:
@@ -652,6 +673,7 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, ru
         lost = 0.5 * (1.0 - e * e) * reduced * closing * closing
         record(state, EV_BOUNCE, ids[i], ids[j], when, t * dt, point, n, -closing, lost, dist)
         if resp == ELASTIC or resp == BOUNCE:
+            _meet(rules, i, j, t)        # a contact may begin
             return 1
         # a break: the bounce happened (the other body keeps its rebound), then the broken
         # one is destroyed where it stood (the seed's brick)
@@ -662,6 +684,7 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, ru
             B[k, c] = 0.0
         alive[k] = False
         mass[k] = 0.0
+        tb[k] = t                        # when it went (its pairs in touch end then)
         record(state, EV_DESTROY, ids[k], ids[j if k == i else i], when, t * dt, point,
                 n, -closing, 0.0, dist)
         return 2
@@ -699,6 +722,7 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, ru
         mass[s] = M
         mass[o] = 0.0
         alive[o] = False
+        tb[o] = t
         for c in range(3):
             B[o, c] = 0.0
             A[o, c] = po[c]
@@ -720,6 +744,7 @@ def _respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, ru
                 B[k, c] = 0.0
             alive[k] = False
             mass[k] = 0.0
+            tb[k] = t
             record(state, EV_DESTROY, ids[k], ids[other], when, t * dt, point, n,
                     -closing, lost, dist)
     return 2
@@ -769,7 +794,7 @@ def pair_contacts(A, B, tb, pairs, L, rules):
         j = pairs[q, 1]
         resp = _allowed(rules, rules.kind, i, j)
         t = _pair_time(A, B, i, j, radius[i] + radius[j], max(tb[i], tb[j]), L,
-                       resp in TOUCH_ENDS)
+                       resp in TOUCH_ENDS or resp == SENSOR)
         if t >= 0.0:
             ct[k] = t
             ci[k] = i
@@ -836,6 +861,7 @@ def collide_step(state, rules, dt, t0):
             partners[size] = i
             size += 1
     partners = partners[:size]
+    rules.nfound[0] = 0
     for sweep in range(_MAX_PASSES + 1):
         last = sweep == _MAX_PASSES
         if sweep == 0:
@@ -902,7 +928,7 @@ def collide_step(state, rules, dt, t0):
                                   D, mass, radius, ids, rules, dt, t0, state)
             else:
                 resp = _allowed(rules, kind, i, j)
-                if resp == SENSOR and sweep > 0 and _seen(state, ids[i], ids[j], t0):
+                if resp == SENSOR and sweep > 0 and _met(rules, i, j):
                     continue
                 r = _respond(i, j, t, resp, rules.restitution[kind[i], kind[j]], A, B, tb,
                              V0, V1, D, mass, radius, alive, ids, rules, dt, t0, L, state)
@@ -918,6 +944,8 @@ def collide_step(state, rules, dt, t0):
                 changed = max(changed, r)
         if not moved:
             break
+    if rules.ntouch[0] or rules.nfound[0]:
+        _touches(state, rules, dt, t0, L)
     wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
     for i in range(n):
         if not (ever[i] or wraps):
@@ -942,13 +970,196 @@ def _survivor(merged_into, i):
 
 
 @kernel
-def _seen(state, a, b, t0):
-    """Whether a sensor event of this pair was already recorded in this step."""
-    buf = state.events
-    for k in range(state.count[0] - 1, -1, -1):
-        ev = buf[k]
-        if ev.time < t0:
-            break
-        if ev.kind == EV_SENSOR and ((ev.a == a and ev.b == b) or (ev.a == b and ev.b == a)):
+def _meet(rules, i, j, t):
+    """Note that rows i and j met at fraction t of the step (a sensor overlap, a bounce)."""
+    k = rules.nfound[0]
+    if k >= rules.found_t.size:
+        grown = np.empty((2 * k + 16, 2), np.int64)
+        grown_t = np.empty(2 * k + 16)
+        for q in range(k):
+            grown[q, 0] = rules.found[q, 0]
+            grown[q, 1] = rules.found[q, 1]
+            grown_t[q] = rules.found_t[q]
+        rules.found = grown
+        rules.found_t = grown_t
+    rules.found[k, 0] = min(i, j)
+    rules.found[k, 1] = max(i, j)
+    rules.found_t[k] = t
+    rules.nfound[0] = k + 1
+
+
+@kernel
+def _met(rules, i, j):
+    """Whether rows i and j met already in this step."""
+    a, b = min(i, j), max(i, j)
+    for k in range(rules.nfound[0]):
+        if rules.found[k, 0] == a and rules.found[k, 1] == b:
             return True
     return False
+
+
+@kernel(inline=True)
+def _row(index, ids, body_id):
+    """The row of a body id, -1 if it names no body now."""
+    slot = body_id & _SLOT_MASK
+    if slot >= index.size:
+        return -1
+    r = index[slot]
+    return r if r >= 0 and ids[r] == body_id else -1
+
+
+@kernel
+def _exit_time(A, B, tb, i, j, R, t_in, L):
+    """When rows i and j, on their lines at the step's end, are last within R of each other:
+    the later root of |d + e t| = R on [max(tb), 1], not before t_in (the pair's meeting)."""
+    t_lo = max(tb[i], tb[j], t_in)
+    d0 = _wrap(A[j, 0] + B[j, 0] * t_lo - A[i, 0] - B[i, 0] * t_lo, L[0])
+    d1 = _wrap(A[j, 1] + B[j, 1] * t_lo - A[i, 1] - B[i, 1] * t_lo, L[1])
+    d2 = _wrap(A[j, 2] + B[j, 2] * t_lo - A[i, 2] - B[i, 2] * t_lo, L[2])
+    e0 = B[j, 0] - B[i, 0]
+    e1 = B[j, 1] - B[i, 1]
+    e2 = B[j, 2] - B[i, 2]
+    a = e0 * e0 + e1 * e1 + e2 * e2
+    b = d0 * e0 + d1 * e1 + d2 * e2
+    c = d0 * d0 + d1 * d1 + d2 * d2 - R * R
+    disc = b * b - a * c
+    if c > 0.0 or a == 0.0 or disc < 0.0:
+        return t_lo                       # apart already (their lines changed), or resting
+    root = math.sqrt(disc)
+    s = -c / (b + root) if b > 0.0 else (root - b) / a     # the later root, cancellation-free
+    return min(t_lo + s, 1.0)
+
+
+@kernel
+def _touch_event(state, rules, kind, i, j, t, dt, t0, L):
+    """Record a begin or end event of rows i, j at fraction t of the step, from their lines:
+    the contact point on i's surface, the unit normal i -> j, the closing speed, the centre
+    distance."""
+    A, B = rules.A, rules.B
+    pi = np.empty(3)
+    n = np.empty(3)
+    for c in range(3):
+        pi[c] = A[i, c] + B[i, c] * t
+        n[c] = _wrap(A[j, c] + B[j, c] * t - pi[c], L[c])
+    dist = math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+    closing = 0.0
+    for c in range(3):
+        n[c] = n[c] / dist if dist > 0.0 else (1.0 if c == 0 else 0.0)
+        closing -= (B[j, c] - B[i, c]) * n[c] / dt
+    point = np.empty(3)
+    for c in range(3):
+        point[c] = pi[c] + n[c] * rules.radius[i]
+    record(state, kind, state.ids[i], state.ids[j], t0 + t * dt, t * dt, point, n, closing,
+           0.0, dist)
+
+
+@kernel
+def _touches(state, rules, dt, t0, L):
+    """The step's begin and end events, and the pairs in touch at its end (rules.touch).
+
+    A sensor pair is in touch while the bodies overlap: sensor_begin when it starts (its
+    meeting in the step, or the step's start for one that overlapped without moving in),
+    sensor_end when it stops (the later root of the step's last line; when a body went: then)
+    -- both in one step for a body that passes through. A contact pair (elastic, bounce) is in
+    touch while the gap is within CONTACT_SLOP: contact_begin at the bounce of a step that
+    ends touching and would a step later, contact_end at the step that ends apart (a clean bounce
+    is a bounce only). Appended after the step's other events, in time order (then by row)."""
+    ids, alive, kind = state.ids, state.alive, rules.kind
+    A, B, tb, radius = rules.A, rules.B, rules.tb, rules.radius
+    P = rules.ntouch[0]
+    F = rules.nfound[0]
+    m = P + F
+    ci = np.empty(m, np.int64)
+    cj = np.empty(m, np.int64)
+    ct = np.empty(m)
+    cwas = np.zeros(m, np.int64)             # 0: met now; 1: a sensor pair in touch; 2: a contact
+    keys = np.empty(m, np.int64)
+    n = ids.size
+    ev_kind = np.empty(2 * m, np.int64)      # the events, sorted by time before recording
+    ev_i = np.empty(2 * m, np.int64)
+    ev_j = np.empty(2 * m, np.int64)
+    ev_t = np.empty(2 * m)
+    ne = 0
+    k = 0
+    for p in range(P):
+        i = _row(rules.index, ids, rules.touch[p, 0])
+        j = _row(rules.index, ids, rules.touch[p, 1])
+        if i < 0 or j < 0:
+            # a body removed between steps: its pair ends at this step's start
+            point = np.zeros(3)
+            record(state, EV_SENSOR_END if rules.touch[p, 2] else EV_CONTACT_END,
+                   rules.touch[p, 0], rules.touch[p, 1], t0, 0.0, point, point, 0.0, 0.0, 0.0)
+            continue
+        ci[k] = min(i, j)
+        cj[k] = max(i, j)
+        ct[k] = np.inf
+        cwas[k] = 1 if rules.touch[p, 2] else 2
+        keys[k] = ci[k] * n + cj[k]
+        k += 1
+    for f in range(F):
+        ci[k] = rules.found[f, 0]
+        cj[k] = rules.found[f, 1]
+        ct[k] = rules.found_t[f]
+        keys[k] = ci[k] * n + cj[k]
+        k += 1
+    order = np.argsort(keys[:k], kind="mergesort")
+    nt = 0
+    q = 0
+    while q < k:
+        # one pair: its entries side by side
+        first = order[q]
+        i, j = ci[first], cj[first]
+        was = 0
+        t_in = np.inf
+        while q < k and keys[order[q]] == keys[first]:
+            e = order[q]
+            was = max(was, cwas[e])
+            t_in = min(t_in, ct[e])
+            q += 1
+        resp = _allowed(rules, kind, i, j)
+        sensor = was == 1 if was else resp == SENSOR
+        R = radius[i] + radius[j]
+        reach = R if sensor else R * (1.0 + CONTACT_SLOP)
+        live = alive[i] and alive[j]
+        now = False
+        if live and (resp == SENSOR if sensor else (resp == ELASTIC or resp == BOUNCE)):
+            d2 = 0.0
+            ahead = 0.0
+            for c in range(3):
+                d = _wrap(A[j, c] + B[j, c] - A[i, c] - B[i, c], L[c])
+                d2 += d * d
+                ahead += (d + B[j, c] - B[i, c]) ** 2
+            # a contact begins resting: still touching a step later on its line (not a bounce
+            # at the step's very end, parting)
+            now = d2 <= reach * reach and (sensor or was > 0 or ahead <= reach * reach)
+        if now:
+            if nt >= rules.touch.shape[0]:
+                grown = np.empty((2 * nt + 16, 3), np.int64)
+                grown[:nt] = rules.touch[:nt]
+                rules.touch = grown
+            a, b = ids[i], ids[j]
+            rules.touch[nt, 0] = min(a, b)
+            rules.touch[nt, 1] = max(a, b)
+            rules.touch[nt, 2] = 1 if sensor else 0
+            nt += 1
+        begins = not was and (now or sensor)
+        if begins:
+            ev_kind[ne] = EV_SENSOR_BEGIN if sensor else EV_CONTACT_BEGIN
+            ev_i[ne], ev_j[ne] = i, j
+            ev_t[ne] = t_in if t_in < np.inf else 0.0
+            ne += 1
+        if not now and (was or begins):
+            if not live:
+                t_out = tb[j] if not alive[j] and (alive[i] or tb[j] < tb[i]) else tb[i]
+            else:
+                t_out = _exit_time(A, B, tb, i, j, reach, t_in if t_in < np.inf else 0.0, L)
+            ev_kind[ne] = EV_SENSOR_END if sensor else EV_CONTACT_END
+            ev_i[ne], ev_j[ne] = i, j
+            ev_t[ne] = t_out
+            ne += 1
+    rules.ntouch[0] = nt
+    rules.ntouch[1] = rules.touch.shape[0]
+    rank = np.argsort(ev_t[:ne], kind="mergesort")
+    for r in range(ne):
+        e = rank[r]
+        _touch_event(state, rules, ev_kind[e], ev_i[e], ev_j[e], ev_t[e], dt, t0, L)
