@@ -36,7 +36,7 @@ _MAX_PASSES = 32
 # bodies in contact (elastic, bounce) are touching while the gap between their surfaces is at
 # most this fraction of the sum of their radii: a resting body's gap after its bounce is
 # rounding, a settling one's e g dt^2; a visible gap is a separation
-CONTACT_SLOP = 1e-3
+CONTACT_SLOP = 1e-4
 _SLOT_MASK = (1 << 32) - 1                # an id's slot (state.py: (generation << 32) | slot)
 
 
