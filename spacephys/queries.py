@@ -69,10 +69,10 @@ def _box(world):
 
 
 def _state(world):
-    """(pos (n, 3), radius (n,), ids (n,)) contiguous, z = 0 in 2D."""
-    pos = np.zeros((world.n, 3))
-    pos[:, :world.dim] = world.pos
-    return pos, np.ascontiguousarray(world.radius, np.float64), np.ascontiguousarray(world.ids)
+    """(pos (n, 3), radius (n,), ids (n,)): the World's own columns (z = 0 in 2D), not
+    copies (read only here)."""
+    b = world._b
+    return b.pos[:b.n], b.radius[:b.n], b.ids[:b.n]
 
 
 def query_radius(world, centers, r, kinds=None, mask=None):

@@ -215,7 +215,7 @@ def _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query, ids_o
 def _test(pos, radius, i, row, q, centres, r, half, period, kind_of_query, ids_out, dist_out,
           base, n):
     """Body i of pos, radius (row `row` of the World) against query q: written at base + n
-    when it is a hit and ids_out is not empty; returns the hits so far."""
+    when it is a hit and ids_out has room there; returns the hits so far."""
     if kind_of_query == 0:
         d = _gap(pos, radius, i, centres[q, 0], centres[q, 1], centres[q, 2], period)
         hit = d <= r
@@ -223,7 +223,7 @@ def _test(pos, radius, i, row, q, centres, r, half, period, kind_of_query, ids_o
         gap, d = _box_gap(pos, radius, i, centres, half, q, period)
         hit = gap <= 0.0
     if hit:
-        if ids_out.size:
+        if base + n < ids_out.size:        # a lane's room may be short: counted, not written
             ids_out[base + n] = row
             dist_out[base + n] = d
         n += 1
@@ -260,49 +260,91 @@ def _by_cell(g, points, period):
     return arrays.radix_order(keys)
 
 
+@kernel
+def _lane_overlaps(pos, radius, g, order, a0, a1, centres, reach, half, period,
+                   kind_of_query, counts, buf_i, buf_d, ident):
+    """Queries order[a0:a1] in one pass into this lane's buffers: each query's hits sorted,
+    counts[q] set; a query that does not fit and those after it get counts -1. Returns the
+    room used."""
+    used = 0
+    full = False
+    for a in range(a0, a1):
+        q = order[a]
+        if full:
+            counts[q] = -1
+            continue
+        n = _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query,
+                   buf_i[used:], buf_d[used:], 0)
+        if n > buf_i.size - used:
+            full = True
+            counts[q] = -1
+            continue
+        _sort_hits(buf_i, buf_d, used, used + n, ident)
+        counts[q] = n
+        used += n
+    return used
+
+
 @kernel(parallel=True)
 def overlaps(pos, radius, ident, rows, lo, period, centres, reach, half, kind_of_query):
     """Every query's hits among the bodies `rows`: (offsets (Q + 1,), hits (H,) rows, dist
     (H,)), hits[offsets[q]:offsets[q+1]] sorted by distance then id (ident (n,): the body
     ids). kind_of_query 0: bodies within reach[q] of centres[q]; 1: bodies overlapping the
-    box centres[q] +- half[q] (dist: from the box's centre)."""
+    box centres[q] +- half[q] (dist: from the box's centre). One pass: lanes of queries (in
+    cell order) write into rooms sized from a sample of 64 queries; the few that do not fit
+    are counted, then written in place (10^4 queries: 6.3 -> 5.0 ms against two passes)."""
     hint = 0.0
     for q in range(centres.shape[0]):
         hint += reach[q] if kind_of_query == 0 else half[q, 0] + half[q, 1] + half[q, 2]
     g = grid(pos, radius, rows, lo, period, hint / max(centres.shape[0], 1))
     nq = centres.shape[0]
     order = _by_cell(g, centres, period)
+    lanes = 8 if nq >= MIN_PARALLEL else 1
     counts = np.empty(nq, np.int64)
+    # each lane's room: from a sample of the queries, half as much again
     none_i = np.empty(0, np.int64)
     none_d = np.empty(0)
-    if nq >= MIN_PARALLEL:
-        for a in numba.prange(nq):
-            q = order[a]
-            counts[q] = _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query,
-                               none_i, none_d, 0)
-    else:
-        for a in range(nq):
-            q = order[a]
-            counts[q] = _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query,
-                               none_i, none_d, 0)
+    step = max(1, nq // 64)
+    sample = 0
+    for a in range(0, nq, step):
+        sample += _visit(pos, radius, g, order[a], centres, reach, half, period,
+                         kind_of_query, none_i, none_d, 0)
+    per = nq // lanes + 1
+    room = int(1.5 * sample / max((nq + step - 1) // step, 1) * per) + 256
+    buf_i = np.empty(lanes * room, np.int64)
+    buf_d = np.empty(lanes * room)
+    for lane in numba.prange(lanes):
+        _lane_overlaps(pos, radius, g, order, lane * nq // lanes, (lane + 1) * nq // lanes,
+                       centres, reach, half, period, kind_of_query, counts,
+                       buf_i[lane * room:(lane + 1) * room],
+                       buf_d[lane * room:(lane + 1) * room], ident)
+    # the queries that did not fit: counted here, written in place below
+    late = np.zeros(nq, np.bool_)
+    for q in range(nq):
+        if counts[q] < 0:
+            late[q] = True
+            counts[q] = _visit(pos, radius, g, q, centres, reach, half, period,
+                               kind_of_query, none_i, none_d, 0)
     offsets = np.empty(nq + 1, np.int64)
     offsets[0] = 0
     for q in range(nq):
         offsets[q + 1] = offsets[q] + counts[q]
     hits = np.empty(offsets[nq], np.int64)
     dist = np.empty(offsets[nq])
-    if nq >= MIN_PARALLEL:
-        for a in numba.prange(nq):
+    for lane in numba.prange(lanes):
+        u = lane * room
+        for a in range(lane * nq // lanes, (lane + 1) * nq // lanes):
             q = order[a]
-            _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query, hits, dist,
-                   offsets[q])
-            _sort_hits(hits, dist, offsets[q], offsets[q + 1], ident)
-    else:
-        for a in range(nq):
-            q = order[a]
-            _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query, hits, dist,
-                   offsets[q])
-            _sort_hits(hits, dist, offsets[q], offsets[q + 1], ident)
+            o = offsets[q]
+            if late[q]:
+                _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query, hits,
+                       dist, o)
+                _sort_hits(hits, dist, o, o + counts[q], ident)
+                continue
+            for e in range(counts[q]):
+                hits[o + e] = buf_i[u + e]
+                dist[o + e] = buf_d[u + e]
+            u += counts[q]
     return offsets, hits, dist
 
 
