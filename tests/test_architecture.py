@@ -60,9 +60,10 @@ def test_no_module_imports_itself_back():
 
 
 def test_nothing_outside_world_reads_its_private_attributes():
-    """World's parts (forces, collisions, actors, steppers, predict, tape) are its own; every
-    other module uses its public API."""
-    parts = {"world", "forces", "collisions", "actors", "steppers", "predict", "tape"}
+    """World's parts (forces, collisions, actors, steppers, predict, tape, queries) are its
+    own; every other module uses its public API."""
+    parts = {"world", "forces", "collisions", "actors", "steppers", "predict", "tape",
+             "queries"}
     private = {"_b", "_log", "_plan", "_forces", "_collisions", "_actors", "_stepper",
                "_events", "_event_count", "_steps", "_t_base", "_dt", "_watch", "_threads",
                "_origin", "_spec", "_kinds", "_accumulator"}

@@ -17,6 +17,8 @@ from .._jit import kernel
 from . import arrays
 
 MIN_PARALLEL = 256          # fewest queries answered on threads
+SEEN = 128                  # a ray walk's memory of the cells it scanned (a power of 2)
+_NEVER = -(1 << 62)         # no walk index
 
 
 @kernel(inline=True)
@@ -29,8 +31,10 @@ def _image(d, period):
 
 @kernel(inline=True)
 def _wrapped(x, lo, period):
-    """x brought into the periodic box [lo, lo + period) (period 0: as it is)."""
-    if period > 0.0:
+    """x brought into the periodic box [lo, lo + period) (period 0: as it is). A point in
+    the box is kept bit for bit: (x - lo) / period may round up to 1 just below the top, and
+    moving such a point by a period would put its distances a rounding away from x's."""
+    if period > 0.0 and not lo <= x < lo + period:
         x -= period * math.floor((x - lo) / period)
         if x >= lo + period:                 # rounding: x just below lo came back to the top
             x -= period
@@ -167,8 +171,12 @@ def _range(x, reach, origin, cell, ncell, period):
     the ends, wrapped by the caller; open: clamped into the grid, both ends: a body on the
     grid's far edge sits in the last cell, and a range that starts past it may still reach
     it exactly)."""
-    a = int(math.floor((x - reach - origin) / cell))
-    b = int(math.floor((x + reach - origin) / cell))
+    # a margin for rounding: a body's image met across a periodic seam at a distance of
+    # 1e-15 is at 0 when x - p is rounded (found by the property test: a query at the box's
+    # edge with r = 0 missed a body on the opposite edge)
+    slack = 1e-12 * (abs(x) + abs(origin) + reach + period)
+    a = int(math.floor((x - reach - slack - origin) / cell))
+    b = int(math.floor((x + reach + slack - origin) / cell))
     if period > 0.0:
         if b - a + 1 >= ncell:
             return 0, ncell - 1
@@ -467,6 +475,17 @@ def ray_sphere(ox, oy, oz, dx, dy, dz, px, py, pz, R):
 
 
 @kernel(inline=True)
+def _near(x, o, shift, period):
+    """x + shift (an image of x on one axis) as the image nearest o plus whole periods: the
+    same rounding whichever image the walk meets (a body across the seam at a distance of
+    1e-15 from the ray's origin is at 0 by its nearest image, as a brute force finds)."""
+    p = o + _image(x - o, period)
+    if period > 0.0:
+        p += round((x + shift - p) / period) * period
+    return p
+
+
+@kernel(inline=True)
 def _axis_cell(i, n, period):
     """(cell index in the grid or -1, the image's shift) of walk index i on one axis."""
     if period > 0.0:
@@ -491,8 +510,8 @@ def _to(cur, reach, n, period):
 
 
 @kernel
-def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, mark, out_rows, out_t,
-         cap):
+def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, seen, mark, out_rows,
+         out_t, cap):
     """The gridded bodies the ray o + t d (d unit, 0 <= t <= tmax) touches: a walk through
     the grid's cells along the ray (Amanatides and Woo 1987), each cell's neighbours within
     the largest radius tested too; periodic axes walked through their images. first: the
@@ -501,7 +520,9 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, mark, ou
     met again, through another cell or image, the nearer meeting is kept), the first cap
     written. Returns the count of hits (first: written to out_rows[0], out_t[0]). extra: a
     radius added to every body's (a shape cast: the moving circle's); skip: a row left out
-    (the moving body's own), -1 for none."""
+    (the moving body's own), -1 for none. seen (SEEN, 3): scratch, the walk cells lately
+    scanned (a cell's neighbourhood shares most of its cells with the last one's: 3x fewer
+    bodies tested in 2D, 9x in 3D)."""
     origin, cell, ncell, start, items, giants, rmax, gpos, grad = g
     rmax = rmax + extra
     # clip to the grid's box (open axes), grown by the largest radius
@@ -532,7 +553,8 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, mark, ou
         cur[c] = int(math.floor(u))          # within reach of the grid: t0 is clipped
         if period[c] == 0.0 and u == ncell[c]:
             cur[c] = ncell[c] - 1                # on the far edge, where its bodies are kept
-        reach[c] = int(math.ceil(rmax / cell[c]))
+        # (a margin: a body on the ray but a rounding into the next cell is still seen)
+        reach[c] = int(math.ceil(rmax / cell[c] + 1e-9))
         if d[c] > 0.0:
             step[c] = 1
             tnext[c] = (origin[c] + (cur[c] + 1) * cell[c] - o[c]) / d[c]
@@ -545,6 +567,8 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, mark, ou
             step[c] = 0
             tnext[c] = np.inf
             tdelta[c] = np.inf
+    for h in range(SEEN):
+        seen[h, 0] = _NEVER
     n = 0
     best = np.inf
     t_cell = t0
@@ -568,12 +592,21 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, mark, ou
                     iz, sz = _axis_cell(az, ncell[2], period[2])
                     if iz < 0:
                         continue
+                    # scanned lately (this cell, this image)? a hash of the walk indices
+                    h = ((ax * 73856093) ^ (ay * 19349663) ^ (az * 83492791)) & (SEEN - 1)
+                    if seen[h, 0] == ax and seen[h, 1] == ay and seen[h, 2] == az:
+                        continue
+                    seen[h, 0] = ax
+                    seen[h, 1] = ay
+                    seen[h, 2] = az
                     key = (ix * ncell[1] + iy) * ncell[2] + iz
                     for e in range(start[key], start[key + 1]):
                         if items[e] == skip:
                             continue
-                        t = ray_sphere(o[0], o[1], o[2], d[0], d[1], d[2], gpos[e, 0] + sx,
-                                       gpos[e, 1] + sy, gpos[e, 2] + sz, grad[e] + extra)
+                        t = ray_sphere(o[0], o[1], o[2], d[0], d[1], d[2],
+                                       _near(gpos[e, 0], o[0], sx, period[0]),
+                                       _near(gpos[e, 1], o[1], sy, period[1]),
+                                       _near(gpos[e, 2], o[2], sz, period[2]), grad[e] + extra)
                         if t < 0.0 or t > tmax:
                             continue
                         if not first and stamp[e] == mark:
@@ -638,12 +671,12 @@ def _giant_t(pos, radius, i, o, d, period, extra):
 
 @kernel
 def _ray(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, q, first, stamp,
-         slot, mark, rows_out, t_out, cap):
+         slot, seen, mark, rows_out, t_out, cap):
     """One ray's hits: the grid's walk, then the giants; returns the count."""
     o = origins[q]
     d = dirs[q]
-    n = cast(g, ident, period, o, d, tmax[q], extra[q], skip[q], first, stamp, slot, mark,
-             rows_out, t_out, cap)
+    n = cast(g, ident, period, o, d, tmax[q], extra[q], skip[q], first, stamp, slot, seen,
+             mark, rows_out, t_out, cap)
     giants = g[5]
     for e in range(giants.size):
         i = giants[e]
@@ -672,20 +705,21 @@ def _lane(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, lane,
     counts[q] (offsets empty) or the hits themselves, sorted (offsets given)."""
     stamp = np.empty(0 if first else g[4].size, np.int64)
     slot = np.empty(stamp.size, np.int64)
+    seen = np.empty((SEEN, 3), np.int64)
     for e in range(stamp.size):
         stamp[e] = -1
     for q in range(lane, origins.shape[0], lanes):
         if first:
             counts[q] = _ray(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip,
-                             q, True, stamp, slot, 0, hits[q:q + 1], ts[q:q + 1], 1)
+                             q, True, stamp, slot, seen, 0, hits[q:q + 1], ts[q:q + 1], 1)
         elif offsets.size == 0:
             counts[q] = _ray(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip,
-                             q, False, stamp, slot, q, hits[:0], ts[:0], 0)
+                             q, False, stamp, slot, seen, q, hits[:0], ts[:0], 0)
         else:
             a, b = offsets[q], offsets[q + 1]
             # a mark of its own for the second pass: the first pass's stamps are stale
             _ray(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, q, False,
-                 stamp, slot, q + origins.shape[0], hits[a:b], ts[a:b], b - a)
+                 stamp, slot, seen, q + origins.shape[0], hits[a:b], ts[a:b], b - a)
             _sort_hits(hits, ts, a, b, ident)
 
 
