@@ -48,6 +48,8 @@ def _candidates(world, kinds, mask):
     """int64 rows of the bodies a query may find: of one of the kind codes `kinds` (None:
     every kind; World checks them) and whose category shares a bit with `mask` (None:
     every body)."""
+    if kinds is None and mask is None:
+        return np.arange(world.n, dtype=np.int64)
     ok = np.ones(world.n, bool)
     if kinds is not None:
         ok &= np.isin(world.kind, kinds)
@@ -239,14 +241,7 @@ def _cast(world, o, d, tmax, extra, skip, kinds, mask, first, walls):
     lo, period = _box(world)
     offsets, hits, t = kq.raycasts(pos, radius, ids, rows, lo, period, o, d, tmax, extra,
                                    skip, first)
-    ray = np.repeat(np.arange(o.shape[0]), np.diff(offsets))
-    point = o[ray] + t[:, None] * d[ray]
-    rel = point - pos[hits]
-    rel -= period * np.floor(rel / np.where(period > 0, period, 1.0) + 0.5) * (period > 0)
-    length = np.linalg.norm(rel, axis=1)
-    # a ray from inside (t = 0) meets the surface head on; a point body, likewise
-    normal = np.where((length[:, None] > 0.0) & (t[:, None] > 0.0),
-                      rel / np.where(length > 0, length, 1.0)[:, None], -d[ray])
+    ray, point, normal = kq.surfaces(pos, period, o, d, offsets, hits, t)
     body = (ray, ids[hits], np.full(hits.size, -1), t, point, normal)
     if walls and world.walls.shape[0]:
         wt, wn = _wall_hits(world, o, d, tmax, extra)
