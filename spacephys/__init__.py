@@ -29,6 +29,7 @@ _LAZY = {
     "Scenario": "scenario", "ScenarioError": "scenario", "load_scenario": "scenario",
     "Recommendation": "study.recommend", "recommend": "study.recommend",
     "lambert": "lambert", "Prediction": "predict", "Hits": "queries", "RayHits": "queries",
+    "sweep": "sweeps", "read_sweep": "sweeps", "Sweep": "sweeps", "SweepRun": "sweeps",
 }
 
 __all__ = [
@@ -44,6 +45,7 @@ __all__ = [
     "Elements", "elements_to_state", "state_from_elements", "state_to_elements",
     "true_anomaly", "kepler_state", "period", "solve_kepler",
     "Burn", "hohmann", "lambert", "Prediction", "Hits", "RayHits",
+    "sweep", "read_sweep", "Sweep", "SweepRun",
     "set_threads", "get_threads",
     "__version__",
 ]

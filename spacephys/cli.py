@@ -94,6 +94,33 @@ def _bench(args):
     return 0
 
 
+def _sweep(args):
+    import time
+    from .runner import default_progress
+    from .sweeps import parse_vary, summary, sweep
+    kind, what = _resolve(args.scenario)
+    if kind != "scenario":
+        raise ValueError(f"{args.scenario!r} is a built-in scene: a sweep varies a scenario "
+                         f"file's keys (scenarios/*.toml)")
+    vary = {}
+    for text in args.vary or []:
+        key, values = parse_vary(text)
+        if key in vary:
+            raise ValueError(f"--vary {key}: given twice")
+        vary[key] = values
+    if args.seeds < 1:
+        raise ValueError(f"--seeds {args.seeds}: expected at least 1")
+    start = time.perf_counter()
+    table = sweep(what, vary, seeds=range(args.seeds), client=args.scheduler,
+                  workers=args.workers, out=args.out, logs=args.logs,
+                  progress=None if args.quiet else default_progress())
+    print(summary(table, time.perf_counter() - start,
+                  None if args.scheduler else args.workers))
+    if args.out:
+        print(f"table         {args.out}")
+    return 0 if table.ok.all() else 1
+
+
 def _validate(args):
     from .study import validate
     results = validate.validate(args.problems, args.integrator)
@@ -147,12 +174,30 @@ def main(argv=None):
     bench = sub.add_parser("bench", help="benchmark side by side with REBOUND")
     bench.add_argument("what", choices=["gravity", "integrators", "collisions", "fleet", "log",
                                         "tradeoff", "peers", "memory", "models", "overhead",
-                                        "predict", "tree", "queries"])
+                                        "predict", "tree", "queries", "sweep"])
     bench.add_argument("--out", default="tradeoff", metavar="DIR",
                        help="tradeoff, peers: where the CSV, JSON and plots go (default ./tradeoff)")
     bench.add_argument("--quick", action="store_true", help="fewer repeats, smaller cases")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.set_defaults(func=_bench)
+
+    sw = sub.add_parser("sweep", help="run a scenario over values and seeds on Dask "
+                                      "(local worker processes, or a cluster)")
+    sw.add_argument("scenario", help="a scenario file (.toml) or a scenario of scenarios/ by name")
+    sw.add_argument("--vary", action="append", metavar="KEY=V1,V2",
+                    help="a key path of the scenario and its values (repeatable; every "
+                         "combination runs): world.dt=0.01,0.02  ships.red.vel=[1,0],[2,0]")
+    sw.add_argument("--seeds", type=int, default=1, metavar="N",
+                    help="seeds 0..N-1 for every combination (default 1)")
+    sw.add_argument("--scheduler", metavar="ADDRESS",
+                    help="a Dask scheduler (tcp://host:8786); default: local worker processes")
+    sw.add_argument("--workers", type=int, metavar="N",
+                    help="local worker processes (default: one per core)")
+    sw.add_argument("--out", metavar="SWEEP.h5",
+                    help="the table (HDF5); an interrupted sweep given the same path resumes")
+    sw.add_argument("--logs", metavar="DIR", help="a run log per run, in DIR")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    sw.set_defaults(func=_sweep)
 
     val = sub.add_parser("validate", help="every integrator on the reference problems, "
                                           "against REBOUND IAS15")

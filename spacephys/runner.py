@@ -29,6 +29,7 @@ class RunResult:
     angular_momentum: float
     events: dict             # event kind name -> how many happened
     bodies0: int = 0         # bodies at the start
+    names: dict = None       # a scenario's names -> body ids (spawns and named launches too)
 
     @property
     def energy_error(self):
@@ -81,17 +82,21 @@ def run_scene(name="star_system", *, integrator=None, dt=None, duration=None, pr
 
 
 def run_scenario(scenario, *, integrator=None, dt=None, duration=None, progress=None,
-                 out=None):
+                 out=None, setup=None):
     """Run a scenario (a path, its text, or a loaded Scenario) for its duration; its timeline
     is carried out at the first step at or after each entry's time. Returns a RunResult.
 
     integrator, dt, duration : override the scenario's; out : an HDF5 log path (default: the
-    scenario's [log] path, if it has one); progress : a file to draw a progress bar on.
+    scenario's [log] path, if it has one); progress : a file to draw a progress bar on;
+    setup(world, names) : called once the World is built, before its first step (names:
+    the scenario's name -> id).
     """
     from .scenario import Scenario, load_scenario
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     w, ids = sc.build(**{k: v for k, v in (("integrator", integrator), ("dt", dt))
                          if v is not None})
+    if setup is not None:
+        setup(w, ids)
     log = sc.log or {}
     out = out if out is not None else log.get("path")
     every = {"every": log["every"]} if log.get("every") else \
@@ -201,7 +206,7 @@ def _run_steps(w, name, total, plan, ids, missiles, progress, log):
         log.close()
     return RunResult(w, name, done, wall, compile_wall, t0, E0, w.energy(True),
                      float(np.linalg.norm(w.momentum(True) - P0)) / scale, L0, _norm_L(w),
-                     dict(sorted(counts.items())), bodies0)
+                     dict(sorted(counts.items())), bodies0, ids)
 
 
 def default_progress():

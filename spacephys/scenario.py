@@ -8,6 +8,7 @@ a file with a mistake in it.
 import contextlib
 import math
 import os
+import re
 import tomllib
 from dataclasses import dataclass, field
 
@@ -167,9 +168,10 @@ def _parse(source, text):
         raise ScenarioError(source, [("(file)", f"not valid TOML: {e}")]) from None
 
 
-def load_scenario(path_or_text):
+def load_scenario(path_or_text, overrides=None):
     """Read and check a scenario (a path to a .toml file, or its text); ScenarioError lists
-    every problem."""
+    every problem. overrides: {key path: value} set in the file's tables before the checks
+    (see set_key: "world.dt", "ships.red.vel", "bodies[0].mass"), as if the file said so."""
     text = path_or_text
     if isinstance(text, os.PathLike) or isinstance(text, str) and "\n" not in text \
             and text.endswith(".toml"):
@@ -182,6 +184,8 @@ def load_scenario(path_or_text):
     else:
         source, text = "<scenario>", str(path_or_text)
     data = _parse(source, text)
+    for key, value in (overrides or {}).items():
+        set_key(source, data, key, value)
     dim = data.get("world", {}).get("dim", 2) if isinstance(data.get("world"), dict) else 2
     chk = _Checker(dim if dim in (2, 3) else 2)
     top = chk.table("", data, _TOP)
@@ -262,6 +266,73 @@ def load_scenario(path_or_text):
     top["missiles"] = missiles
     top["world"] = world
     return Scenario(source, text, top, top["title"], world["duration"], timeline, top["log"])
+
+
+_KEY_PART = re.compile(r"([^.\[\]]+)|\[(-?\d+)\]")
+
+
+def key_parts(key):
+    """A key path's steps: "bodies[2].mass" -> ["bodies", 2, "mass"]; ValueError if it is
+    not one."""
+    parts, at = [], 0
+    while isinstance(key, str) and at < len(key):
+        m = _KEY_PART.match(key, at)
+        if m is None:
+            break
+        parts.append(m.group(1) if m.group(1) is not None else int(m.group(2)))
+        at = m.end()
+        if at < len(key) and key[at] != "[":        # then a [index], or a dot and a name
+            if key[at] != "." or at + 1 == len(key) or key[at + 1] in ".[":
+                break
+            at += 1
+    if not parts or not isinstance(key, str) or at != len(key) or isinstance(parts[0], int):
+        raise ValueError(f"key path {key!r}: expected names and [index]es joined by dots, "
+                         f"as world.dt, ships.red.vel or bodies[0].mass")
+    return parts
+
+
+def set_key(source, data, key, value):
+    """Set the value at a key path in a scenario's parsed tables: tables by key, arrays of
+    tables by [index] or by the name of their entry (ships.red is the ship named "red"). A
+    path that leads nowhere is refused (ScenarioError naming it); the value itself is
+    checked with the rest of the file."""
+    try:
+        parts = key_parts(key)
+    except ValueError as e:
+        raise ScenarioError(source, [(str(key), str(e))]) from None
+    node = data
+    for k, part in enumerate(parts):
+        here = key if k == len(parts) - 1 else _join(parts[:k + 1])
+        if isinstance(node, list):
+            names = [t.get("name") if isinstance(t, dict) else None for t in node]
+            if isinstance(part, int):
+                if not 0 <= part < len(node):
+                    raise ScenarioError(source, [(key, f"{_join(parts[:k])} has "
+                                                      f"{len(node)} entries, no [{part}]")])
+                at = part
+            elif part in names:
+                at = names.index(part)
+            else:
+                named = ", ".join(str(n) for n in names if n is not None) or "none"
+                raise ScenarioError(source, [(key, f"{_join(parts[:k])} has no entry named "
+                                                  f"{part!r} (named: {named})")])
+        elif isinstance(node, dict) and not isinstance(part, int):
+            if part not in node and k < len(parts) - 1:
+                raise ScenarioError(source, [(key, f"the scenario has no {here}")])
+            at = part
+        else:
+            raise ScenarioError(source, [(key, f"{_join(parts[:k])} is "
+                                              f"{'a table' if isinstance(node, dict) else 'a value'}"
+                                              f", not {'an array' if isinstance(part, int) else 'a table'}")])
+        if k == len(parts) - 1:
+            node[at] = value
+        else:
+            node = node[at]
+
+
+def _join(parts):
+    return "".join(f"[{p}]" if isinstance(p, int) else (f".{p}" if i else p)
+                   for i, p in enumerate(parts))
 
 
 def _check_kinds(chk, top, world, missiles):

@@ -606,6 +606,9 @@ def format_table(results):
     if results["benchmark"] == "queries":
         from .querybench import format_queries
         return format_queries(results)
+    if results["benchmark"] == "sweep":
+        from .sweepbench import format_sweep
+        return format_sweep(results)
     lines = [f"{results['benchmark']} benchmark on {results['machine']} "
              f"({results['numba_threads']} numba threads; {results['versions']})",
              f"{'case':40s} {'spacephys':>14s} {'REBOUND':>14s} {'speed-up':>9s} "
@@ -745,6 +748,12 @@ def _queries(quick=False):
     return queries(quick)
 
 
+def _sweep(quick=False):
+    from .sweepbench import sweep_bench
+    return sweep_bench(quick)
+
+
 BENCHMARKS = {"gravity": gravity, "integrators": integrators, "collisions": collisions,
               "fleet": fleet, "log": log, "memory": memory, "models": models,
-              "overhead": _overhead, "predict": _predict, "tree": _tree, "queries": _queries}
+              "overhead": _overhead, "predict": _predict, "tree": _tree, "queries": _queries,
+              "sweep": _sweep}
