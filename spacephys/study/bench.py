@@ -249,7 +249,8 @@ def collisions(quick=False):
     t_grid, pairs_grid, _ = min(_detection_pass(small) for _ in range(3))
     merge = _merging_cluster(2000 if quick else 10_000, 5 if quick else 10,
                              0.01 if quick else 0.004, 1 if quick else 2)
-    return {**header("collisions", quick, rebound),
+    from .heavybench import dense
+    return {**header("collisions", quick, rebound), "dense": dense(quick),
             "detection": passes, "scaling": passes[sizes[1]]["seconds"] / passes[sizes[0]]["seconds"],
             "brute_vs_grid": {"bodies": small.n, "brute_seconds": t_brute,
                               "grid_seconds": t_grid, "pairs_brute": pairs_brute,
@@ -348,7 +349,8 @@ def fleet(quick=False):
     reps = 3 if quick else 5
     ours_ms = 1e3 * _per_step(plain.step, 10, reps)
     rebound_ms = 1e3 * _per_step(sim.steps, 10, reps)
-    return {**header("fleet", quick, rebound),
+    from .heavybench import fleet_game
+    return {**header("fleet", quick, rebound), "game": fleet_game(quick),
             "bodies_start": bodies, "bodies_end": w.n, "massive": int(massive.size),
             "steps": steps, "first_step_s": first,
             "median_ms": float(np.median(times)), "p95_ms": float(np.percentile(times, 95)),
@@ -593,6 +595,11 @@ def models(quick=False):
             "cases": cases}
 
 
+def _heavy_lines(title, cases):
+    from .heavybench import format_rows
+    return format_rows(title, cases)
+
+
 def format_table(results):
     if results["benchmark"] == "overhead":
         from .overhead import format_overhead
@@ -689,9 +696,19 @@ def format_table(results):
             f"the same bodies under gravity alone (no ships, missiles or collisions), leapfrog: "
             f"spacephys {results['gravity_only_ms']:.2f} ms, REBOUND "
             f"{results['rebound_gravity_only_ms']:.2f} ms per step "
-            f"({results['gravity_ratio']:.1f}x)"])
+            f"({results['gravity_ratio']:.1f}x)", ""] + _heavy_lines(
+            f"the fleet battle as a game sets it up (10 planets, 200 ships, 2 000 missiles in "
+            f"salvos, 50 000 debris, all destroying each other), {results['game']['steps']} "
+            f"steps (goal: 95th percentile <= 8 ms, worst <= 16 ms, <= 1.5x with a core busy)",
+            [(k, results["game"][k]) for k in ("quiet", "one core busy")]))
     if results["benchmark"] == "collisions":
-        lines = lines[:1]
+        d = results["dense"]
+        lines = lines[:1] + _heavy_lines(
+            f"dense field: circles of radii 0.5..2 covering 10%, elastic, dt 0.01, "
+            f"{d['steps']} steps (goal: 100 000 <= 30 ms, 200 000 / 100 000 <= 2.1); "
+            f"200k/100k = {d['scaling']:.2f}",
+            [(f"{n} circles, {k}", d["cases"][str(n)][k]) for n in d["sizes"]
+             for k in ("quiet", "one core busy")]) + [""]
         for n, d in results["detection"].items():
             lines.append(f"{n:>7} circles: one broad + narrow pass {d['seconds'] * 1e3:7.2f} ms "
                          f"({d['pairs']} candidate pairs, {d['contacts']} contacts); a whole "
