@@ -1149,8 +1149,7 @@ class World:
         tables are rebuilt (bodies come or go)."""
         if self._precision_warned or pos.shape[0] < 2:
             return
-        span = float(np.max(pos.max(axis=0) - pos.min(axis=0)))
-        far = float(np.max(np.abs(pos)))
+        span, far = diagnostics.extent(pos)
         if span > 0.0 and np.spacing(far) > 1e-8 * span:
             self._precision_warned = True
             digits = max(0.0, -math.log10(np.spacing(far) / span))

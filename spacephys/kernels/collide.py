@@ -38,6 +38,10 @@ _MAX_PASSES = 32
 # rounding, a settling one's e g dt^2; a visible gap is a separation
 CONTACT_SLOP = 1e-4
 _SLOT_MASK = (1 << 32) - 1                # an id's slot (state.py: (generation << 32) | slot)
+# a grid entry's body carries its kind in its low bits: a pair of kinds that never meet is
+# passed over without reading either body (debris among debris, in heaps after explosions)
+_KIND_BITS = 16
+_KIND_MASK = (1 << _KIND_BITS) - 1
 
 
 @structref.register
@@ -348,7 +352,8 @@ def candidate_pairs(A, B, tb, alive, rules, lo, hi):
 @kernel
 def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     """candidate_pairs, and the grid it built: (keys (E,), bodies (E,): the entries (cell
-    key, row) grouped by cell, origin (3,), inverse cell (3,), ncell (3,))."""
+    key, row << _KIND_BITS | its kind) grouped by cell, origin (3,), inverse cell (3,),
+    ncell (3,))."""
     radius, kind = rules.radius, rules.kind
     n = A.shape[0]
     L = _periods(rules)
@@ -420,7 +425,7 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
                 for z in range(first[2], last[2] + 1):
                     keys[total] = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
                                             _wrap_index(z, ncell[2]))
-                    bodies[total] = i
+                    bodies[total] = (i << _KIND_BITS) | kind[i]
                     total += 1
     keys, bodies = _radix_sort(keys[:total], bodies[:total], np.empty(total, np.int64),
                                np.empty(total, np.int64))
@@ -441,10 +446,11 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
             for ew in range(eu + 1, end):
                 if keys[eu] != keys[ew]:
                     continue                           # another cell with the same low bits
-                i = min(bodies[eu], bodies[ew])
-                j = max(bodies[eu], bodies[ew])
-                if i == j:
-                    continue
+                i = min(bodies[eu], bodies[ew]) >> _KIND_BITS
+                j = max(bodies[eu], bodies[ew]) >> _KIND_BITS
+                if i == j or response[bodies[eu] & _KIND_MASK, bodies[ew] & _KIND_MASK] == \
+                        IGNORE:
+                    continue                           # (debris among debris: many, in heaps)
                 home = True
                 if single[i] and single[j] and not wraps:
                     # two boxes of one cell each: this cell is the only one they share
@@ -466,11 +472,9 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
                         first[c] = _wrap_index(int(math.floor((edge - origin[c]) * cell[c])),
                                                ncell[c])
                     home = home and _cell_key(first[0], first[1], first[2]) == keys[eu]
-                # the filter last (_allowed): most pairs sharing a cell fail the box test,
-                # which reads less memory than the kinds, categories and masks
+                # the rest of _allowed last: most pairs sharing a cell fail the box test
                 if not home or (category[i] & mask[j]) == 0 or (category[j] & mask[i]) == 0 \
-                        or owner[i] == j or owner[j] == i or \
-                        response[kind[i], kind[j]] == IGNORE:
+                        or owner[i] == j or owner[j] == i:
                     continue
                 if m == pairs.shape[0]:
                     pairs = grown_pairs(pairs, m)
@@ -606,7 +610,7 @@ def focused_pairs(A, B, tb, alive, rules, lo, hi, focus, in_focus, stale, change
                         for e in range(a, keys.size):
                             if (keys[e] & low_bits) != (key & low_bits):
                                 break
-                            j = bodies[e]
+                            j = bodies[e] >> _KIND_BITS
                             if keys[e] != key or j == i or stale[j] or not alive[j]:
                                 continue
                             # reported in the cell of the overlap's low corner only
@@ -962,15 +966,21 @@ def collide_step(state, rules, dt, t0):
             row[1 + c] = rules.box[side, c]
             row[4 + c] = 1.0 if side == 0 else -1.0
             row[7] = rules.box_restitution
-    changed = 0
+    result = 0
     # merged_into: a body merged away hands its remaining contacts of the step to its
     # survivor, so that everything that touched within the step ends up one body (merges
     # chain transitively)
     for q in range(rules.giants.size):
         is_giant[rules.giants[q]] = True
     # stale: the bodies whose lines changed since the grid was built (its entries for them
-    # are out of date)
+    # are out of date), listed in changed[:nc]; moved[:nm]: the bodies touched in the pass
+    # (lists, not loops over every body: a pass after the first sees a few hundred)
     stale = rules.stale
+    changed = np.empty(n, np.int64)
+    moved = np.empty(n, np.int64)
+    nc = 0
+    nm = 0
+    focus = moved[:0]
     rules.nfound[0] = 0
     for sweep in range(_MAX_PASSES + 1):
         last = sweep == _MAX_PASSES
@@ -981,21 +991,30 @@ def collide_step(state, rules, dt, t0):
         else:
             # only pairs with a body whose line changed in the last pass can be new: those
             # bodies look the others up in the grid (10^5 bodies: a new grid took 21 ms)
-            focus = np.flatnonzero(touched)
-            for i in range(n):
-                in_focus[i] = touched[i]
-                if touched[i]:
+            for q in range(focus.size):
+                in_focus[focus[q]] = False
+            focus = np.sort(moved[:nm])
+            for q in range(focus.size):
+                i = focus[q]
+                in_focus[i] = True
+                if not stale[i]:
                     stale[i] = True
+                    changed[nc] = i
+                    nc += 1
             pairs, ok = focused_pairs(A, B, tb, alive, rules, lo, hi, focus, in_focus,
-                                      stale, np.flatnonzero(stale), grid, is_giant)
+                                      stale, changed[:nc], grid, is_giant)
             if not ok:                                 # too many changed: a new grid
                 pairs, grid = _grid_pairs(A, B, tb, alive, rules, lo, hi)
-                for i in range(n):
-                    stale[i] = False
+                for q in range(nc):
+                    stale[changed[q]] = False
+                nc = 0
         pt, pi_, pj_ = pair_contacts(A, B, tb, pairs, L, rules)
-        # contacts: (time, i, j) with j < 0 for walls (-1 - row; box walls after the walls)
+        # contacts: (time, i, j) with j < 0 for walls (-1 - row; box walls after the walls);
+        # after the first pass only the bodies whose lines changed can meet a wall anew
         k = pt.size
-        ct = np.empty(k + n * (walls.shape[0] + nbox))
+        nw = walls.shape[0] + nbox
+        rows = n if sweep == 0 else focus.size
+        ct = np.empty(k + rows * nw)
         ci = np.empty(ct.size, np.int64)
         cj = np.empty(ct.size, np.int64)
         cn = np.empty((ct.size, 3))
@@ -1003,10 +1022,11 @@ def collide_step(state, rules, dt, t0):
             ct[q] = pt[q]
             ci[q] = pi_[q]
             cj[q] = pj_[q]
-        for i in range(n):
+        for q in range(rows if nw else 0):
+            i = q if sweep == 0 else focus[q]
             if not alive[i]:
                 continue
-            for w in range(walls.shape[0] + nbox):
+            for w in range(nw):
                 row = walls[w] if w < walls.shape[0] else box_walls[w - walls.shape[0]]
                 t, n0, n1, n2 = _wall_time(A, B, i, radius[i], row, tb[i])
                 if t >= 0.0:
@@ -1020,9 +1040,9 @@ def collide_step(state, rules, dt, t0):
         if k == 0:
             break
         order = stable_argsort(ct, k)                  # stable: ties keep a fixed order
-        for i in range(n):
-            touched[i] = False
-        moved = False
+        for q in range(nm):
+            touched[moved[q]] = False
+        nm = 0
         for q in range(k):
             c = order[q]
             i = _survivor(merged_into, ci[c])
@@ -1051,14 +1071,14 @@ def collide_step(state, rules, dt, t0):
                 if resp == MERGE:
                     merged_into[i if not alive[i] else j] = j if not alive[i] else i
             if r > 0:
-                touched[i] = True
-                ever[i] = True
-                if j >= 0:
-                    touched[j] = True
-                    ever[j] = True
-                moved = True
-                changed = max(changed, r)
-        if not moved:
+                for body in (i, j):
+                    if body >= 0 and not touched[body]:
+                        touched[body] = True
+                        ever[body] = True
+                        moved[nm] = body
+                        nm += 1
+                result = max(result, r)
+        if nm == 0:
             break
     if rules.ntouch[0] or rules.nfound[0]:
         _touches(state, rules, dt, t0, L)
@@ -1073,7 +1093,7 @@ def collide_step(state, rules, dt, t0):
             pos[i, c] = x
             if ever[i]:
                 vel[i, c] = V1[i, c] + D[i, c]
-    return changed
+    return result
 
 
 @kernel

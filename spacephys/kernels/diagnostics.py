@@ -1,7 +1,10 @@
 """Compensated (Neumaier) sums for the diagnostics, so they resolve errors near 1e-16; the
-kinetic energy. (Each gravity model's potential energy is in forces.py, beside its
-accelerations.) Compiled without fastmath: reassociation would optimise the compensation away.
+kinetic energy; the bodies' extent (World's precision warning). (Each gravity model's
+potential energy is in forces.py, beside its accelerations.) Compiled without fastmath:
+reassociation would optimise the compensation away.
 """
+import numpy as np
+
 from .._jit import kernel
 
 
@@ -25,3 +28,22 @@ def kinetic_energy(vel, mass):
         v2 = vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1] + vel[i, 2] * vel[i, 2]
         s, c = add(s, c, 0.5 * mass[i] * v2)
     return s + c
+
+
+@kernel
+def extent(pos):
+    """(the widest span of pos (n, d) along an axis, the largest |coordinate|), in one pass
+    (numpy's reductions along axis 0 of an (n, 2) array took 1.3 ms for 6e4 bodies)."""
+    n, d = pos.shape
+    span = 0.0
+    far = 0.0
+    for c in range(d):
+        lo = np.inf
+        hi = -np.inf
+        for i in range(n):
+            lo = min(lo, pos[i, c])
+            hi = max(hi, pos[i, c])
+        if n:
+            span = max(span, hi - lo)
+            far = max(far, abs(lo), abs(hi))
+    return span, far
