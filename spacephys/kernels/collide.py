@@ -482,20 +482,40 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
                 pairs[m, 1] = j
                 m += 1
         run = end
-    # the giants against everyone, x first (most bodies are far along it); a pair of giants
-    # once, from the lower row
+    # the giants against everyone: the grid's bodies looked up in the cells a giant's box
+    # covers (a test of every body took 16 ms for 70 giants among 6e4 bodies), the bodies
+    # outside the grid (loose) and the other giants tested directly, x first (most are far
+    # along it); a pair of giants once, from the lower row; each giant's partners in row order
+    grid = (keys, bodies, origin, cell, ncell)
     giants = rules.giants
+    loose = np.empty(n, np.int64)
+    nl = 0
+    for j in range(n):
+        if alive[j] and not gridded[j] and not _in_sorted(giants, j):
+            loose[nl] = j
+            nl += 1
+    none = np.zeros(n, np.bool_)
     for q in range(giants.size):
         g = giants[q]
         if not alive[g]:
             continue
-        for j in range(n):
-            if not wraps and (hi[j, 0] < lo[g, 0] or lo[j, 0] > hi[g, 0]):
+        near, count = _grid_meets(g, grid, lo, hi, L, alive, none)
+        if count < 0:                                  # a giant over too many cells: all
+            count = 0
+            for j in range(n):
+                if gridded[j] and alive[j] and j != g and _boxes_meet(lo, hi, g, j, L):
+                    near, count = _push(near, count, j)
+        for p in range(nl + giants.size):
+            j = loose[p] if p < nl else giants[p - nl]
+            if (p >= nl and j <= g) or not alive[j] or \
+                    (not wraps and (hi[j, 0] < lo[g, 0] or lo[j, 0] > hi[g, 0])):
                 continue
-            if j == g or not alive[j] or (j < g and _in_sorted(giants, j)):
-                continue
-            i, k = min(g, j), max(g, j)
-            if _boxes_meet(lo, hi, i, k, L) and _allowed(rules, kind, i, k) != IGNORE:
+            if _boxes_meet(lo, hi, min(g, j), max(g, j), L):
+                near, count = _push(near, count, j)
+        near = np.sort(near[:count])
+        for p in range(count):
+            i, k = min(g, near[p]), max(g, near[p])
+            if _allowed(rules, kind, i, k) != IGNORE:
                 if m == pairs.shape[0]:
                     pairs = grown_pairs(pairs, m)
                 pairs[m, 0] = i
@@ -562,76 +582,40 @@ def focused_pairs(A, B, tb, alive, rules, lo, hi, focus, in_focus, stale, change
     gridded = rules.gridded
     n = A.shape[0]
     L = _periods(rules)
-    keys, bodies, origin, cell, ncell = grid
+    wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
     _bounds(A, B, tb, radius, alive, lo, hi, focus)
     if focus.size * changed.size > 4 * n + 4096:
         return np.empty((0, 2), np.int64), False
     giants = rules.giants
     found = np.empty(16, np.int64)                     # i * n + j: sorted at the end
     m = 0
-    first = np.empty(3, np.int64)
-    last = np.empty(3, np.int64)
-    corner = np.empty(3, np.int64)
-    low_bits = (1 << 32) - 1
     for q in range(focus.size):
         i = focus[q]
         if not alive[i]:
             continue
         if is_giant[i]:
+            x0, x1 = lo[i, 0], hi[i, 0]
             for j in range(n):
+                # the cheap test first: most bodies are far along x
+                if not wraps and (hi[j, 0] < x0 or lo[j, 0] > x1):
+                    continue
                 if j != i and alive[j] and not (in_focus[j] and j < i) and \
                         _boxes_meet(lo, hi, min(i, j), max(i, j), L) and \
                         _allowed(rules, kind, min(i, j), max(i, j)) != IGNORE:
                     found, m = _push(found, m, i * n + j)
             continue
         if gridded[i]:
-            count = 1
-            for c in range(3):                         # _axis_range
-                first[c] = int(math.floor((lo[i, c] - origin[c]) * cell[c]))
-                last[c] = int(math.floor((hi[i, c] - origin[c]) * cell[c]))
-                if ncell[c] > 0 and last[c] - first[c] >= ncell[c]:
-                    last[c] = first[c] + ncell[c] - 1
-                count *= last[c] - first[c] + 1
-            if count > 4096:                           # a box swept far: a new grid
+            near, count = _grid_meets(i, grid, lo, hi, L, alive, stale)
+            if count < 0:                              # a box swept far: a new grid
                 return np.empty((0, 2), np.int64), False
-            for x in range(first[0], last[0] + 1):
-                for y in range(first[1], last[1] + 1):
-                    for z in range(first[2], last[2] + 1):
-                        key = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
-                                        _wrap_index(z, ncell[2]))
-                        # the run of the key's low bits (the sort's order): binary search
-                        a, b = 0, keys.size
-                        while a < b:
-                            mid = (a + b) // 2
-                            if (keys[mid] & low_bits) < (key & low_bits):
-                                a = mid + 1
-                            else:
-                                b = mid
-                        for e in range(a, keys.size):
-                            if (keys[e] & low_bits) != (key & low_bits):
-                                break
-                            j = bodies[e] >> _KIND_BITS
-                            if keys[e] != key or j == i or stale[j] or not alive[j]:
-                                continue
-                            # reported in the cell of the overlap's low corner only
-                            meet = True
-                            for c in range(3):
-                                shift = _image_shift(lo, hi, i, j, c, L)
-                                if max(lo[i, c], lo[j, c] - shift) > \
-                                        min(hi[i, c], hi[j, c] - shift):
-                                    meet = False
-                                    break
-                                edge = lo[i, c] if lo[i, c] >= lo[j, c] - shift else lo[j, c]
-                                corner[c] = _wrap_index(int(math.floor(
-                                    (edge - origin[c]) * cell[c])), ncell[c])
-                            if not meet or _cell_key(corner[0], corner[1], corner[2]) != key:
-                                continue
-                            a2, b2 = min(i, j), max(i, j)
-                            if (category[a2] & mask[b2]) == 0 or \
-                                    (category[b2] & mask[a2]) == 0 or owner[a2] == b2 or \
-                                    owner[b2] == a2 or response[kind[a2], kind[b2]] == IGNORE:
-                                continue
-                            found, m = _push(found, m, i * n + j)
+            for p in range(count):
+                j = near[p]
+                a2, b2 = min(i, j), max(i, j)
+                if (category[a2] & mask[b2]) == 0 or (category[b2] & mask[a2]) == 0 or \
+                        owner[a2] == b2 or owner[b2] == a2 or \
+                        response[kind[a2], kind[b2]] == IGNORE:
+                    continue
+                found, m = _push(found, m, i * n + j)
             for p in range(changed.size):          # the bodies whose entries are stale
                 j = changed[p]
                 if j == i or not alive[j] or is_giant[j] or not gridded[j] or \
@@ -654,6 +638,68 @@ def focused_pairs(A, B, tb, alive, rules, lo, hi, focus, in_focus, stale, change
         pairs[q, 0] = min(i, j)
         pairs[q, 1] = max(i, j)
     return pairs, True
+
+
+@kernel
+def _grid_meets(i, grid, lo, hi, L, alive, skip):
+    """The live bodies of the grid whose boxes meet body i's box (j's image nearest i when
+    wrapping), each once (found in the cell of the low corner of the two boxes' overlap),
+    skip[j] left out: (rows, count), in the grid's order; count -1 when i's box covers more
+    than 4096 cells (search otherwise). i itself need not be in the grid."""
+    keys, bodies, origin, cell, ncell = grid
+    first = np.empty(3, np.int64)
+    last = np.empty(3, np.int64)
+    corner = np.empty(3, np.int64)
+    near = np.empty(16, np.int64)
+    # _axis_range, in floats first: a box far out or swept far (a line a contact changed,
+    # after the grid was sized) may lie past any cell number an int64 holds
+    count = 1.0
+    for c in range(3):
+        f0 = math.floor((lo[i, c] - origin[c]) * cell[c])
+        f1 = math.floor((hi[i, c] - origin[c]) * cell[c])
+        if not (abs(f0) < 2.0 ** 52 and abs(f1) < 2.0 ** 52):
+            return near, -1
+        first[c] = int(f0)
+        last[c] = int(f1)
+        if ncell[c] > 0 and last[c] - first[c] >= ncell[c]:
+            last[c] = first[c] + ncell[c] - 1
+        count *= last[c] - first[c] + 1
+    if count > 4096.0:
+        return near, -1
+    m = 0
+    low_bits = (1 << 32) - 1
+    for x in range(first[0], last[0] + 1):
+        for y in range(first[1], last[1] + 1):
+            for z in range(first[2], last[2] + 1):
+                key = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
+                                _wrap_index(z, ncell[2]))
+                # the run of the key's low bits (the sort's order): binary search
+                a, b = 0, keys.size
+                while a < b:
+                    mid = (a + b) // 2
+                    if (keys[mid] & low_bits) < (key & low_bits):
+                        a = mid + 1
+                    else:
+                        b = mid
+                for e in range(a, keys.size):
+                    if (keys[e] & low_bits) != (key & low_bits):
+                        break
+                    j = bodies[e] >> _KIND_BITS
+                    if keys[e] != key or j == i or skip[j] or not alive[j]:
+                        continue
+                    # reported in the cell of the overlap's low corner only
+                    meet = True
+                    for c in range(3):
+                        shift = _image_shift(lo, hi, i, j, c, L)
+                        if max(lo[i, c], lo[j, c] - shift) > min(hi[i, c], hi[j, c] - shift):
+                            meet = False
+                            break
+                        edge = lo[i, c] if lo[i, c] >= lo[j, c] - shift else lo[j, c]
+                        corner[c] = _wrap_index(int(math.floor((edge - origin[c]) * cell[c])),
+                                                ncell[c])
+                    if meet and _cell_key(corner[0], corner[1], corner[2]) == key:
+                        near, m = _push(near, m, j)
+    return near, m
 
 
 @kernel(inline=True)
