@@ -99,12 +99,10 @@ def sweep(scenario, vary=None, seeds=(0,), measure=None, setup=None, client=None
     of the script itself (sent by value).
     """
     from .scenario import Scenario, load_scenario
-    if isinstance(scenario, Scenario):
-        source, text = scenario.source, scenario.text
-    else:
-        source, text = _scenario_text(scenario)
-        load_scenario(text if source == "<scenario>" else source)
-    runs = plan(text, source, vary or {}, seeds)
+    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+    source, text = sc.source, sc.text
+    seeds = list(seeds) if hasattr(seeds, "__iter__") else seeds
+    runs = plan(sc, vary or {}, seeds)
     keys = list((vary or {}).keys())
     meta = {"format": FORMAT, "version": VERSION, "scenario": text, "source": source,
             "vary": json.dumps(vary or {}), "seeds": json.dumps([int(s) for s in seeds]),
@@ -146,23 +144,11 @@ def sweep(scenario, vary=None, seeds=(0,), measure=None, setup=None, client=None
     return table
 
 
-def _scenario_text(scenario):
-    """(source, text) of a scenario path or text."""
-    if isinstance(scenario, os.PathLike) or (isinstance(scenario, str) and "\n" not in scenario
-                                              and scenario.endswith(".toml")):
-        path = os.fspath(scenario)
-        try:
-            with open(path, encoding="utf-8") as f:
-                return path, f.read()
-        except OSError as e:
-            raise ValueError(f"scenario {path!r} cannot be read: {e.strerror}") from None
-    return "<scenario>", str(scenario)
-
-
-def plan(text, source, vary, seeds):
+def plan(scenario, vary, seeds):
     """Every run of the sweep, in order (the values' combinations in vary's key order, the
     last key fastest, each with every seed), each combination checked as the scenario it
-    makes: a bad key path or value is refused before anything runs."""
+    makes: a bad key path or value is refused before anything runs. scenario: a loaded
+    Scenario."""
     from .scenario import ScenarioError, load_scenario
     if not isinstance(vary, dict):
         raise ValueError(f"vary = {vary!r}: expected {{key path: [values]}}")
@@ -185,7 +171,7 @@ def plan(text, source, vary, seeds):
     if len(set(seeds)) != len(seeds):
         raise ValueError(f"seeds = {seeds!r}: each seed once")
     keys = list(vary)
-    base = tomllib.loads(text).get("world", {}).get("seed", 0)
+    text, base = scenario.text, scenario.data["world"]["seed"]
     runs = []
     for combo in itertools.product(*(list(vary[k]) for k in keys)):
         params = {k: _plain(k, v) for k, v in zip(keys, combo)}
@@ -224,7 +210,9 @@ def run_seed(base, params, seed):
 
 
 def _name(fn):
-    return "" if fn is None else f"{getattr(fn, '__module__', '')}.{getattr(fn, '__qualname__', repr(fn))}"
+    if fn is None:
+        return ""
+    return f"{getattr(fn, '__module__', '')}.{getattr(fn, '__qualname__', repr(fn))}"
 
 
 # ----------------------------------------------------------------------- on a worker

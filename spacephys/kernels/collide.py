@@ -290,16 +290,6 @@ def _bounds(A, B, tb, radius, alive, lo, hi, rows):
 
 
 @kernel(inline=True)
-def _axis_range(lo, hi, i, c, origin, inv_cell, ncell):
-    """First and last cell index on axis c covered by box i; periodic axes wrap later."""
-    first = int(math.floor((lo[i, c] - origin[c]) * inv_cell[c]))
-    last = int(math.floor((hi[i, c] - origin[c]) * inv_cell[c]))
-    if ncell[c] > 0 and last - first >= ncell[c]:
-        last = first + ncell[c] - 1                   # a box around the whole period
-    return first, last
-
-
-@kernel(inline=True)
 def _cell_key(cx, cy, cz):
     """A 64-bit hash of a cell: entries are grouped by it. Two cells sharing a key (odds
     about 1e-8 for a million cells) would only make a pair be tested twice."""
@@ -411,7 +401,7 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
             continue
         # (written out, not a helper returning a tuple: that costs twice the whole loop)
         count = 1
-        for c in range(3):                             # _axis_range
+        for c in range(3):                             # the cells box i covers on axis c
             first[c] = int(math.floor((lo[i, c] - origin[c]) * cell[c]))
             last[c] = int(math.floor((hi[i, c] - origin[c]) * cell[c]))
             if ncell[c] > 0 and last[c] - first[c] >= ncell[c]:
@@ -434,7 +424,7 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
     # pairs within each run of one cell, reported in the cell that holds the low corner of
     # their boxes' overlap (so once, whatever other cells they share). Written out, with the
-    # tables' arrays read once: as helpers (_home, _allowed) the loop took 3x as long
+    # tables' arrays read once: as helpers (the home cell, the response) it took 3x as long
     category, mask, owner, response = rules.category, rules.mask, rules.owner, rules.response
     pairs = np.empty((max(16, total // 8), 2), np.int64)
     m = 0
@@ -459,7 +449,7 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
                     for c in range(3):
                         if lo[i, c] > hi[j, c] or lo[j, c] > hi[i, c]:
                             home = False
-                else:                                  # _home
+                else:                                  # the home cell: the overlap's low corner
                     for c in range(3):
                         shift = 0.0
                         if L[c] > 0.0:                 # to j's image nearest i
@@ -653,8 +643,8 @@ def _grid_meets(i, grid, lo, hi, L, alive, skip):
     last = np.empty(3, np.int64)
     corner = np.empty(3, np.int64)
     near = np.empty(16, np.int64)
-    # _axis_range, in floats first: a box far out or swept far (a line a contact changed,
-    # after the grid was sized) may lie past any cell number an int64 holds
+    # the cells of i's box, in floats first: a box far out or swept far (a line a contact
+    # changed after the grid was sized) may lie past any cell number an int64 holds
     count = 1.0
     for c in range(3):
         f0 = math.floor((lo[i, c] - origin[c]) * cell[c])

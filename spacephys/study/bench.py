@@ -259,54 +259,13 @@ def collisions(quick=False):
 
 
 def _fleet_split(w, repeats=5):
-    """Milliseconds of each part of one step on w's current state, each kernel timed alone
-    (best of repeats, on copies): gravity (one force evaluation: leapfrog makes one per step),
-    guidance and thrust (turning, guidance, burns, fuel, fuses, lifetimes) and collisions
-    (broad + narrow phase and responses)."""
-    from ..events import EVENT_DTYPE
-    from ..kernels import collide, control, forces
-    from ..kernels import state as kstate
-    from ..kernels import step as kstep
-    n = w.n
-    pos, vel = np.zeros((n, 3)), np.zeros((n, 3))
-    pos[:, :w.dim], vel[:, :w.dim] = w.pos, w.vel
-    mass, ids = w.mass.copy(), w.ids.copy()
-    end = pos + w.dt * vel
-    everyone = np.arange(n, dtype=np.int64)
-    acc = np.empty((n, 3))
-    table = w.tables().forces
-
-    def best(run):
-        times = []
-        for _ in range(repeats):
-            start = time.perf_counter()
-            run()
-            times.append(time.perf_counter() - start)
-        return 1e3 * min(times)
-
-    def guide():
-        plan = w.copy().tables()
-        L = (0.0, 0.0, 0.0)           # no wrapping (kernels/step.periods)
-        ht = kstep.hoist(plan.state, plan.rules, plan.actors)
-        start = time.perf_counter()
-        control.begin_step(ht, w.t, w.dt, L)
-        control.end_burn(ht, w.t, w.dt)
-        control.after_step(ht, w.t, w.dt, L)
-        return time.perf_counter() - start
-
-    def collisions():
-        rules = w.copy().tables().rules
-        state = kstate.make(end.copy(), vel.copy(), end.copy(), mass.copy(), ids,
-                            np.ones(n, np.bool_), np.empty((n, 3)), pos.copy(), vel.copy(),
-                            np.zeros(256, EVENT_DTYPE), np.zeros(1, np.int64), w.dim)
-        start = time.perf_counter()
-        collide.collide_step(state, rules, w.dt, w.t)
-        return time.perf_counter() - start
-
-    return {"gravity_ms": best(lambda: forces.accelerations(table, w.t, pos, vel, acc,
-                                                              everyone, False)),
-            "guidance_ms": 1e3 * min(guide() for _ in range(repeats)),
-            "collisions_ms": 1e3 * min(collisions() for _ in range(repeats))}
+    """Milliseconds of each part of one step on w's current state (heavybench.split, best of
+    repeats): gravity (one force evaluation: leapfrog makes one per step), guidance and
+    thrust, and collisions (broad + narrow phase and responses)."""
+    from .heavybench import split
+    s = split(w, repeats)
+    return {"gravity_ms": s["gravity_ms"], "guidance_ms": s["guidance_ms"],
+            "collisions_ms": s["broad_ms"] + s["narrow_ms"] + s["responses_ms"]}
 
 
 def fleet(quick=False):

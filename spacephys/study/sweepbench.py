@@ -71,7 +71,8 @@ def sweep_bench(quick=False):
     text = DOGFIGHT.read_text()
     job = {"text": text, "source": str(DOGFIGHT), "measure": None, "setup": None,
            "logs": None}
-    todo = plan(text, str(DOGFIGHT), VARY, range(runs // 4))
+    from ..scenario import load_scenario
+    todo = plan(load_scenario(DOGFIGHT), VARY, range(runs // 4))
     run_one(job, SweepRun(0, todo[0].params, 0, 0))        # kernels loaded here
     start = time.perf_counter()
     walls = [run_one(job, r)["wall"] for r in todo]
