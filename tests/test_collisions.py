@@ -466,6 +466,55 @@ def test_a_2d_body_inside_one_cell_makes_one_entry():
     assert entries == 3 and len(pairs) == 0
 
 
+def _entries_and_pairs(pos, radius):
+    """(grid entries, whether the grid's pairs are brute force's) for discs at rest."""
+    w = sp.World(dim=2, gravity="none", dt=0.1)
+    w.set_collision("*", "*", "elastic")
+    w.add_bodies(1.0, pos, radius=radius)
+    got, brute, plan = _grid_and_brute(w)
+    A = np.zeros((w.n, 3))
+    A[:, :2] = w.pos
+    lo, hi = np.empty((w.n, 3)), np.empty((w.n, 3))
+    _, entries = collide.candidate_pairs(A, np.zeros((w.n, 3)), np.zeros(w.n), plan.alive,
+                                         plan.rules, lo, hi)
+    return entries, got == brute
+
+
+def test_a_sparse_field_takes_coarse_cells_and_a_far_cluster_keeps_fine_ones():
+    rng = np.random.default_rng(2)
+    # debris strewn over a battlefield: cells of the largest diameter would give each disc
+    # about 4 entries (2 cells a side); cells sized by the span's share per body, about 1
+    n = 5000
+    entries, same = _entries_and_pairs(rng.uniform(0.0, 6000.0, (n, 2)), 0.2)
+    assert same and entries < 1.2 * n, entries
+    # a crowd far from one outlier: one coarse cell would hold all of it (2e6 pairs to
+    # scan); the grid goes back to cells of the largest diameter
+    crowd = rng.uniform(0.0, 40.0, (2000, 2))
+    entries, same = _entries_and_pairs(np.vstack([crowd, [[1e5, 1e5]]]), 0.5)
+    assert same and entries > 2.5 * 2001, entries
+
+
+def test_the_outcome_does_not_depend_on_the_grid():
+    # contacts at one time (bodies overlapping at the start of a step, lines clamped to where
+    # a contact began them) are resolved in row order, not in the order the broad phase
+    # found them: any cell gives the same bits
+    def run(cell):
+        w = arena(300, seed=4, box=12.0, speed=2.0)      # crowded: many start overlapping
+        w.collision_cell = cell
+        events = []
+        for _ in range(20):
+            w.step(1)
+            events.append(w.events.copy())
+        return w, np.concatenate(events)
+
+    base, seen = run(None)
+    assert (seen["time"] == 0.0).sum() > 20                # the ties are there
+    for cell in (0.37, 1.9, 5.0):
+        w, events = run(cell)
+        assert np.array_equal(events, seen), cell
+        assert np.array_equal(w.pos, base.pos) and np.array_equal(w.vel, base.vel), cell
+
+
 def test_a_body_touching_two_others_merges_them_all():
     # B overlaps A and C, which do not touch each other: one body at the end (REBOUND's
     # line/merge does this too, on most runs)

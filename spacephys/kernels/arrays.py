@@ -42,35 +42,42 @@ def grown_pairs(pairs, m):
 
 
 @kernel
-def stable_argsort(keys, k):
-    """Indices sorting keys[:k] ascending; equal keys keep their order (a merge sort)."""
-    order = np.arange(k)
-    tmp = np.empty(k, np.int64)
+def contact_order(t, i, j, k):
+    """(k,) int64: the order sorting the contacts (t, i, j)[:k] by time, then i, then j (a
+    merge sort). Contacts at one time (bodies overlapping at the start of a step) are
+    resolved in row order, whatever order the broad phase found them in."""
+    buf = np.empty((2, k), np.int64)                   # two halves, in turn source and result
+    for q in range(k):
+        buf[0, q] = q
+    src = 0
     width = 1
     while width < k:
+        dst = 1 - src
         for lo in range(0, k, 2 * width):
             mid = min(lo + width, k)
             hi = min(lo + 2 * width, k)
             a, b, out = lo, mid, lo
             while a < mid and b < hi:
-                if keys[order[b]] < keys[order[a]]:
-                    tmp[out] = order[b]
+                x, y = buf[src, a], buf[src, b]
+                if t[y] < t[x] or (t[y] == t[x] and (i[y] < i[x] or
+                                                     (i[y] == i[x] and j[y] < j[x]))):
+                    buf[dst, out] = y
                     b += 1
                 else:
-                    tmp[out] = order[a]
+                    buf[dst, out] = x
                     a += 1
                 out += 1
             while a < mid:
-                tmp[out] = order[a]
+                buf[dst, out] = buf[src, a]
                 a += 1
                 out += 1
             while b < hi:
-                tmp[out] = order[b]
+                buf[dst, out] = buf[src, b]
                 b += 1
                 out += 1
-        order, tmp = tmp, order
+        src = dst
         width *= 2
-    return order
+    return buf[src].copy()
 
 
 @kernel

@@ -27,13 +27,14 @@ import numpy as np
 from numba.experimental import structref
 
 from .._jit import TableType, kernel
-from .arrays import grown_pairs, stable_argsort
+from .arrays import contact_order, grown_pairs
 from .codes import (BOUNCE, BREAK_A, DESTROY_A, DESTROY_B, DESTROY_BOTH, ELASTIC, EV_BOUNCE,
                     EV_CONTACT_BEGIN, EV_CONTACT_END, EV_DESTROY, EV_MERGE, EV_SENSOR_BEGIN,
                     EV_SENSOR_END, EV_WALL, IGNORE, MERGE, PERIODIC, PLANE, REFLECT, REFLECTING,
                     SENSOR, TOUCH_ENDS)
 from .state import record
 
+_SPARSE = 0.5        # a sparse scene's coarse cell: this times the span's length per body
 _MAX_PASSES = 32
 # bodies in contact (elastic, bounce) are touching while the gap between their surfaces is at
 # most this fraction of the sum of their radii: a resting body's gap after its bounce is
@@ -306,16 +307,17 @@ def _wrap_index(k, n):
 
 
 @kernel
-def _radix_sort(keys, values, keys_out, values_out):
-    """Sort (keys, values) by the low 32 bits of keys, 8 at a time (LSD radix: linear; each
-    pass streams the arrays once and scatters into 256 streams, which stay in cache: measured
-    twice as fast as 11-bit digits at 3e5 entries). Only a grouping is needed: entries of one
-    cell end up adjacent, with at most a few other cells' entries mixed into the same run of
-    low bits (the scan compares full keys). Returns the sorted arrays."""
+def _radix_sort(keys, values, keys_out, values_out, bits):
+    """Sort (keys, values) by the low `bits` (a multiple of 8) bits of keys, 8 at a time
+    (LSD radix: linear; each pass streams the arrays once and scatters into 256 streams,
+    which stay in cache: measured twice as fast as 11-bit digits at 3e5 entries). Only a
+    grouping is needed: entries of one cell end up adjacent, with a few other cells' entries
+    mixed into the same run of low bits (the scan compares full keys). Returns the sorted
+    arrays."""
     n = keys.size
     count = np.zeros(257, np.int64)
     src_k, src_v, dst_k, dst_v = keys, values, keys_out, values_out
-    for shift in range(0, 32, 8):
+    for shift in range(0, bits, 8):
         for d in range(257):
             count[d] = 0
         for e in range(n):
@@ -342,36 +344,12 @@ def candidate_pairs(A, B, tb, alive, rules, lo, hi):
 
 
 @kernel
-def _grid_pairs(A, B, tb, alive, rules, lo, hi):
-    """candidate_pairs, and the grid it built: (keys (E,), bodies (E,): the entries (cell
-    key, row << _KIND_BITS | its kind) grouped by cell, origin (3,), inverse cell (3,),
-    ncell (3,))."""
-    radius, kind = rules.radius, rules.kind
-    n = A.shape[0]
-    L = _periods(rules)
-    _bounds(A, B, tb, radius, alive, lo, hi, rules.giants[:0])
-    gridded = rules.gridded
-    # A cell too small for the boxes (radii near 0, a long sweep) would make one box cover
-    # millions of cells, or cell indices overflow: at most 1024 cells along the widest box,
-    # about 4096 in its whole volume (a diagonal sweep would otherwise fill 1024^3), and 2^40
-    # across the span of all of them, counted from their low corner when the coordinates
-    # are that far from the origin
-    size = rules.cell
-    low, high = np.full(3, np.inf), np.full(3, -np.inf)
-    biggest = 0.0
-    members = 0
-    for i in range(n):
-        if alive[i] and gridded[i]:
-            members += 1
-            volume = 1.0
-            for c in range(rules.dim):
-                low[c] = min(low[c], lo[i, c])
-                high[c] = max(high[c], hi[i, c])
-                size = max(size, (hi[i, c] - lo[i, c]) * (1.0 / 1024.0))
-                volume *= hi[i, c] - lo[i, c]
-            biggest = max(biggest, volume)
-    # (the root of the largest volume: the largest root, without a root per body)
-    size = max(size, (biggest * (1.0 / 4096.0)) ** (1.0 / rules.dim))
+def _entries(lo, hi, alive, gridded, kind, size, low, high, rules, L):
+    """The grid of cells `size` over the boxes' span low..high (3,), its entries (cell key,
+    row << _KIND_BITS | kind) grouped by cell: (keys, bodies, single (n,) whether a body's box
+    lies in one cell, origin (3,), inverse cell (3,), ncell (3,) cells around a period or 0,
+    entries)."""
+    n = lo.shape[0]
     origin = np.zeros(3)
     for c in range(rules.dim):
         if high[c] > low[c]:
@@ -388,15 +366,33 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     cell = 1.0 / cell                                  # multiplied below: no divisions
     for c in range(rules.dim, 3):
         cell[c] = 0.0                                  # a flat axis: every box in layer 0
-    # the entries (cell, body) in body order, in one pass (room for a few cells per body,
-    # grown when a sweep covers more); single: the bodies whose box lies in one cell
-    keys = np.empty(4 * members + 16, np.int64)
+    # the entries (cell, body) in body order, in one pass (room for a few cells per body;
+    # a second into arrays of the size the first found when a sweep covers more)
+    keys = np.empty(4 * n + 16, np.int64)
     bodies = np.empty(keys.size, np.int64)
     single = np.empty(n, np.bool_)
+    total = _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, single)
+    if total > keys.size:
+        keys = np.empty(total, np.int64)
+        bodies = np.empty(total, np.int64)
+        _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, single)
+    # grouped by as many low bits of the hashes as keep other cells out of most runs (a run
+    # mixing two cells costs a skipped comparison; a pass of the sort costs a quarter of it)
+    bits = 16 if total < 1 << 11 else (24 if total < 1 << 21 else 32)
+    keys, bodies = _radix_sort(keys[:total], bodies[:total], np.empty(total, np.int64),
+                               np.empty(total, np.int64), bits)
+    return keys, bodies, single, origin, cell, ncell, total, (1 << bits) - 1
+
+
+@kernel
+def _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, single):
+    """Write the grid's entries (see _entries) into keys, bodies while they fit, and single;
+    returns how many there are. (Hot loops here and below write into arrays they are given
+    and never replace one: an array assigned anew inside a loop made the loop 3x slower.)"""
     first = np.empty(3, np.int64)
     last = np.empty(3, np.int64)
     total = 0
-    for i in range(n):
+    for i in range(lo.shape[0]):
         if not alive[i] or not gridded[i]:
             continue
         # (written out, not a helper returning a tuple: that costs twice the whole loop)
@@ -409,9 +405,8 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
             count *= last[c] - first[c] + 1
         single[i] = count == 1
         if total + count > keys.size:
-            room = max(2 * keys.size, total + count)
-            keys = _grown(keys, total, room)
-            bodies = _grown(bodies, total, room)
+            total += count
+            continue
         for x in range(first[0], last[0] + 1):
             for y in range(first[1], last[1] + 1):
                 for z in range(first[2], last[2] + 1):
@@ -419,17 +414,34 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
                                             _wrap_index(z, ncell[2]))
                     bodies[total] = (i << _KIND_BITS) | kind[i]
                     total += 1
-    keys, bodies = _radix_sort(keys[:total], bodies[:total], np.empty(total, np.int64),
-                               np.empty(total, np.int64))
-    wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
+    return total
+
+
+@kernel
+def _crowding(keys, total, low_bits):
+    """The pairs of entries sharing a run of the grid (what the pair scan reads)."""
+    crowd = 0
+    run = 0
+    while run < total:
+        end = run + 1
+        while end < total and (keys[end] & low_bits) == (keys[run] & low_bits):
+            end += 1
+        crowd += (end - run) * (end - run - 1) // 2
+        run = end
+    return crowd
+
+
+@kernel
+def _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell, ncell,
+          category, mask, owner, response, pairs):
+    """The pairs (i < j) of each cell of the grid (see _grid_pairs) written into pairs while
+    they fit; returns how many there are."""
     # pairs within each run of one cell, reported in the cell that holds the low corner of
     # their boxes' overlap (so once, whatever other cells they share). Written out, with the
     # tables' arrays read once: as helpers (the home cell, the response) it took 3x as long
-    category, mask, owner, response = rules.category, rules.mask, rules.owner, rules.response
-    pairs = np.empty((max(16, total // 8), 2), np.int64)
+    first = np.empty(3, np.int64)
     m = 0
     run = 0
-    low_bits = (1 << 32) - 1
     while run < total:
         end = run + 1
         while end < total and (keys[end] & low_bits) == (keys[run] & low_bits):
@@ -468,17 +480,82 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
                 if not home or (category[i] & mask[j]) == 0 or (category[j] & mask[i]) == 0 \
                         or owner[i] == j or owner[j] == i:
                     continue
-                if m == pairs.shape[0]:
-                    pairs = grown_pairs(pairs, m)
-                pairs[m, 0] = i
-                pairs[m, 1] = j
+                if m < pairs.shape[0]:
+                    pairs[m, 0] = i
+                    pairs[m, 1] = j
                 m += 1
         run = end
+    return m
+
+
+@kernel
+def _grid_pairs(A, B, tb, alive, rules, lo, hi):
+    """candidate_pairs, and the grid it built: (keys (E,), bodies (E,): the entries (cell
+    key, row << _KIND_BITS | its kind) grouped by cell, origin (3,), inverse cell (3,),
+    ncell (3,))."""
+    radius, kind = rules.radius, rules.kind
+    n = A.shape[0]
+    L = _periods(rules)
+    _bounds(A, B, tb, radius, alive, lo, hi, rules.giants[:0])
+    gridded = rules.gridded
+    # A cell too small for the boxes (radii near 0, a long sweep) would make one box cover
+    # millions of cells, or cell indices overflow: at most 1024 cells along the widest box,
+    # about 4096 in its whole volume (a diagonal sweep would otherwise fill 1024^3), and 2^40
+    # across the span of all of them, counted from their low corner when the coordinates
+    # are that far from the origin
+    size = rules.cell
+    low, high = np.full(3, np.inf), np.full(3, -np.inf)
+    biggest = 0.0
+    members = 0
+    spread = 0.0
+    for i in range(n):
+        if alive[i] and gridded[i]:
+            members += 1
+            volume = 1.0
+            widest = 0.0
+            for c in range(rules.dim):
+                low[c] = min(low[c], lo[i, c])
+                high[c] = max(high[c], hi[i, c])
+                size = max(size, (hi[i, c] - lo[i, c]) * (1.0 / 1024.0))
+                volume *= hi[i, c] - lo[i, c]
+                widest = max(widest, hi[i, c] - lo[i, c])
+            biggest = max(biggest, volume)
+            spread += widest
+    # (the root of the largest volume: the largest root, without a root per body)
+    size = max(size, (biggest * (1.0 / 4096.0)) ** (1.0 / rules.dim))
+    # and no smaller than the mean box: small bodies swept many radii in a step (debris
+    # thrown from a missile) would otherwise each cover a hundred cells of their diameter
+    if members > 0:
+        size = max(size, spread / members)
+    # A sparse scene (debris strewn over a battlefield) first tries cells about as large as
+    # its span's share per body: about one entry per body, not one per cell its box covers;
+    # a crowd in a few of them (a cluster far from the rest) brings back the fine cells
+    coarse = size
+    if members > 1:
+        share = 1.0
+        for c in range(rules.dim):
+            share *= max(high[c] - low[c], size)
+        coarse = max(size, _SPARSE * (share / members) ** (1.0 / rules.dim))
+    keys, bodies, single, origin, cell, ncell, total, low_bits = _entries(
+        lo, hi, alive, gridded, kind, coarse, low, high, rules, L)
+    if coarse > size and _crowding(keys, total, low_bits) > 2 * total + 4096:
+        keys, bodies, single, origin, cell, ncell, total, low_bits = _entries(
+            lo, hi, alive, gridded, kind, size, low, high, rules, L)
+    wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
+    # the pairs within each cell (written into pairs while they fit: a second scan into
+    # an array the size the first found)
+    pairs = np.empty((max(16, total // 4), 2), np.int64)
+    m = _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell, ncell,
+              rules.category, rules.mask, rules.owner, rules.response, pairs)
+    if m > pairs.shape[0]:
+        pairs = np.empty((m, 2), np.int64)
+        _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell, ncell,
+              rules.category, rules.mask, rules.owner, rules.response, pairs)
     # the giants against everyone: the grid's bodies looked up in the cells a giant's box
     # covers (a test of every body took 16 ms for 70 giants among 6e4 bodies), the bodies
     # outside the grid (loose) and the other giants tested directly, x first (most are far
     # along it); a pair of giants once, from the lower row; each giant's partners in row order
-    grid = (keys, bodies, origin, cell, ncell)
+    grid = (keys, bodies, origin, cell, ncell, low_bits)
     giants = rules.giants
     loose = np.empty(n, np.int64)
     nl = 0
@@ -487,41 +564,38 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
             loose[nl] = j
             nl += 1
     none = np.zeros(n, np.bool_)
+    near = np.empty(n, np.int64)                       # a giant's partners, each once
     for q in range(giants.size):
         g = giants[q]
         if not alive[g]:
             continue
-        near, count = _grid_meets(g, grid, lo, hi, L, alive, none)
+        count = _grid_meets(g, grid, lo, hi, L, alive, none, near)
         if count < 0:                                  # a giant over too many cells: all
             count = 0
             for j in range(n):
                 if gridded[j] and alive[j] and j != g and _boxes_meet(lo, hi, g, j, L):
-                    near, count = _push(near, count, j)
+                    near[count] = j
+                    count += 1
         for p in range(nl + giants.size):
             j = loose[p] if p < nl else giants[p - nl]
             if (p >= nl and j <= g) or not alive[j] or \
                     (not wraps and (hi[j, 0] < lo[g, 0] or lo[j, 0] > hi[g, 0])):
                 continue
             if _boxes_meet(lo, hi, min(g, j), max(g, j), L):
-                near, count = _push(near, count, j)
-        near = np.sort(near[:count])
+                near[count] = j
+                count += 1
+        near[:count].sort()
+        if m + count > pairs.shape[0]:
+            more = np.empty((2 * (m + count), 2), np.int64)
+            more[:m] = pairs[:m]
+            pairs = more
         for p in range(count):
             i, k = min(g, near[p]), max(g, near[p])
             if _allowed(rules, kind, i, k) != IGNORE:
-                if m == pairs.shape[0]:
-                    pairs = grown_pairs(pairs, m)
                 pairs[m, 0] = i
                 pairs[m, 1] = k
                 m += 1
-    return pairs[:m], (keys, bodies, origin, cell, ncell)
-
-
-@kernel
-def _grown(values, used, size):
-    """values[:used] in a new array of `size`."""
-    out = np.empty(size, values.dtype)
-    out[:used] = values[:used]
-    return out
+    return pairs[:m], grid
 
 
 @kernel
@@ -569,17 +643,41 @@ def focused_pairs(A, B, tb, alive, rules, lo, hi, focus, in_focus, stale, change
     covers (a pair reported in the cell of the low corner of the boxes' overlap, so once),
     the changed bodies and the giants; a giant tests every body. The pairs come in the
     order of (focus row, partner row): as a search of every partner in row order."""
-    radius, kind = rules.radius, rules.kind
-    category, mask, owner, response = rules.category, rules.mask, rules.owner, rules.response
-    gridded = rules.gridded
     n = A.shape[0]
-    L = _periods(rules)
-    wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
-    _bounds(A, B, tb, radius, alive, lo, hi, focus)
+    _bounds(A, B, tb, rules.radius, alive, lo, hi, focus)
     if focus.size * changed.size > 4 * n + 4096:
         return np.empty((0, 2), np.int64), False
+    near = np.empty(n, np.int64)
+    found = np.empty(4 * focus.size + 64, np.int64)    # i * n + j: sorted at the end
+    m = _focused(alive, rules, lo, hi, focus, in_focus, stale, changed, grid, is_giant, found,
+                 near)
+    if m > found.size:
+        found = np.empty(m, np.int64)
+        _focused(alive, rules, lo, hi, focus, in_focus, stale, changed, grid, is_giant, found,
+                 near)
+    if m < 0:                                          # a box swept far: a new grid
+        return np.empty((0, 2), np.int64), False
+    found = np.sort(found[:m])
+    pairs = np.empty((m, 2), np.int64)
+    for q in range(m):
+        i, j = found[q] // n, found[q] % n
+        pairs[q, 0] = min(i, j)
+        pairs[q, 1] = max(i, j)
+    return pairs, True
+
+
+@kernel
+def _focused(alive, rules, lo, hi, focus, in_focus, stale, changed, grid, is_giant, found,
+             near):
+    """focused_pairs's search: the pairs as i * n + j written into found while they fit;
+    returns how many there are, or -1 when a focus body's box covers too many cells."""
+    kind = rules.kind
+    category, mask, owner, response = rules.category, rules.mask, rules.owner, rules.response
+    gridded = rules.gridded
+    n = lo.shape[0]
+    L = _periods(rules)
+    wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
     giants = rules.giants
-    found = np.empty(16, np.int64)                     # i * n + j: sorted at the end
     m = 0
     for q in range(focus.size):
         i = focus[q]
@@ -594,12 +692,14 @@ def focused_pairs(A, B, tb, alive, rules, lo, hi, focus, in_focus, stale, change
                 if j != i and alive[j] and not (in_focus[j] and j < i) and \
                         _boxes_meet(lo, hi, min(i, j), max(i, j), L) and \
                         _allowed(rules, kind, min(i, j), max(i, j)) != IGNORE:
-                    found, m = _push(found, m, i * n + j)
+                    if m < found.size:
+                        found[m] = i * n + j
+                    m += 1
             continue
         if gridded[i]:
-            near, count = _grid_meets(i, grid, lo, hi, L, alive, stale)
-            if count < 0:                              # a box swept far: a new grid
-                return np.empty((0, 2), np.int64), False
+            count = _grid_meets(i, grid, lo, hi, L, alive, stale, near)
+            if count < 0:
+                return -1
             for p in range(count):
                 j = near[p]
                 a2, b2 = min(i, j), max(i, j)
@@ -607,7 +707,9 @@ def focused_pairs(A, B, tb, alive, rules, lo, hi, focus, in_focus, stale, change
                         owner[a2] == b2 or owner[b2] == a2 or \
                         response[kind[a2], kind[b2]] == IGNORE:
                     continue
-                found, m = _push(found, m, i * n + j)
+                if m < found.size:
+                    found[m] = i * n + j
+                m += 1
             for p in range(changed.size):          # the bodies whose entries are stale
                 j = changed[p]
                 if j == i or not alive[j] or is_giant[j] or not gridded[j] or \
@@ -615,34 +717,32 @@ def focused_pairs(A, B, tb, alive, rules, lo, hi, focus, in_focus, stale, change
                     continue
                 a2, b2 = min(i, j), max(i, j)
                 if _boxes_meet(lo, hi, a2, b2, L) and _allowed(rules, kind, a2, b2) != IGNORE:
-                    found, m = _push(found, m, i * n + j)
+                    if m < found.size:
+                        found[m] = i * n + j
+                    m += 1
         for p in range(giants.size):
             g = giants[p]
             if not alive[g] or (in_focus[g] and g < i):
                 continue                               # (a giant in focus below: its pair)
             a2, b2 = min(i, g), max(i, g)
             if _boxes_meet(lo, hi, a2, b2, L) and _allowed(rules, kind, a2, b2) != IGNORE:
-                found, m = _push(found, m, i * n + g)
-    found = np.sort(found[:m])
-    pairs = np.empty((m, 2), np.int64)
-    for q in range(m):
-        i, j = found[q] // n, found[q] % n
-        pairs[q, 0] = min(i, j)
-        pairs[q, 1] = max(i, j)
-    return pairs, True
+                if m < found.size:
+                    found[m] = i * n + g
+                m += 1
+    return m
 
 
 @kernel
-def _grid_meets(i, grid, lo, hi, L, alive, skip):
+def _grid_meets(i, grid, lo, hi, L, alive, skip, near):
     """The live bodies of the grid whose boxes meet body i's box (j's image nearest i when
     wrapping), each once (found in the cell of the low corner of the two boxes' overlap),
-    skip[j] left out: (rows, count), in the grid's order; count -1 when i's box covers more
-    than 4096 cells (search otherwise). i itself need not be in the grid."""
-    keys, bodies, origin, cell, ncell = grid
+    skip[j] left out, written into near (n,) in the grid's order: returns how many, or -1
+    when i's box covers more than 4096 cells (search otherwise). i itself need not be in
+    the grid."""
+    keys, bodies, origin, cell, ncell, low_bits = grid
     first = np.empty(3, np.int64)
     last = np.empty(3, np.int64)
     corner = np.empty(3, np.int64)
-    near = np.empty(16, np.int64)
     # the cells of i's box, in floats first: a box far out or swept far (a line a contact
     # changed after the grid was sized) may lie past any cell number an int64 holds
     count = 1.0
@@ -650,16 +750,15 @@ def _grid_meets(i, grid, lo, hi, L, alive, skip):
         f0 = math.floor((lo[i, c] - origin[c]) * cell[c])
         f1 = math.floor((hi[i, c] - origin[c]) * cell[c])
         if not (abs(f0) < 2.0 ** 52 and abs(f1) < 2.0 ** 52):
-            return near, -1
+            return -1
         first[c] = int(f0)
         last[c] = int(f1)
         if ncell[c] > 0 and last[c] - first[c] >= ncell[c]:
             last[c] = first[c] + ncell[c] - 1
         count *= last[c] - first[c] + 1
     if count > 4096.0:
-        return near, -1
+        return -1
     m = 0
-    low_bits = (1 << 32) - 1
     for x in range(first[0], last[0] + 1):
         for y in range(first[1], last[1] + 1):
             for z in range(first[2], last[2] + 1):
@@ -690,17 +789,9 @@ def _grid_meets(i, grid, lo, hi, L, alive, skip):
                         corner[c] = _wrap_index(int(math.floor((edge - origin[c]) * cell[c])),
                                                 ncell[c])
                     if meet and _cell_key(corner[0], corner[1], corner[2]) == key:
-                        near, m = _push(near, m, j)
-    return near, m
-
-
-@kernel(inline=True)
-def _push(values, used, x):
-    """values[used] = x, the array grown when full: (values, used + 1)."""
-    if used == values.size:
-        values = _grown(values, used, 2 * used)
-    values[used] = x
-    return values, used + 1
+                        near[m] = j
+                        m += 1
+    return m
 
 
 @kernel
@@ -1077,7 +1168,7 @@ def collide_step(state, rules, dt, t0):
                     k += 1
         if k == 0:
             break
-        order = stable_argsort(ct, k)                  # stable: ties keep a fixed order
+        order = contact_order(ct, ci, cj, k)
         for q in range(nm):
             touched[moved[q]] = False
         nm = 0

@@ -135,7 +135,7 @@ def make(columns, actors, target, curve_table, expires, dim, plan, clock, planne
                  target, c["burn_end"], c["armed_at"], c["fuse"], c["kill"], c["flags"],
                  expires, int(dim), plan, clock, planned, np.zeros((actors.size, 10)),
                  np.zeros((actors.size, 7)),
-                 np.zeros((3 * actors.size + expires.shape[0], PENDING)))
+                 np.empty((3 * actors.size + expires.shape[0], PENDING)))   # written before read
 
 
 # ---------------------------------------------------------------- rotations
