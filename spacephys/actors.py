@@ -413,34 +413,40 @@ class Actors:
         """Throw out the debris of every blast (spec, body id, pos (3,), vel (3,), radius) in
         one addition; each blast draws from an RNG seeded by the World's seed and the body's
         id, so an explosion is the same every run. Returns the debris ids, blast by blast."""
-        parts = []
-        d = self.w.dim
-        for spec, body_id, pos, vel, radius in blasts:
-            k = spec.count
-            rng = np.random.default_rng([self.seed, body_id & 0xFFFFFFFF, body_id >> 32])
-            direction = rng.normal(size=(k, d))
-            norm = np.linalg.norm(direction, axis=1)
-            norm[norm == 0] = 1.0
-            direction /= norm[:, None]
-            speed = spec.speed * rng.random(k) ** (1.0 / d)      # uniform over a disc / ball
-            offset = radius * rng.random(k) ** (1.0 / d)
-            life = spec.lifetime * (1.0 + spec.lifetime_spread * (2.0 * rng.random(k) - 1.0))
-            p3 = np.repeat(pos[None], k, axis=0)
-            v3 = np.repeat(vel[None], k, axis=0)
-            p3[:, :d] += offset[:, None] * direction
-            v3[:, :d] += speed[:, None] * direction
-            per = np.ones(k)
-            parts.append((p3, v3, spec.mass * per, spec.radius * per,
-                          np.full(k, self.w.add_kind(spec.kind), np.int16), life, spec.fade * per))
-        if not parts:
+        if not blasts:
             return []
+        d = self.w.dim
+        direction, u = [], []
+        for spec, body_id, _, _, _ in blasts:             # each blast's own draws, in order
+            rng = np.random.default_rng([self.seed, body_id & 0xFFFFFFFF, body_id >> 32])
+            direction.append(rng.normal(size=(spec.count, d)))
+            u.append(rng.random((3, spec.count)))        # speed, offset, lifetime
+        # then the arithmetic of every blast at once, element by element as for one
+        specs = [blast[0] for blast in blasts]
+        counts = np.array([spec.count for spec in specs])
+        per = lambda values: np.repeat(np.asarray(values, float), counts)   # (K,) by blast
+        direction, u = np.concatenate(direction), np.concatenate(u, axis=1)
+        norm = np.linalg.norm(direction, axis=1)
+        norm[norm == 0] = 1.0
+        direction /= norm[:, None]
+        speed = per([spec.speed for spec in specs]) * u[0] ** (1.0 / d)  # uniform over a disc
+        offset = per([blast[4] for blast in blasts]) * u[1] ** (1.0 / d)  # / ball
+        life = per([spec.lifetime for spec in specs]) * \
+            (1.0 + per([spec.lifetime_spread for spec in specs]) * (2.0 * u[2] - 1.0))
+        p3 = np.repeat(np.array([blast[2] for blast in blasts]), counts, axis=0)
+        v3 = np.repeat(np.array([blast[3] for blast in blasts]), counts, axis=0)
+        p3[:, :d] += offset[:, None] * direction
+        v3[:, :d] += speed[:, None] * direction
+        kind = np.repeat(np.array([self.w.add_kind(spec.kind) for spec in specs], np.int16),
+                         counts)
+        mass, radius, fade = (per([getattr(spec, a) for spec in specs])
+                              for a in ("mass", "radius", "fade"))
         self._lifetime_columns()
-        p3, v3, mass, radius, kind, life, fade = (np.concatenate(x) for x in zip(*parts))
         ids = self.b.add({"pos": p3, "vel": v3, "mass": mass, "radius": radius, "kind": kind,
                            "active": False, "fixed": False, "category": 1, "mask": -1,
                            "born": self.w.t, "expires": self.w.t + life, "fade": fade})
         self.w._invalidate()
-        return np.split(ids, np.cumsum([len(x[0]) for x in parts])[:-1])
+        return np.split(ids, np.cumsum(counts)[:-1])
 
     def explode_dead(self, dead, events):
         """After a kernel call: the bodies destroyed (by a collision or a detonation) at rows

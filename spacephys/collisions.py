@@ -9,8 +9,6 @@ from .kernels import collide
 from .kernels.codes import (BOUNDARIES, BREAK_A, BREAK_B, BOUNCE, IGNORE, MIRRORED, OPEN,
                             PLANE, RESPONSES, SEGMENT)
 
-FEW_GIANTS = 16     # up to this many giants, bodies that meet only giants stay out of the grid
-
 
 def _restitution(value):
     value = check.scalar("restitution", value, minimum=0.0)
@@ -196,16 +194,15 @@ class CollisionRules:
         n = kind.shape[0]
         giants, cell = self.giants(radius)
         # a kind needs the grid if it can meet a kind with bodies besides giants (itself: two);
-        # bodies that meet only giants stay out of it, and each giant tests them directly,
-        # while the giants are few (a grid entry costs about what 16 box tests do: 55 ships
-        # made giants once the missiles were gone took 13 ms testing 5e4 debris directly)
+        # bodies that meet only giants stay out of it (they look up a grid of the giants)
         gridded = np.ones(n, np.bool_)
         gridded[giants] = False
-        if giants.size <= FEW_GIANTS:
-            K = self.response.shape[0]
-            counts = np.bincount(kind[gridded], minlength=K)
-            meets = (self.response != IGNORE) & (counts[None, :] > np.eye(K, dtype=np.int64))
-            gridded &= meets.any(axis=1)[kind]
+        K = self.response.shape[0]
+        counts = np.bincount(kind, minlength=K) - np.bincount(kind[giants], minlength=K)
+        meets = (self.response != IGNORE) & (counts[None, :] > np.eye(K, dtype=np.int64))
+        needs = meets.any(axis=1)
+        if not needs.all():
+            gridded &= needs[kind]
         return collide.make(kind, radius, category, mask, fixed, self.response,
                             self.restitution, self.walls, self.boundary, self.box,
                             self.box_restitution, cell, dim, owner, giants, gridded, index,

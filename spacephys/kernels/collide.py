@@ -87,6 +87,7 @@ FIELDS = (
     "ever", "touched", "in_focus", "is_giant",  # (n,) bool
     "merged",                                  # (n,) int64
     "stale",                                   # (n,) bool
+    "grid",          # (n, 16) int64: the grid's entries and the sort's, 4 per body (more: new)
 )
 structref.define_proxy(Rules, RulesType, list(FIELDS))
 
@@ -100,11 +101,11 @@ def owners_of(rules):
 @kernel
 def _make(kind, radius, category, mask, fixed, response, restitution, walls, boundary, box,
           box_restitution, cell, dim, owner, giants, gridded, index, touch, ntouch, A, B, D,
-          lo, hi, tb, ever, touched, in_focus, is_giant, merged, stale):
+          lo, hi, tb, ever, touched, in_focus, is_giant, merged, stale, grid):
     return Rules(kind, radius, category, mask, fixed, response, restitution, walls, boundary,
                  box, box_restitution, cell, dim, owner, giants, gridded, index, touch, ntouch,
                  np.empty((16, 2), np.int64), np.empty(16), np.zeros(1, np.int64), A, B, D,
-                 lo, hi, tb, ever, touched, in_focus, is_giant, merged, stale)
+                 lo, hi, tb, ever, touched, in_focus, is_giant, merged, stale, grid)
 
 
 def make(kind, radius, category, mask, fixed, response, restitution, walls, boundary, box,
@@ -116,7 +117,8 @@ def make(kind, radius, category, mask, fixed, response, restitution, walls, boun
                  int(boundary), box, float(box_restitution), float(cell), int(dim), owner,
                  giants, gridded, index, touch, ntouch,
                  *(scratch[k] for k in ("A", "B", "D", "lo", "hi", "tb", "ever", "touched",
-                                        "in_focus", "is_giant", "merged", "stale")))
+                                        "in_focus", "is_giant", "merged", "stale",
+                                        "grid")))
 
 
 @kernel
@@ -134,7 +136,8 @@ def giants_of(rules):
 SCRATCH = {"A": (3, np.float64), "B": (3, np.float64), "D": (3, np.float64),
            "lo": (3, np.float64), "hi": (3, np.float64), "tb": ((), np.float64),
            "ever": ((), np.bool_), "touched": ((), np.bool_), "in_focus": ((), np.bool_),
-           "is_giant": ((), np.bool_), "merged": ((), np.int64), "stale": ((), np.bool_)}
+           "is_giant": ((), np.bool_), "merged": ((), np.int64), "stale": ((), np.bool_),
+           "grid": (16, np.int64)}
 """The per-body scratch of the pass: name -> (trailing shape, dtype)."""
 
 
@@ -156,7 +159,7 @@ def _periods(rules):
     return L
 
 
-@kernel
+@kernel(lean=True)
 def _pair_time(A, B, i, j, R, t_lo, L, overlap_counts):
     """Earliest t in [t_lo, 1] at which bodies i and j, on p = A + B t, are R apart; -1 if
     they do not touch, or touch only while separating. With overlap_counts (merges, destroys)
@@ -188,7 +191,7 @@ def _pair_time(A, B, i, j, R, t_lo, L, overlap_counts):
     return t_lo + s
 
 
-@kernel
+@kernel(lean=True)
 def _wall_time(A, B, i, r, wall, t_lo):
     """Earliest t in [t_lo, 1] at which body i (radius r) touches the wall row; -1 if never.
     Returns (t, nx, ny, nz) with n the wall's normal toward the body at contact."""
@@ -344,12 +347,9 @@ def candidate_pairs(A, B, tb, alive, rules, lo, hi):
 
 
 @kernel
-def _entries(lo, hi, alive, gridded, kind, size, low, high, rules, L):
-    """The grid of cells `size` over the boxes' span low..high (3,), its entries (cell key,
-    row << _KIND_BITS | kind) grouped by cell: (keys, bodies, single (n,) whether a body's box
-    lies in one cell, origin (3,), inverse cell (3,), ncell (3,) cells around a period or 0,
-    entries)."""
-    n = lo.shape[0]
+def _layout(size, low, high, rules, L):
+    """A grid of cells `size` over the span low..high (3,): (origin (3,), inverse cell (3,),
+    ncell (3,): the whole cells around a period, or 0)."""
     origin = np.zeros(3)
     for c in range(rules.dim):
         if high[c] > low[c]:
@@ -366,21 +366,39 @@ def _entries(lo, hi, alive, gridded, kind, size, low, high, rules, L):
     cell = 1.0 / cell                                  # multiplied below: no divisions
     for c in range(rules.dim, 3):
         cell[c] = 0.0                                  # a flat axis: every box in layer 0
-    # the entries (cell, body) in body order, in one pass (room for a few cells per body;
-    # a second into arrays of the size the first found when a sweep covers more)
-    keys = np.empty(4 * n + 16, np.int64)
-    bodies = np.empty(keys.size, np.int64)
+    return origin, cell, ncell
+
+
+@kernel
+def _entries(lo, hi, alive, gridded, kind, size, low, high, rules, L):
+    """The grid of cells `size` over the boxes' span low..high (3,), its entries (cell key,
+    row << _KIND_BITS | kind) grouped by cell: (keys, bodies, single (n,) whether a body's box
+    lies in one cell, origin (3,), inverse cell (3,), ncell (3,) cells around a period or 0,
+    entries)."""
+    n = lo.shape[0]
+    origin, cell, ncell = _layout(size, low, high, rules, L)
+    # the entries (cell, body) in body order, in one pass into the scratch kept from step to
+    # step (4 a body: fresh arrays cost 3 ms of page faults a step at 1e5 bodies); a second
+    # into new arrays of the size the first found when the sweeps cover more
+    room = 4 * n
+    spare = rules.grid.reshape(16 * n)
+    keys, bodies = spare[:room], spare[room:2 * room]
     single = np.empty(n, np.bool_)
     total = _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, single)
-    if total > keys.size:
+    if total > room:
         keys = np.empty(total, np.int64)
         bodies = np.empty(total, np.int64)
         _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, single)
     # grouped by as many low bits of the hashes as keep other cells out of most runs (a run
     # mixing two cells costs a skipped comparison; a pass of the sort costs a quarter of it)
     bits = 16 if total < 1 << 11 else (24 if total < 1 << 21 else 32)
-    keys, bodies = _radix_sort(keys[:total], bodies[:total], np.empty(total, np.int64),
-                               np.empty(total, np.int64), bits)
+    if total <= room:
+        keys, bodies = _radix_sort(keys[:total], bodies[:total],
+                                   spare[2 * room:2 * room + total],
+                                   spare[3 * room:3 * room + total], bits)
+    else:
+        keys, bodies = _radix_sort(keys[:total], bodies[:total], np.empty(total, np.int64),
+                                   np.empty(total, np.int64), bits)
     return keys, bodies, single, origin, cell, ncell, total, (1 << bits) - 1
 
 
@@ -418,17 +436,48 @@ def _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, singl
 
 
 @kernel
-def _crowding(keys, total, low_bits):
-    """The pairs of entries sharing a run of the grid (what the pair scan reads)."""
-    crowd = 0
+def _crowding(keys, bodies, total, low_bits, response):
+    """(pairs, met): the pairs of entries sharing a run of the grid (what the pair scan
+    reads), and those of them whose kinds meet (what it tests box against box)."""
+    kinds = response.shape[0]
+    count = np.zeros(kinds, np.int64)
+    pairs = 0
+    met = 0
     run = 0
     while run < total:
         end = run + 1
         while end < total and (keys[end] & low_bits) == (keys[run] & low_bits):
             end += 1
-        crowd += (end - run) * (end - run - 1) // 2
+        if end - run > 1:
+            pairs += (end - run) * (end - run - 1) // 2
+            for e in range(run, end):
+                count[bodies[e] & _KIND_MASK] += 1
+            for a in range(kinds):
+                if count[a] == 0:
+                    continue
+                if response[a, a] != IGNORE:
+                    met += count[a] * (count[a] - 1) // 2
+                for b in range(a + 1, kinds):
+                    if response[a, b] != IGNORE:
+                        met += count[a] * count[b]
+            for e in range(run, end):
+                count[bodies[e] & _KIND_MASK] = 0
         run = end
-    return crowd
+    return pairs, met
+
+
+@kernel
+def _cells_covered(lo, hi, alive, gridded, size, dim):
+    """About how many cells of `size` the boxes of the grid's bodies cover (1 + width / size
+    along each axis, on average over where the cells fall)."""
+    total = 0.0
+    for i in range(lo.shape[0]):
+        if alive[i] and gridded[i]:
+            covered = 1.0
+            for c in range(dim):
+                covered *= 1.0 + (hi[i, c] - lo[i, c]) / size
+            total += covered
+    return total
 
 
 @kernel
@@ -528,8 +577,11 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     if members > 0:
         size = max(size, spread / members)
     # A sparse scene (debris strewn over a battlefield) first tries cells about as large as
-    # its span's share per body: about one entry per body, not one per cell its box covers;
-    # a crowd in a few of them (a cluster far from the rest) brings back the fine cells
+    # its span's share per body: about one entry per body, not one per cell its box covers.
+    # A crowd in some of them (a cluster far from the rest) brings back the fine cells when
+    # the pairs it makes would cost more than the entries the fine cells would add (costs
+    # measured on the benchmarks' scenes: an entry made, sorted and scanned ~25 ns, a pair
+    # of kinds that never meet passed over ~1.5 ns, one tested box against box ~8 ns)
     coarse = size
     if members > 1:
         share = 1.0
@@ -538,9 +590,12 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
         coarse = max(size, _SPARSE * (share / members) ** (1.0 / rules.dim))
     keys, bodies, single, origin, cell, ncell, total, low_bits = _entries(
         lo, hi, alive, gridded, kind, coarse, low, high, rules, L)
-    if coarse > size and _crowding(keys, total, low_bits) > 2 * total + 4096:
-        keys, bodies, single, origin, cell, ncell, total, low_bits = _entries(
-            lo, hi, alive, gridded, kind, size, low, high, rules, L)
+    if coarse > size:
+        crowd, met = _crowding(keys, bodies, total, low_bits, rules.response)
+        fine = _cells_covered(lo, hi, alive, gridded, size, rules.dim)
+        if 1.5 * crowd + 8.0 * met > 25.0 * (fine - total):
+            keys, bodies, single, origin, cell, ncell, total, low_bits = _entries(
+                lo, hi, alive, gridded, kind, size, low, high, rules, L)
     wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
     # the pairs within each cell (written into pairs while they fit: a second scan into
     # an array the size the first found)
@@ -552,64 +607,164 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
         _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell, ncell,
               rules.category, rules.mask, rules.owner, rules.response, pairs)
     # the giants against everyone: the grid's bodies looked up in the cells a giant's box
-    # covers (a test of every body took 16 ms for 70 giants among 6e4 bodies), the bodies
-    # outside the grid (loose) and the other giants tested directly, x first (most are far
-    # along it); a pair of giants once, from the lower row; each giant's partners in row order
+    # covers (a test of every body took 16 ms for 70 giants among 6e4 bodies), a pair of
+    # giants once, from the lower row, each giant's partners in row order; then the bodies
+    # outside the grid (loose: they meet giants only) looked up in a grid of the giants
     grid = (keys, bodies, origin, cell, ncell, low_bits)
     giants = rules.giants
-    loose = np.empty(n, np.int64)
-    nl = 0
-    for j in range(n):
-        if alive[j] and not gridded[j] and not _in_sorted(giants, j):
-            loose[nl] = j
-            nl += 1
     none = np.zeros(n, np.bool_)
-    near = np.empty(n, np.int64)                       # a giant's partners, each once
+    near = np.empty(n, np.int64)                       # a body's partners, each once
+    work = np.empty((3, 3), np.int64)
     for q in range(giants.size):
         g = giants[q]
         if not alive[g]:
             continue
-        count = _grid_meets(g, grid, lo, hi, L, alive, none, near)
+        count = _grid_meets(g, grid, lo, hi, L, alive, none, near, work)
         if count < 0:                                  # a giant over too many cells: all
             count = 0
             for j in range(n):
                 if gridded[j] and alive[j] and j != g and _boxes_meet(lo, hi, g, j, L):
                     near[count] = j
                     count += 1
-        for p in range(nl + giants.size):
-            j = loose[p] if p < nl else giants[p - nl]
-            if (p >= nl and j <= g) or not alive[j] or \
-                    (not wraps and (hi[j, 0] < lo[g, 0] or lo[j, 0] > hi[g, 0])):
-                continue
-            if _boxes_meet(lo, hi, min(g, j), max(g, j), L):
+        for p in range(q + 1, giants.size):
+            j = giants[p]
+            if alive[j] and _boxes_meet(lo, hi, g, j, L):
                 near[count] = j
                 count += 1
         near[:count].sort()
-        if m + count > pairs.shape[0]:
-            more = np.empty((2 * (m + count), 2), np.int64)
-            more[:m] = pairs[:m]
-            pairs = more
-        for p in range(count):
-            i, k = min(g, near[p]), max(g, near[p])
-            if _allowed(rules, kind, i, k) != IGNORE:
-                pairs[m, 0] = i
-                pairs[m, 1] = k
-                m += 1
+        m, pairs = _append(g, near, count, rules, kind, pairs, m)
+    if giants.size == 0:
+        return pairs[:m], grid
+    ggrid = _giants_grid(giants, alive, lo, hi, rules, L)
+    table = _key_table(ggrid[0])
+    loose = np.ones(n, np.bool_)
+    loose[giants] = False
+    for j in range(n):
+        if not alive[j] or gridded[j] or not loose[j]:
+            continue
+        count = _table_meets(j, ggrid, table, lo, hi, L, alive, near, work)
+        if count < 0:                                  # a box over too many cells: all
+            count = 0
+            for p in range(giants.size):
+                if alive[giants[p]] and _boxes_meet(lo, hi, min(j, giants[p]),
+                                                     max(j, giants[p]), L):
+                    near[count] = giants[p]
+                    count += 1
+        if count:
+            m, pairs = _append(j, near, count, rules, kind, pairs, m)
     return pairs[:m], grid
 
 
 @kernel
-def _in_sorted(values, x):
-    """Whether x is in the ascending array values (binary search)."""
-    lo = 0
-    hi = values.size
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if values[mid] < x:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo < values.size and values[lo] == x
+def _append(i, near, count, rules, kind, pairs, m):
+    """Pairs (i, near[p]) of p < count (low row first) whose response is not IGNORE added
+    to pairs[:m]: (m, pairs), pairs grown when full."""
+    if m + count > pairs.shape[0]:
+        more = np.empty((2 * (m + count), 2), np.int64)
+        more[:m] = pairs[:m]
+        pairs = more
+    for p in range(count):
+        a, b = min(i, near[p]), max(i, near[p])
+        if _allowed(rules, kind, a, b) != IGNORE:
+            pairs[m, 0] = a
+            pairs[m, 1] = b
+            m += 1
+    return m, pairs
+
+
+@kernel
+def _giants_grid(giants, alive, lo, hi, rules, L):
+    """A grid of the live giants' boxes, cells the widest of them (so 2^dim entries each at
+    most), in _grid_pairs's form (the keys wholly sorted)."""
+    size = 0.0
+    low, high = np.full(3, np.inf), np.full(3, -np.inf)
+    for q in range(giants.size):
+        g = giants[q]
+        if alive[g]:
+            for c in range(rules.dim):
+                size = max(size, hi[g, c] - lo[g, c])
+                low[c] = min(low[c], lo[g, c])
+                high[c] = max(high[c], hi[g, c])
+    origin, cell, ncell = _layout(max(size, 1e-300), low, high, rules, L)
+    keys = np.empty(0, np.int64)
+    bodies = np.empty(0, np.int64)
+    for sweep in range(2):                             # count, then write
+        total = 0
+        for q in range(giants.size):
+            g = giants[q]
+            if not alive[g]:
+                continue
+            f = np.empty(3, np.int64)
+            t = np.empty(3, np.int64)
+            for c in range(3):
+                f[c] = int(math.floor((lo[g, c] - origin[c]) * cell[c]))
+                t[c] = int(math.floor((hi[g, c] - origin[c]) * cell[c]))
+                if ncell[c] > 0 and t[c] - f[c] >= ncell[c]:
+                    t[c] = f[c] + ncell[c] - 1
+            for x in range(f[0], t[0] + 1):
+                for y in range(f[1], t[1] + 1):
+                    for z in range(f[2], t[2] + 1):
+                        if sweep == 1:
+                            keys[total] = _cell_key(_wrap_index(x, ncell[0]),
+                                                    _wrap_index(y, ncell[1]),
+                                                    _wrap_index(z, ncell[2]))
+                            bodies[total] = g << _KIND_BITS
+                        total += 1
+        if sweep == 0:
+            keys = np.empty(total, np.int64)
+            bodies = np.empty(total, np.int64)
+    order = np.argsort(keys, kind="mergesort")
+    return keys[order], bodies[order], origin, cell, ncell, np.int64(-1)
+
+
+@kernel
+def _key_table(keys):
+    """An open-addressed table of the distinct sorted keys (a few hundred): (T, 2) int64 of
+    (key, index of its first entry), free slots -1 in the index; T a power of 2, >= 4x."""
+    size = 16
+    while size < 4 * keys.size:
+        size *= 2
+    table = np.full((size, 2), -1, np.int64)
+    for e in range(keys.size):
+        if e > 0 and keys[e] == keys[e - 1]:
+            continue
+        h = keys[e] & (size - 1)
+        while table[h, 1] >= 0:
+            h = (h + 1) & (size - 1)
+        table[h, 0] = keys[e]
+        table[h, 1] = e
+    return table
+
+
+@kernel(lean=True)
+def _table_meets(i, grid, table, lo, hi, L, alive, near, work):
+    """_grid_meets for a small grid (the giants') looked up in its _key_table."""
+    keys, bodies, origin, cell, ncell, _ = grid
+    first, last, corner = work[0], work[1], work[2]
+    if not _cell_range(i, lo, hi, origin, cell, ncell, first, last):
+        return -1
+    mask = table.shape[0] - 1
+    m = 0
+    for x in range(first[0], last[0] + 1):
+        for y in range(first[1], last[1] + 1):
+            for z in range(first[2], last[2] + 1):
+                key = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
+                                _wrap_index(z, ncell[2]))
+                h = key & mask
+                while table[h, 1] >= 0 and table[h, 0] != key:
+                    h = (h + 1) & mask
+                if table[h, 1] < 0:
+                    continue                           # no giant in this cell
+                for e in range(table[h, 1], keys.size):
+                    if keys[e] != key:
+                        break
+                    j = bodies[e] >> _KIND_BITS
+                    if j == i or not alive[j]:
+                        continue
+                    if _meets_here(i, j, key, lo, hi, L, origin, cell, ncell, corner):
+                        near[m] = j
+                        m += 1
+    return m
 
 
 @kernel(inline=True)
@@ -622,7 +777,7 @@ def _image_shift(lo, hi, i, j, c, L):
     return (cj - ci) - _wrap(cj - ci, L[c])
 
 
-@kernel
+@kernel(lean=True)
 def _boxes_meet(lo, hi, i, j, L):
     """Whether the boxes of i and j overlap (j's nearest image when wrapping)."""
     for c in range(3):
@@ -678,6 +833,7 @@ def _focused(alive, rules, lo, hi, focus, in_focus, stale, changed, grid, is_gia
     L = _periods(rules)
     wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
     giants = rules.giants
+    work = np.empty((3, 3), np.int64)
     m = 0
     for q in range(focus.size):
         i = focus[q]
@@ -697,7 +853,7 @@ def _focused(alive, rules, lo, hi, focus, in_focus, stale, changed, grid, is_gia
                     m += 1
             continue
         if gridded[i]:
-            count = _grid_meets(i, grid, lo, hi, L, alive, stale, near)
+            count = _grid_meets(i, grid, lo, hi, L, alive, stale, near, work)
             if count < 0:
                 return -1
             for p in range(count):
@@ -732,31 +888,49 @@ def _focused(alive, rules, lo, hi, focus, in_focus, stale, changed, grid, is_gia
     return m
 
 
-@kernel
-def _grid_meets(i, grid, lo, hi, L, alive, skip, near):
-    """The live bodies of the grid whose boxes meet body i's box (j's image nearest i when
-    wrapping), each once (found in the cell of the low corner of the two boxes' overlap),
-    skip[j] left out, written into near (n,) in the grid's order: returns how many, or -1
-    when i's box covers more than 4096 cells (search otherwise). i itself need not be in
-    the grid."""
-    keys, bodies, origin, cell, ncell, low_bits = grid
-    first = np.empty(3, np.int64)
-    last = np.empty(3, np.int64)
-    corner = np.empty(3, np.int64)
-    # the cells of i's box, in floats first: a box far out or swept far (a line a contact
-    # changed after the grid was sized) may lie past any cell number an int64 holds
+@kernel(inline=True)
+def _cell_range(i, lo, hi, origin, cell, ncell, first, last):
+    """The cells of i's box into first, last (3,); False when it covers more than 4096 or
+    lies past any cell number an int64 holds (a box far out or swept far: a line a contact
+    changed after the grid was sized), in floats first."""
     count = 1.0
     for c in range(3):
         f0 = math.floor((lo[i, c] - origin[c]) * cell[c])
         f1 = math.floor((hi[i, c] - origin[c]) * cell[c])
         if not (abs(f0) < 2.0 ** 52 and abs(f1) < 2.0 ** 52):
-            return -1
+            return False
         first[c] = int(f0)
         last[c] = int(f1)
         if ncell[c] > 0 and last[c] - first[c] >= ncell[c]:
             last[c] = first[c] + ncell[c] - 1
         count *= last[c] - first[c] + 1
-    if count > 4096.0:
+    return count <= 4096.0
+
+
+@kernel(inline=True)
+def _meets_here(i, j, key, lo, hi, L, origin, cell, ncell, corner):
+    """Whether the boxes of i and j (j's image nearest i) meet, with the low corner of their
+    overlap in the cell of `key` (so a pair sharing several cells is reported once)."""
+    for c in range(3):
+        shift = _image_shift(lo, hi, i, j, c, L)
+        if max(lo[i, c], lo[j, c] - shift) > min(hi[i, c], hi[j, c] - shift):
+            return False
+        edge = lo[i, c] if lo[i, c] >= lo[j, c] - shift else lo[j, c]
+        corner[c] = _wrap_index(int(math.floor((edge - origin[c]) * cell[c])), ncell[c])
+    return _cell_key(corner[0], corner[1], corner[2]) == key
+
+
+@kernel(lean=True)
+def _grid_meets(i, grid, lo, hi, L, alive, skip, near, work):
+    """The live bodies of the grid whose boxes meet body i's box (j's image nearest i when
+    wrapping), each once (found in the cell of the low corner of the two boxes' overlap),
+    skip[j] left out, written into near (n,) in the grid's order: returns how many, or -1
+    when i's box covers more than 4096 cells (search otherwise). i itself need not be in
+    the grid. work : (3, 3) int64 scratch (three small arrays a call cost more than the
+    look-up of a body that meets nothing)."""
+    keys, bodies, origin, cell, ncell, low_bits = grid
+    first, last, corner = work[0], work[1], work[2]
+    if not _cell_range(i, lo, hi, origin, cell, ncell, first, last):
         return -1
     m = 0
     for x in range(first[0], last[0] + 1):
@@ -778,17 +952,7 @@ def _grid_meets(i, grid, lo, hi, L, alive, skip, near):
                     j = bodies[e] >> _KIND_BITS
                     if keys[e] != key or j == i or skip[j] or not alive[j]:
                         continue
-                    # reported in the cell of the overlap's low corner only
-                    meet = True
-                    for c in range(3):
-                        shift = _image_shift(lo, hi, i, j, c, L)
-                        if max(lo[i, c], lo[j, c] - shift) > min(hi[i, c], hi[j, c] - shift):
-                            meet = False
-                            break
-                        edge = lo[i, c] if lo[i, c] >= lo[j, c] - shift else lo[j, c]
-                        corner[c] = _wrap_index(int(math.floor((edge - origin[c]) * cell[c])),
-                                                ncell[c])
-                    if meet and _cell_key(corner[0], corner[1], corner[2]) == key:
+                    if _meets_here(i, j, key, lo, hi, L, origin, cell, ncell, corner):
                         near[m] = j
                         m += 1
     return m
@@ -838,7 +1002,7 @@ def _fractions(m_i, m_j, fixed_i, fixed_j):
     return 1.0 / (1.0 + q), q / (1.0 + q)
 
 
-@kernel
+@kernel(lean=True)
 def _velocity_at(V0, V1, D, k, t, out):
     """Body k's velocity at fraction t of the step: the integrator's, interpolated between the
     step's start and end, plus the impulses of this step's earlier contacts."""
@@ -1225,7 +1389,7 @@ def collide_step(state, rules, dt, t0):
     return result
 
 
-@kernel
+@kernel(lean=True)
 def _survivor(merged_into, i):
     """The body i has merged into, following chains (with path halving)."""
     while merged_into[i] != i:
@@ -1273,7 +1437,7 @@ def _row(index, ids, body_id):
     return r if r >= 0 and ids[r] == body_id else -1
 
 
-@kernel
+@kernel(lean=True)
 def _exit_time(A, B, tb, i, j, R, t_in, L):
     """When rows i and j, on their lines at the step's end, are last within R of each other:
     the later root of |d + e t| = R on [max(tb), 1], not before t_in (the pair's meeting)."""
