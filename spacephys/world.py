@@ -1081,16 +1081,18 @@ class World:
                 np.flatnonzero(b.fixed[:b.n]).astype(np.int64))
 
     def _scratch_rows(self, n):
-        """Per-body scratch (State's acc, pos0, vel0, alive; the collision pass's), kept at
-        the capacity (fresh arrays every step cost more in page faults than the work done
-        in them), as views of n rows."""
+        """Per-body scratch (State's acc, pos0, vel0, alive; the collision pass's once the
+        scene collides), kept at the capacity (fresh arrays every step cost more in page
+        faults than the work done in them), as views of n rows."""
         cap = self._b.capacity
         if self._scratch is None or self._scratch["acc"].shape[0] != cap:
-            shapes = {"acc": ((3,), np.float64), "pos0": ((3,), np.float64),
-                      "vel0": ((3,), np.float64), "alive": ((), np.bool_),
-                      **{k: ((v[0],) if v[0] != () else (), v[1]) for k, v in SCRATCH.items()}}
-            self._scratch = {name: np.zeros((cap,) + shape, dtype)
-                             for name, (shape, dtype) in shapes.items()}
+            self._scratch = {}
+        shapes = {"acc": (3, np.float64), "pos0": (3, np.float64), "vel0": (3, np.float64),
+                  "alive": ((), np.bool_), **(SCRATCH if self._collisions.enabled() else {})}
+        for name, (shape, dtype) in shapes.items():
+            if name not in self._scratch:
+                self._scratch[name] = np.zeros((cap,) + ((shape,) if shape != () else ()),
+                                               dtype)
         return {name: a[:n] for name, a in self._scratch.items()}
 
     def bytes_per_body(self):

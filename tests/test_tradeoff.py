@@ -103,6 +103,19 @@ def test_state_is_linear_in_the_number_of_bodies():
     small = memory_used(20_000)[0] / 20_000
     large = memory_used(200_000)[0] / 200_000
     # the same bytes per body at 10x the bodies (what is fixed, e.g. the event buffer, fades),
-    # and about what the columns and scratch add up to (124 + 16 + 220 B)
+    # and about what the columns and State's scratch hold (124 + 16 + 73 B) with the copies
+    # made while building them; none of the collision pass's scratch (269 B) without collisions
     assert large == pytest.approx(small, rel=0.15)
-    assert 300 < large < 500
+    assert 300 < large < 420
+
+
+def test_the_collision_pass_scratch_is_made_only_for_a_scene_that_collides():
+    from spacephys.kernels.collide import SCRATCH
+    w = sp.World(dim=2, gravity="none")
+    w.add_bodies(1.0, [[0.0, 0.0], [5.0, 0.0]], radius=1.0)
+    w.step(1)
+    assert w.bytes_per_body()["kernel scratch"] == 3 * 24 + 1
+    w.set_collision("*", "*", "elastic")
+    w.step(1)
+    pass_scratch = sum(np.dtype(t).itemsize * int(np.prod(s)) for s, t in SCRATCH.values())
+    assert w.bytes_per_body()["kernel scratch"] == 3 * 24 + 1 + pass_scratch

@@ -3,16 +3,20 @@
 The seed's steps of analysis, for every pair at once. Over a step each body moves on the
 straight line from its start to its end position, p(t) = A + B t, t in [0, 1] of the step.
 1. Broad phase: the box each body sweeps goes into every cell of a uniform grid it touches;
-   cells are hashed into buckets by a counting sort (linear in N), and a pair is reported only
+   the cells' hashes are grouped by a radix sort (linear in N), and a pair is reported only
    in the cell holding the low corner of the overlap of its two boxes, so never twice. A few
    giants (planets among ships) look up the cells their boxes cover instead of setting a
    huge cell, and bodies whose kinds meet nothing but giants (debris that only hit planets)
-   stay out of the grid. The hot loops are written out: numba's helpers returning tuples,
-   and the tables' fields read per pair, cost two to three times the work.
+   stay out of the grid and look up a grid of the giants. A sparse scene takes cells about
+   its span per body (_grid_pairs says when). The hot loops are written out and write into
+   arrays they are given: numba's helpers returning tuples, the tables' fields read per
+   pair, an array replaced inside a loop, and arrays passed with reference counting to a
+   helper called per body (lean=True avoids it) each cost two to ten times the work.
 2. Narrow phase: the earliest t with |dA + dB t| = r1 + r2, from squared distances (one square
    root per real contact, none per rejected pair).
-3. Contacts are resolved in time order: back up to contact, respond, move on along the new
-   line for the rest of the step. A body takes one contact per pass; passes repeat until no
+3. Contacts are resolved in time order (at one time in row order, so the outcome does not
+   depend on the grid): back up to contact, respond, move on along the new line for the rest
+   of the step. A body takes one contact per pass; passes repeat until no
    contact is left (each looks only the bodies whose lines changed up in the first pass's
    grid, testing those changed since directly), and a last pass makes sure no pair ends the
    step overlapping and approaching.
