@@ -6,6 +6,7 @@ import numpy as np
 
 from . import _validate as check
 from .kernels import collide
+from .kernels.arrays import largest
 from .kernels.codes import (BOUNDARIES, BREAK_A, BREAK_B, BOUNCE, IGNORE, MIRRORED, OPEN,
                             PLANE, RESPONSES, SEGMENT)
 
@@ -167,9 +168,7 @@ class CollisionRules:
             return np.zeros(0, np.int64), self.cell
         if r.size == 0:
             return np.zeros(0, np.int64), 1.0
-        top = min(r.size, 65)
-        rows = np.argpartition(-r, top - 1)[:top] if top < r.size else np.arange(r.size)
-        rows = rows[np.argsort(-r[rows], kind="stable")]
+        rows = largest(r, 65)
         ordered = r[rows]
         giants = 0
         if ordered.size > 1:

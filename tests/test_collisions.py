@@ -466,6 +466,15 @@ def test_a_2d_body_inside_one_cell_makes_one_entry():
     assert entries == 3 and len(pairs) == 0
 
 
+@pytest.mark.parametrize("n", [1, 3, 65, 66, 5000])
+def test_largest_gives_the_rows_of_the_largest_radii_in_order(n):
+    from spacephys.kernels.arrays import largest
+    rng = np.random.default_rng(n)
+    r = rng.choice([0.2, 1.0, 4.0, 15.0, 20.0], n) * rng.choice([1.0, 1.0, 1.5], n)   # ties
+    expect = np.argsort(-r, kind="stable")[:65]          # largest first, ties in row order
+    assert np.array_equal(largest(r, 65), expect)
+
+
 def _entries_and_pairs(pos, radius):
     """(grid entries, whether the grid's pairs are brute force's) for discs at rest."""
     w = sp.World(dim=2, gravity="none", dt=0.1)

@@ -42,6 +42,30 @@ def grown_pairs(pairs, m):
 
 
 @kernel
+def largest(values, k):
+    """(min(k, n),) int64: the rows of the k largest values, largest first, ties in row order;
+    one pass through a small sorted buffer (tens of planets among 1e5 debris: one comparison
+    each for the debris)."""
+    k = min(k, values.size)
+    rows = np.empty(k, np.int64)
+    m = 0
+    for i in range(values.size):
+        v = values[i]
+        if m == k:
+            if not v > values[rows[k - 1]]:
+                continue
+            p = k - 1
+        else:
+            p = m
+            m += 1
+        while p > 0 and v > values[rows[p - 1]]:
+            rows[p] = rows[p - 1]
+            p -= 1
+        rows[p] = i
+    return rows
+
+
+@kernel
 def contact_order(t, i, j, k):
     """(k,) int64: the order sorting the contacts (t, i, j)[:k] by time, then i, then j (a
     merge sort). Contacts at one time (bodies overlapping at the start of a step) are
