@@ -95,6 +95,37 @@ def test_default_cell_with_giants_finds_the_brute_force_pairs(seed, n, dim, gian
     assert grid == brute
 
 
+@settings(deadline=None, max_examples=40)
+@given(seed=st.integers(0, 10_000), planets=st.integers(1, 70), dim=st.sampled_from([2, 3]),
+       periodic=st.booleans(), fast=st.booleans())
+def test_bodies_that_meet_only_giants_find_them_through_the_giants_grid(seed, planets, dim,
+                                                                        periodic, fast):
+    # debris meets planets only: it stays out of the grid and looks up a grid of the giants
+    # (ships ride along in the grid); some debris sweeps far (a box over many of the giants'
+    # cells, and past 4096 of them: every giant tested), boxes cross the periodic seam
+    rng = np.random.default_rng(seed)
+    w = sp.World(dim=dim, gravity="none", dt=0.1)
+    side = 40.0
+    if periodic:
+        w.set_boundary("periodic", lo=[0] * dim, hi=[side] * dim)
+    w.set_collision("debris", "planet", "destroy_a")
+    w.set_collision("ship", "ship", "elastic")
+    w.set_collision("ship", "planet", "destroy_a")
+    w.add_bodies(10.0, rng.uniform(0, side, (planets, dim)), radius=rng.uniform(1.0, 4.0, planets),
+                 kind="planet")
+    w.add_bodies(1.0, rng.uniform(0, side, (20, dim)), rng.normal(size=(20, dim)),
+                 radius=0.08, kind="ship")                # (too close to debris to be giants)
+    k = 400
+    vel = rng.normal(scale=6000.0 if fast else 3.0, size=(k, dim))
+    w.add_bodies(0.01, rng.uniform(0, side, (k, dim)), vel, radius=0.05, kind="debris")
+    B = np.zeros((w.n, 3))
+    B[:, :dim] = w.vel * w.dt
+    grid, brute, plan = _grid_and_brute(w, B)
+    giants = collide.giants_of(plan.rules).size
+    assert giants == planets or planets > 64            # (65 and more: none, or a few)
+    assert grid == brute
+
+
 @pytest.mark.parametrize("r", [0.1, 0.3, 0.35, 0.7, 1.3])
 @pytest.mark.parametrize("lo", [0.0, -1.7, 0.3])
 def test_a_periodic_lattice_of_touching_discs_finds_every_contact(r, lo):
