@@ -69,8 +69,8 @@ class Stepper:
         if still.size and not caps.fixed_bodies:
             raise ValueError(f"integrator {self.spec.name!r} cannot hold bodies fixed "
                              f"({still.size} are): use a fixed-step or the adaptive integrator")
-        pulling = actors[np.isin(actors, src)]
-        if pulling.size and not caps.pulling_actors:
+        pulling = actors[np.isin(actors, src)] if not caps.pulling_actors else actors[:0]
+        if pulling.size:
             raise ValueError(f"integrator {self.spec.name!r}: ship or missile "
                              f"{int(world.ids[pulling[0]])} pulls (active): its mass changes "
                              f"as it burns, which {self.moving_mass} cannot follow; make it "

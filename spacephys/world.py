@@ -1076,9 +1076,9 @@ class World:
         """(src, passive, still): the bodies that pull, the others, the immovable ones."""
         b = self._b
         pulls = b.active[:b.n] & (b.mass[:b.n] > 0)
-        return (np.flatnonzero(pulls).astype(np.int64),
-                np.flatnonzero(~pulls).astype(np.int64),
-                np.flatnonzero(b.fixed[:b.n]).astype(np.int64))
+        return (np.flatnonzero(pulls).astype(np.int64, copy=False),
+                np.flatnonzero(~pulls).astype(np.int64, copy=False),
+                np.flatnonzero(b.fixed[:b.n]).astype(np.int64, copy=False))
 
     def _scratch_rows(self, n):
         """Per-body scratch (State's acc, pos0, vel0, alive; the collision pass's once the
