@@ -439,6 +439,16 @@ def _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, singl
     return total
 
 
+@kernel(inline=True)
+def _run_end(keys, run, total, low_bits):
+    """The end of the run of entries from `run` whose keys share the low bits the sort
+    grouped by (one cell's, now and then with another cell hashed alike)."""
+    end = run + 1
+    while end < total and (keys[end] & low_bits) == (keys[run] & low_bits):
+        end += 1
+    return end
+
+
 @kernel
 def _crowding(keys, bodies, total, low_bits, response):
     """(pairs, met): the pairs of entries sharing a run of the grid (what the pair scan
@@ -449,9 +459,7 @@ def _crowding(keys, bodies, total, low_bits, response):
     met = 0
     run = 0
     while run < total:
-        end = run + 1
-        while end < total and (keys[end] & low_bits) == (keys[run] & low_bits):
-            end += 1
+        end = _run_end(keys, run, total, low_bits)
         if end - run > 1:
             pairs += (end - run) * (end - run - 1) // 2
             for e in range(run, end):
@@ -496,9 +504,7 @@ def _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell,
     m = 0
     run = 0
     while run < total:
-        end = run + 1
-        while end < total and (keys[end] & low_bits) == (keys[run] & low_bits):
-            end += 1
+        end = _run_end(keys, run, total, low_bits)
         for eu in range(run, end):
             for ew in range(eu + 1, end):
                 if keys[eu] != keys[ew]:
@@ -619,11 +625,12 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     none = np.zeros(n, np.bool_)
     near = np.empty(n, np.int64)                       # a body's partners, each once
     work = np.empty((3, 3), np.int64)
+    nothing = np.empty((0, 2), np.int64)               # (no key table: binary searches)
     for q in range(giants.size):
         g = giants[q]
         if not alive[g]:
             continue
-        count = _grid_meets(g, grid, lo, hi, L, alive, none, near, work)
+        count = _grid_meets(g, grid, nothing, lo, hi, L, alive, none, near, work)
         if count < 0:                                  # a giant over too many cells: all
             count = 0
             for j in range(n):
@@ -646,7 +653,7 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     for j in range(n):
         if not alive[j] or gridded[j] or not loose[j]:
             continue
-        count = _table_meets(j, ggrid, table, lo, hi, L, alive, near, work)
+        count = _grid_meets(j, ggrid, table, lo, hi, L, alive, none, near, work)
         if count < 0:                                  # a box over too many cells: all
             count = 0
             for p in range(giants.size):
@@ -740,37 +747,6 @@ def _key_table(keys):
     return table
 
 
-@kernel(lean=True)
-def _table_meets(i, grid, table, lo, hi, L, alive, near, work):
-    """_grid_meets for a small grid (the giants') looked up in its _key_table."""
-    keys, bodies, origin, cell, ncell, _ = grid
-    first, last, corner = work[0], work[1], work[2]
-    if not _cell_range(i, lo, hi, origin, cell, ncell, first, last):
-        return -1
-    mask = table.shape[0] - 1
-    m = 0
-    for x in range(first[0], last[0] + 1):
-        for y in range(first[1], last[1] + 1):
-            for z in range(first[2], last[2] + 1):
-                key = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
-                                _wrap_index(z, ncell[2]))
-                h = key & mask
-                while table[h, 1] >= 0 and table[h, 0] != key:
-                    h = (h + 1) & mask
-                if table[h, 1] < 0:
-                    continue                           # no giant in this cell
-                for e in range(table[h, 1], keys.size):
-                    if keys[e] != key:
-                        break
-                    j = bodies[e] >> _KIND_BITS
-                    if j == i or not alive[j]:
-                        continue
-                    if _meets_here(i, j, key, lo, hi, L, origin, cell, ncell, corner):
-                        near[m] = j
-                        m += 1
-    return m
-
-
 @kernel(inline=True)
 def _image_shift(lo, hi, i, j, c, L):
     """How far j's box moves along axis c to its image nearest i's box (0 unless periodic)."""
@@ -838,6 +814,7 @@ def _focused(alive, rules, lo, hi, focus, in_focus, stale, changed, grid, is_gia
     wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
     giants = rules.giants
     work = np.empty((3, 3), np.int64)
+    nothing = np.empty((0, 2), np.int64)               # (no key table: binary searches)
     m = 0
     for q in range(focus.size):
         i = focus[q]
@@ -857,7 +834,7 @@ def _focused(alive, rules, lo, hi, focus, in_focus, stale, changed, grid, is_gia
                     m += 1
             continue
         if gridded[i]:
-            count = _grid_meets(i, grid, lo, hi, L, alive, stale, near, work)
+            count = _grid_meets(i, grid, nothing, lo, hi, L, alive, stale, near, work)
             if count < 0:
                 return -1
             for p in range(count):
@@ -925,13 +902,14 @@ def _meets_here(i, j, key, lo, hi, L, origin, cell, ncell, corner):
 
 
 @kernel(lean=True)
-def _grid_meets(i, grid, lo, hi, L, alive, skip, near, work):
+def _grid_meets(i, grid, table, lo, hi, L, alive, skip, near, work):
     """The live bodies of the grid whose boxes meet body i's box (j's image nearest i when
     wrapping), each once (found in the cell of the low corner of the two boxes' overlap),
     skip[j] left out, written into near (n,) in the grid's order: returns how many, or -1
     when i's box covers more than 4096 cells (search otherwise). i itself need not be in
-    the grid. work : (3, 3) int64 scratch (three small arrays a call cost more than the
-    look-up of a body that meets nothing)."""
+    the grid. table : the grid's _key_table (a small grid's: the giants'), or empty (a
+    binary search finds a cell). work : (3, 3) int64 scratch (three small arrays a call
+    cost more than the look-up of a body that meets nothing)."""
     keys, bodies, origin, cell, ncell, low_bits = grid
     first, last, corner = work[0], work[1], work[2]
     if not _cell_range(i, lo, hi, origin, cell, ncell, first, last):
@@ -942,14 +920,19 @@ def _grid_meets(i, grid, lo, hi, L, alive, skip, near, work):
             for z in range(first[2], last[2] + 1):
                 key = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
                                 _wrap_index(z, ncell[2]))
-                # the run of the key's low bits (the sort's order): binary search
-                a, b = 0, keys.size
-                while a < b:
-                    mid = (a + b) // 2
-                    if (keys[mid] & low_bits) < (key & low_bits):
-                        a = mid + 1
-                    else:
-                        b = mid
+                if table.shape[0]:                     # the key's first entry, if any
+                    h = key & (table.shape[0] - 1)
+                    while table[h, 1] >= 0 and table[h, 0] != key:
+                        h = (h + 1) & (table.shape[0] - 1)
+                    a = table[h, 1] if table[h, 1] >= 0 else keys.size
+                else:                                  # the run of the key's low bits (the
+                    a, b = 0, keys.size                # sort's order): binary search
+                    while a < b:
+                        mid = (a + b) // 2
+                        if (keys[mid] & low_bits) < (key & low_bits):
+                            a = mid + 1
+                        else:
+                            b = mid
                 for e in range(a, keys.size):
                     if (keys[e] & low_bits) != (key & low_bits):
                         break
