@@ -644,14 +644,16 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
                 count += 1
         near[:count].sort()
         m, pairs = _append(g, near, count, rules, kind, pairs, m)
-    if giants.size == 0:
-        return pairs[:m], grid
+    loose = np.zeros(n, np.bool_)                      # live bodies outside the grid...
+    for j in range(n):
+        loose[j] = alive[j] and not gridded[j]
+    loose[giants] = False                              # ...that are no giants
+    if giants.size == 0 or not loose.any():
+        return pairs[:m], grid                         # (a duel's star and ships: no grid)
     ggrid = _giants_grid(giants, alive, lo, hi, rules, L)
     table = _key_table(ggrid[0])
-    loose = np.ones(n, np.bool_)
-    loose[giants] = False
     for j in range(n):
-        if not alive[j] or gridded[j] or not loose[j]:
+        if not loose[j]:
             continue
         count = _grid_meets(j, ggrid, table, lo, hi, L, alive, none, near, work)
         if count < 0:                                  # a box over too many cells: all
