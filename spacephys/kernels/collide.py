@@ -701,19 +701,15 @@ def _giants_grid(giants, alive, lo, hi, rules, L):
     origin, cell, ncell = _layout(max(size, 1e-300), low, high, rules, L)
     keys = np.empty(0, np.int64)
     bodies = np.empty(0, np.int64)
+    f = np.empty(3, np.int64)
+    t = np.empty(3, np.int64)
     for sweep in range(2):                             # count, then write
         total = 0
         for q in range(giants.size):
             g = giants[q]
             if not alive[g]:
                 continue
-            f = np.empty(3, np.int64)
-            t = np.empty(3, np.int64)
-            for c in range(3):
-                f[c] = int(math.floor((lo[g, c] - origin[c]) * cell[c]))
-                t[c] = int(math.floor((hi[g, c] - origin[c]) * cell[c]))
-                if ncell[c] > 0 and t[c] - f[c] >= ncell[c]:
-                    t[c] = f[c] + ncell[c] - 1
+            _cell_range(g, lo, hi, origin, cell, ncell, f, t)   # (2 a side at most)
             for x in range(f[0], t[0] + 1):
                 for y in range(f[1], t[1] + 1):
                     for z in range(f[2], t[2] + 1):
