@@ -7,7 +7,7 @@ import pytest
 from reference import direct_accelerations, direct_potential
 
 from spacephys._jit import PARALLEL_MIN_PAIRS
-from spacephys.kernels import diagnostics, forces
+from spacephys.kernels import diagnostics, forces, pairs
 from spacephys.kernels.forces import CENTRAL, DIRECT, NONE, UNIFORM
 
 
@@ -35,8 +35,9 @@ def _run(pos, mass, pulls, model, G=1.7, eps2=0.0, field=np.zeros(3), field_mass
     return out, energy
 
 
-# n = 40 stays on the serial path, n = 400 crosses PARALLEL_MIN_PAIRS onto threads
-@pytest.mark.parametrize("n", [40, 400])
+# n = 40 stays on the serial path, n = 400 crosses PARALLEL_MIN_PAIRS onto threads, n = 900
+# cuts its ~540 sources into 4 blocks of pairs.pull_pairs (rounds with tiles on threads)
+@pytest.mark.parametrize("n", [40, 400, 900])
 @pytest.mark.parametrize("eps", [0.0, 0.05])
 def test_direct_matches_numpy(rng, n, eps):
     assert (40 * 40 < PARALLEL_MIN_PAIRS) and (400 * 200 > PARALLEL_MIN_PAIRS)
@@ -46,6 +47,79 @@ def test_direct_matches_numpy(rng, n, eps):
     assert np.max(np.abs(acc - ref)) <= 1e-12 * np.max(np.abs(ref))
     ref_energy = direct_potential(pos, mass, pulls, 1.7, eps * eps)
     assert abs(energy - ref_energy) <= 1e-12 * abs(ref_energy)
+
+
+@pytest.mark.parametrize("nb", range(1, 13))
+def test_the_rounds_of_block_pairs_take_each_pair_once(nb):
+    """pairs.round_pair: every pair of distinct blocks in exactly one round, and no block
+    twice in a round (the tiles of a round run on threads side by side)."""
+    seen = []
+    rounds = nb + nb % 2 - 1
+    for r in range(rounds):
+        used = []
+        for k in range((nb + nb % 2) // 2):
+            i, j = pairs.round_pair(r, k, nb)
+            if i >= 0:
+                assert 0 <= i < j < nb
+                used += [i, j]
+                seen.append((i, j))
+        assert len(used) == len(set(used)), (nb, r, used)
+    assert sorted(seen) == [(i, j) for i in range(nb) for j in range(i + 1, nb)]
+
+
+@pytest.mark.parametrize("ns", [2, 3, 200, 257, 1000, 4200])
+def test_pairs_both_ways_match_the_one_sided_sums(rng, ns):
+    """pairs.pull_pairs (each pair once, in blocks) against pull (every source on each body):
+    the same accelerations to rounding; the threaded version bit for bit the serial one."""
+    s = np.zeros((7, ns))
+    s[:3] = rng.normal(size=(3, ns))
+    s[3] = rng.uniform(0.1, 2.0, ns)
+    s[:3, -1] = s[:3, 0]                           # a coincident pair: no force between them
+    threaded = s.copy()
+    pairs.pull_pairs(s, ns, 0.0)
+    pairs.pull_pairs_threaded(threaded, ns, 0.0)
+    assert np.array_equal(s, threaded)
+    ref = np.array([pairs.pull(*s[:3, i], s, ns, 0.0) for i in range(ns)]).T
+    assert np.all(np.isfinite(s))
+    assert np.max(np.abs(s[4:] - ref)) <= 1e-13 * np.max(np.abs(ref))
+
+
+def test_every_code_path_of_the_forces_gives_the_same_bits(rng):
+    """accelerations (threaded or not), accelerations_serial and lean_accelerations: one
+    result bit for bit, with pairs both ways among the sources and pull on the passive;
+    the same for the sources when they alone are the targets."""
+    pos, mass, pulls = _scene(rng, 700, 0.6)
+    src = np.flatnonzero(pulls).astype(np.int64)
+    n = len(mass)
+    everyone = np.arange(n, dtype=np.int64)
+    results = []
+    for min_pairs in (1, 2**62):                 # on threads / on the calling thread
+        f = forces.make(mass, everyone, model=DIRECT, G=1.3, eps2=1e-4, field=np.zeros(3),
+                        field_mass=0.0, src=src, passive=np.flatnonzero(~pulls),
+                        still=np.zeros(0, np.int64), drag=np.zeros(4),
+                        threads=np.array([min_pairs], np.int64))
+        for call in ("threaded", "serial", "lean"):
+            out = np.full((n, 3), np.nan)
+            if call == "threaded":
+                forces.accelerations(f, 0.0, pos, pos * 0, out, everyone, False)
+            elif call == "serial":
+                forces.accelerations_serial(f, 0.0, pos, pos * 0, out, everyone, False)
+            else:
+                forces.lean_accelerations(forces.hoist(f)[0], pos, pos * 0, out, everyone, False)
+            results.append(out)
+    assert src.size > 2 * pairs.TILE                      # more than one block
+    for out in results[1:]:
+        assert np.array_equal(out, results[0])
+    # the sources alone as targets (an integrator moving only them): the same bits
+    out = np.full((n, 3), np.nan)
+    forces.accelerations(f, 0.0, pos, pos * 0, out, src, False)     # the table's own array
+    assert np.array_equal(out[src], results[0][src])
+    # and a subset of targets (one-sided sums) agrees to rounding (of each row's largest term)
+    out = np.full((n, 3), np.nan)
+    some = src[::2]
+    forces.accelerations(f, 0.0, pos, pos * 0, out, some, False)
+    scale = np.abs(results[0][some]).max(axis=1, keepdims=True)
+    assert np.all(np.abs(out[some] - results[0][some]) <= 1e-13 * scale)
 
 
 def test_passive_bodies_feel_but_do_not_pull(rng):
@@ -141,8 +215,8 @@ def test_immovable_bodies_have_no_acceleration(rng):
 
 
 def test_thread_count_changes_nothing_but_time():
-    """sp.set_threads: a 300-body scene (9e4 pairs: the threaded loop) ends bit for bit the
-    same on 1 thread as on all of them; a bad count is refused, naming it."""
+    """sp.set_threads: a 700-body scene (2.4e5 pairs in 5 blocks: the threaded rounds) ends
+    bit for bit the same on 1 thread as on all of them; a bad count is refused, naming it."""
     import numba
     import spacephys as sp
     from spacephys import scenes
@@ -151,7 +225,7 @@ def test_thread_count_changes_nothing_but_time():
     try:
         for n in (1, numba.config.NUMBA_NUM_THREADS):
             assert sp.set_threads(n) >= 1 and sp.get_threads() == n
-            w = scenes.uniform_sphere(300, seed=2, softening=0.01, integrator="leapfrog",
+            w = scenes.uniform_sphere(700, seed=2, softening=0.01, integrator="leapfrog",
                                       dt=1e-3)
             w.threads = "always"
             w.step(20)

@@ -71,7 +71,8 @@ FIELDS = (
     "everyone",    # (n,) int64 rows 0..n-1
     "drag",        # (4,) [k [1/time], wind (3,) [length/time]]
     "held",        # (n, 6) [force (3,) [mass length/time^2], acceleration (3,)], or (0, 6)
-    "scratch",     # (4, ns) DIRECT, TREE, (4, 1) CENTRAL: the sources' x, y, z, m
+    "scratch",     # (7, ns) DIRECT, TREE, (7, 1) CENTRAL: the sources' x, y, z, m and their
+                   # pulls on each other / G (pairs.pull_pairs)
     "user",        # typed List of USER_FORCE_TYPE
     "params",      # typed List of (p,) float64, one per user force
     "user_out",    # (n, 3) scratch the user forces add into
@@ -131,7 +132,7 @@ def make(mass, ids, *, model, G, eps2, field, field_mass, src, passive, still, d
     evaluations a force loop runs on threads (default _jit.PARALLEL_MIN_PAIRS); theta,
     quadrupole : the tree's (TREE)."""
     n = mass.shape[0]
-    scratch = np.empty((4, src.size if model in (DIRECT, TREE) else 1))
+    scratch = np.empty((7, src.size if model in (DIRECT, TREE) else 1))
     args = (int(model), float(G), float(eps2), field, float(field_mass), mass, ids, src,
             passive, still, np.arange(n, dtype=np.int64), drag,
             np.zeros((0, 6)) if held is None else held, scratch)
@@ -146,33 +147,79 @@ def make(mass, ids, *, model, G, eps2, field, field_mass, src, passive, still, d
 # ----------------------------------------------------------------------------- gravity
 
 @kernel(fast=True, parallel=True, inline=True)
-def _pull_all(targets, pos, s, G, eps2, out, min_pairs):
+def _pull_all(fa, targets, pos, s, G, eps2, out, min_pairs):
     """out[k] = G * pull of the sources on pos[k] for every k in targets; on threads from
-    min_pairs pair evaluations on.
+    min_pairs pair evaluations on. When the targets are every body or the sources (DIRECT,
+    see _pairs_rest), the sources' pulls on each other come from pairs.pull_pairs (each pair
+    once), and `pull` serves the passive bodies.
 
-    Each target's sum runs in a fixed order on one thread, so the result does not depend on
-    the thread count.
+    Each target's sum runs in a fixed order, so the result does not depend on the thread
+    count.
     """
-    if targets.size * s.shape[1] >= min_pairs:
-        for a in numba.prange(targets.size):
-            k = targets[a]
+    both, rest = _pairs_rest(fa, targets, pos, s)
+    if both:
+        ns = s.shape[1]
+        if ns * (ns - 1) // 2 >= min_pairs:
+            pairs.pull_pairs_threaded(s, ns, eps2)
+        else:
+            pairs.pull_pairs(s, ns, eps2)
+        _pair_sums_out(fa[FA_SRC], s, G, out)
+    if rest.size * s.shape[1] >= min_pairs:
+        for a in numba.prange(rest.size):
+            k = rest[a]
             ax, ay, az = pairs.pull(pos[k, 0], pos[k, 1], pos[k, 2], s, s.shape[1], eps2)
             out[k, 0] = G * ax
             out[k, 1] = G * ay
             out[k, 2] = G * az
     else:
-        _pull_rows(targets, pos, s, G, eps2, out)
+        _pull_each(rest, pos, s, G, eps2, out)
 
 
 @kernel(fast=True, inline=True)
-def _pull_rows(targets, pos, s, G, eps2, out):
-    """_pull_all on the calling thread."""
+def _pull_rows(fa, targets, pos, s, G, eps2, out):
+    """_pull_all on the calling thread, bit for bit the same."""
+    both, rest = _pairs_rest(fa, targets, pos, s)
+    if both:
+        pairs.pull_pairs(s, s.shape[1], eps2)
+        _pair_sums_out(fa[FA_SRC], s, G, out)
+    _pull_each(rest, pos, s, G, eps2, out)
+
+
+@kernel(fast=True, inline=True)
+def _pull_each(targets, pos, s, G, eps2, out):
+    """out[k] = G * pull of the sources on pos[k], one target after another."""
     for a in range(targets.size):
         k = targets[a]
         ax, ay, az = pairs.pull(pos[k, 0], pos[k, 1], pos[k, 2], s, s.shape[1], eps2)
         out[k, 0] = G * ax
         out[k, 1] = G * ay
         out[k, 2] = G * az
+
+
+@kernel(inline=True)
+def _pairs_rest(fa, targets, pos, s):
+    """(whether the sources' pulls on each other come from pairs.pull_pairs, the targets
+    `pull` serves then): DIRECT gravity, the sources the gathered scratch (7, ns), at least
+    pairs.PAIRS_FROM of them, and the targets every body (distinct rows: the passive ones
+    left) or the sources' own row list (none left). Any other targets: (False, targets)."""
+    src = fa[FA_SRC]
+    if fa[FA_MODEL] != DIRECT or s.shape[0] != 7 or s.shape[1] < pairs.PAIRS_FROM:
+        return False, targets
+    if targets.size == pos.shape[0]:
+        return True, fa[FA_PASSIVE]
+    if targets.size == src.size and targets.ctypes.data == src.ctypes.data:
+        return True, src[:0]
+    return False, targets
+
+
+@kernel(inline=True)
+def _pair_sums_out(src, s, G, out):
+    """out[src[a]] = G * the pair sums in rows 4-6 of s."""
+    for a in range(src.size):
+        k = src[a]
+        out[k, 0] = G * s[4, a]
+        out[k, 1] = G * s[5, a]
+        out[k, 2] = G * s[6, a]
 
 
 @kernel(inline=True)
@@ -206,7 +253,7 @@ def accelerations(f, t, pos, vel, out, targets, with_drag):
         tree.accelerations(s, f.src, targets, pos, f.G, f.eps2, f.theta, f.quadrupole, out,
                            targets.size * s.shape[1] >= f.threads[0])
     elif has:
-        _pull_all(targets, pos, s, f.G, f.eps2, out, f.threads[0])
+        _pull_all(fa, targets, pos, s, f.G, f.eps2, out, f.threads[0])
     else:
         _field(fa, out, targets)
     _add_held(fa, out, targets)
@@ -223,11 +270,12 @@ def accelerations_serial(f, t, pos, vel, out, targets, with_drag):
     fa, _ = hoist(f)
     has, s = _sources(fa, pos)
     if has:
-        _pull_rows(targets, pos, s, f.G, f.eps2, out)
+        _pull_rows(fa, targets, pos, s, f.G, f.eps2, out)
     else:
         _field(fa, out, targets)
     _add_held(fa, out, targets)
-    _add_user(f, t, pos, vel, out, targets)
+    if f.user_out.shape[0]:               # made only with user forces (see make)
+        _add_user(f, t, pos, vel, out, targets)
     _add_drag(fa, vel, out, targets, with_drag)
 
 
@@ -237,7 +285,7 @@ def accelerations_serial(f, t, pos, vel, out, targets, with_drag):
 # loop reads the table once (hoist) and hands the tuple to lean helpers, compiled without
 # reference counting.
 FA_MODEL, FA_G, FA_EPS2, FA_FIELD, FA_FIELD_MASS, FA_MASS, FA_SRC, FA_SCRATCH, FA_HELD, \
-    FA_DRAG, FA_STILL, FA_TAPED, FA_TAPE, FA_TAPE_AT, FA_ENDS = range(15)
+    FA_DRAG, FA_STILL, FA_TAPED, FA_TAPE, FA_TAPE_AT, FA_ENDS, FA_PASSIVE = range(16)
 
 
 @kernel(inline=True)
@@ -246,7 +294,7 @@ def hoist(f):
     step loop, and the number of targets below which lean_accelerations serves (0: never,
     with user forces; otherwise up to the threaded loop's threshold f.threads[0])."""
     fa = (f.model, f.G, f.eps2, f.field, f.field_mass, f.mass, f.src, f.scratch, f.held,
-          f.drag, f.still, f.taped, f.tape, f.tape_at, f.ends)
+          f.drag, f.still, f.taped, f.tape, f.tape_at, f.ends, f.passive)
     # a constant, not np.iinfo: with np.iinfo(np.int64).max here the step kernels took the
     # threaded path on every step of a 3-body scene (seen in gdb; not reproduced alone)
     lean_below = NEVER
@@ -266,7 +314,7 @@ def lean_accelerations(fa, pos, vel, out, targets, with_drag):
     same."""
     has, s = _sources(fa, pos)
     if has:
-        _pull_rows(targets, pos, s, fa[FA_G], fa[FA_EPS2], out)
+        _pull_rows(fa, targets, pos, s, fa[FA_G], fa[FA_EPS2], out)
     else:
         _field(fa, out, targets)
     _add_held(fa, out, targets)
@@ -275,7 +323,7 @@ def lean_accelerations(fa, pos, vel, out, targets, with_drag):
 
 @kernel(inline=True)
 def _sources(fa, pos):
-    """(whether the model has sources, the sources (4, ns): x, y, z, m): the pulling bodies
+    """(whether the model has sources, the sources (>= 4, ns): x, y, z, m): the pulling bodies
     (DIRECT, TREE) gathered into the scratch, or a played step's straight from the
     prediction's tape; the fixed body (CENTRAL)."""
     model = fa[FA_MODEL]
