@@ -482,6 +482,41 @@ def test_broad_phase_work_is_linear():
     assert setup_entries[1] == pytest.approx(setup_entries[0], rel=0.1)
 
 
+def test_the_grid_scratch_grows_to_the_entries_and_is_kept():
+    """Spheres of mixed sizes in 3D cover more than 4 cells each (the scratch's first room;
+    fresh arrays there cost page faults every step): the pass grows the scratch to fit,
+    keeps it for the next step, and finds the pairs brute force finds."""
+    import numba
+
+    @numba.njit
+    def scratch_of(rules):
+        return rules.grid
+
+    rng = np.random.default_rng(4)
+    n = 3000
+    r = rng.uniform(0.5, 2.0, n)
+    side = (np.sum(4 / 3 * np.pi * r ** 3) / 0.2) ** (1 / 3)      # 20 % of the volume
+    w = sp.World(dim=3, gravity="none", dt=0.01, capacity=n)
+    w.set_collision("*", "*", "elastic")
+    w.add_bodies(r ** 3, rng.uniform(0, side, (n, 3)), rng.normal(size=(n, 3)), radius=r)
+    plan = w.tables()
+    A, B, tb = w.pos.copy(), w.vel * w.dt, np.zeros(n)
+    lo, hi = np.empty((n, 3)), np.empty((n, 3))
+    before = scratch_of(plan.rules)
+    pairs, entries = collide.candidate_pairs(A, B, tb, plan.alive, plan.rules, lo, hi)
+    grown = scratch_of(plan.rules)
+    assert entries > 4 * n and before.size == 16 * n     # more than the first room
+    assert grown.size >= 4 * entries
+    again, _ = collide.candidate_pairs(A, B, tb, plan.alive, plan.rules, lo, hi)
+    kept = scratch_of(plan.rules)
+    assert kept.ctypes.data == grown.ctypes.data and kept.size == grown.size
+    brute = {tuple(p) for p in collide.brute_pairs(A, B, tb, plan.alive, plan.rules, lo,
+                                                   hi).tolist()}
+    assert len(brute) > 1000
+    assert {tuple(p) for p in pairs.tolist()} == brute
+    assert {tuple(p) for p in again.tolist()} == brute
+
+
 def test_a_2d_body_inside_one_cell_makes_one_entry():
     # the flat axis holds one layer of cells: a disc well inside a cell is one entry, not two
     w = sp.World(dim=2, gravity="none", dt=0.1)

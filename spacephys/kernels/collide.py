@@ -91,7 +91,8 @@ FIELDS = (
     "ever", "touched", "in_focus", "is_giant",  # (n,) bool
     "merged",                                  # (n,) int64
     "stale",                                   # (n,) bool
-    "grid",          # (n, 16) int64: the grid's entries and the sort's, 4 per body (more: new)
+    "grid",          # (n, 16) int64: the grid's entries and the sort's, 4 per body (grown
+                     # by the pass when the boxes cover more cells, see _entries)
 )
 structref.define_proxy(Rules, RulesType, list(FIELDS))
 
@@ -382,27 +383,26 @@ def _entries(lo, hi, alive, gridded, kind, size, low, high, rules, L):
     n = lo.shape[0]
     origin, cell, ncell = _layout(size, low, high, rules, L)
     # the entries (cell, body) in body order, in one pass into the scratch kept from step to
-    # step (4 a body: fresh arrays cost 3 ms of page faults a step at 1e5 bodies); a second
-    # into new arrays of the size the first found when the sweeps cover more
-    room = 4 * n
-    spare = rules.grid.reshape(16 * n)
-    keys, bodies = spare[:room], spare[room:2 * room]
+    # step (fresh arrays cost 3 ms of page faults a step at 1e5 bodies): room for 4 a body,
+    # grown to what the first pass found when the boxes cover more (a dense field of mixed
+    # sizes: 4.1 a body), and kept at that size for the steps to come
+    spare = rules.grid.reshape(rules.grid.size)
+    room = spare.size // 4
     single = np.empty(n, np.bool_)
-    total = _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, single)
+    total = _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, spare[:room],
+                  spare[room:2 * room], single)
     if total > room:
-        keys = np.empty(total, np.int64)
-        bodies = np.empty(total, np.int64)
-        _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, single)
+        rules.grid = np.empty(((total + total // 4) // 4 + 1, 16), np.int64)
+        spare = rules.grid.reshape(rules.grid.size)
+        room = spare.size // 4
+        _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, spare[:room],
+              spare[room:2 * room], single)
     # grouped by as many low bits of the hashes as keep other cells out of most runs (a run
     # mixing two cells costs a skipped comparison; a pass of the sort costs a quarter of it)
     bits = 16 if total < 1 << 11 else (24 if total < 1 << 21 else 32)
-    if total <= room:
-        keys, bodies = _radix_sort(keys[:total], bodies[:total],
-                                   spare[2 * room:2 * room + total],
-                                   spare[3 * room:3 * room + total], bits)
-    else:
-        keys, bodies = _radix_sort(keys[:total], bodies[:total], np.empty(total, np.int64),
-                                   np.empty(total, np.int64), bits)
+    keys, bodies = _radix_sort(spare[:total], spare[room:room + total],
+                               spare[2 * room:2 * room + total],
+                               spare[3 * room:3 * room + total], bits)
     return keys, bodies, single, origin, cell, ncell, total, (1 << bits) - 1
 
 
