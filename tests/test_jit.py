@@ -64,3 +64,19 @@ def test_a_small_scene_never_starts_the_thread_pool():
                          timeout=600)
     assert out.returncode == 0, out.stderr
     assert "child 0" in out.stdout, out.stdout + out.stderr
+
+
+def test_the_openmp_threads_spin_briefly_unless_the_user_says_otherwise():
+    """spacephys sets GNU OpenMP's spin count before numba loads it (long spinning beside a
+    busy process costs the step's serial part: README, threads), and keeps a user's value."""
+    import os
+    import subprocess
+    import sys
+    probe = "import os, spacephys; print(os.environ['GOMP_SPINCOUNT'])"
+    env = {k: v for k, v in os.environ.items() if k != "GOMP_SPINCOUNT"}
+    ours = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                          env=env, timeout=120)
+    assert ours.stdout.strip() == "10000", ours.stderr
+    theirs = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                            env={**env, "GOMP_SPINCOUNT": "123"}, timeout=120)
+    assert theirs.stdout.strip() == "123", theirs.stderr
