@@ -71,8 +71,8 @@ FIELDS = (
     "everyone",    # (n,) int64 rows 0..n-1
     "drag",        # (4,) [k [1/time], wind (3,) [length/time]]
     "held",        # (n, 6) [force (3,) [mass length/time^2], acceleration (3,)], or (0, 6)
-    "scratch",     # (7, ns) DIRECT, TREE, (7, 1) CENTRAL: the sources' x, y, z, m and their
-                   # pulls on each other / G (pairs.pull_pairs)
+    "scratch",     # (7, ns) DIRECT: the sources' x, y, z, m and their pulls on each other / G
+                   # (pairs.pull_pairs); (4, ns) TREE, (4, 1) CENTRAL: x, y, z, m
     "user",        # typed List of USER_FORCE_TYPE
     "params",      # typed List of (p,) float64, one per user force
     "user_out",    # (n, 3) scratch the user forces add into
@@ -132,7 +132,8 @@ def make(mass, ids, *, model, G, eps2, field, field_mass, src, passive, still, d
     evaluations a force loop runs on threads (default _jit.PARALLEL_MIN_PAIRS); theta,
     quadrupole : the tree's (TREE)."""
     n = mass.shape[0]
-    scratch = np.empty((7, src.size if model in (DIRECT, TREE) else 1))
+    # rows 4-6 (pairs.pull_pairs' sums) only where direct summation uses them
+    scratch = np.empty((7 if model == DIRECT else 4, src.size if model in (DIRECT, TREE) else 1))
     args = (int(model), float(G), float(eps2), field, float(field_mass), mass, ids, src,
             passive, still, np.arange(n, dtype=np.int64), drag,
             np.zeros((0, 6)) if held is None else held, scratch)
