@@ -77,10 +77,18 @@ def blocks(ns):
 
 
 @kernel(inline=True)
+def rounds(nb):
+    """(rounds, tiles a round) of the nb-block tournament: an even number of seats, one of
+    them a bye when nb is odd."""
+    seats = nb + nb % 2
+    return seats - 1, seats // 2
+
+
+@kernel(inline=True)
 def round_pair(r, k, nb):
-    """The blocks (I < J) of tile k in round r of the nb-block tournament (rounds
-    0 .. even(nb) - 2, tiles 0 .. even(nb) / 2 - 1), or (-1, -1) for a bye (odd nb)."""
-    m = nb + nb % 2 - 1                 # rotating seats; seat m stays
+    """The blocks (I < J) of tile k in round r of the nb-block tournament (see rounds), or
+    (-1, -1) for a bye (odd nb)."""
+    m, _ = rounds(nb)                   # rotating seats 0 .. m - 1; seat m stays
     if k == 0:
         p, q = m, r
     else:
@@ -145,10 +153,11 @@ def pull_pairs(s, ns, eps2):
     pair evaluated once; on the calling thread, bit for bit as pull_pairs_threaded."""
     _zero_sums(s, ns)
     nb, B = blocks(ns)
+    R, T = rounds(nb)
     for b in range(nb):
         tile(s, b, b, B, ns, eps2)
-    for r in range(nb + nb % 2 - 1):
-        for k in range((nb + nb % 2) // 2):
+    for r in range(R):
+        for k in range(T):
             I, J = round_pair(r, k, nb)
             if I >= 0:
                 tile(s, I, J, B, ns, eps2)
@@ -159,10 +168,11 @@ def pull_pairs_threaded(s, ns, eps2):
     """pull_pairs with each round's tiles on threads."""
     _zero_sums(s, ns)
     nb, B = blocks(ns)
+    R, T = rounds(nb)
     for b in numba.prange(nb):
         tile(s, b, b, B, ns, eps2)
-    for r in range(nb + nb % 2 - 1):
-        for k in numba.prange((nb + nb % 2) // 2):
+    for r in range(R):
+        for k in numba.prange(T):
             I, J = round_pair(r, k, nb)
             if I >= 0:
                 tile(s, I, J, B, ns, eps2)
