@@ -330,10 +330,15 @@ class _Replayer(_Schedule):
         return np.empty((F, n, 3)), np.empty((F, n, 3)), np.empty((F, n))
 
 
-def replay(path):
+def replay(path, each=None):
     """Verify a log's checksums, re-run it from its first checkpoint and its recorded calls,
     and compare every frame, every event and the whole final state (the last checkpoint of a
-    closed log) bit for bit. Returns a ReplayResult naming the first difference, if any."""
+    closed log) bit for bit. Returns a ReplayResult naming the first difference, if any.
+    each : called as each(world, call, result) after every recorded call is re-run (call
+    its name, "setattr" for an assignment; result what it returned): to watch a replay,
+    e.g. draw the World after each advance(); what it raises ends the replay."""
+    if each is not None and not callable(each):
+        raise ValueError(f"each = {each!r}: must be callable, or None")
     with Run(path) as run:
         run.verify()                     # a damaged log is an error, not a divergence
         world, attrs = _world(run._f, run.path, 0)
@@ -344,14 +349,17 @@ def replay(path):
         for entry in run.inputs():
             method = getattr(world, entry["call"]) if entry["call"] != "setattr" else None
             args, kwargs = decode(entry["args"]), decode(entry["kwargs"])
+            result = None
             try:
                 if method is None:
                     setattr(world, *args)
                 else:
-                    method(*args, **kwargs)
+                    result = method(*args, **kwargs)
             except Exception as e:
                 if type(e).__name__ != entry.get("raised"):
                     raise
+            if each is not None:
+                each(world, entry["call"], result)
         closed = bool(run.meta.get("closed"))
         if closed and len(run) > rep.frame_index:
             rep._world_frame(world)                          # close()'s last frame

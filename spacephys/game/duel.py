@@ -1,0 +1,94 @@
+"""Spacewar! (1962): two ships around a star that pulls them, torpedoes launched from the
+moving ships (they keep the ship's velocity), collisions with the star and each other,
+explosions into debris, space that wraps around. 2 players, 1 against the computer, or 0."""
+import math
+
+import spacephys as sp
+
+from .modes import KEYS, Mode, TEAM_COLOURS, orbit_speed
+from .pilot import Pilot
+
+HALF = 512.0                 # half the width of the wrapping square [length]
+STAR_MASS = 4e6              # G = 1
+RESPAWN = 2.0                # [time] a destroyed ship waits before it comes back
+
+
+class Duel(Mode):
+    name = "duel"
+    keys = (("W / up", "thrust"), ("A D / left right", "turn"),
+            ("space / return", "fire a torpedo"), ("esc", "quit"))
+
+    def build(self):
+        w = sp.World(dim=2, dt=1 / 120, max_substeps=8, seed=self.seed)   # 2 steps a frame
+        w.set_boundary("periodic", lo=(-HALF, -HALF), hi=(HALF, HALF))
+        self.star = w.add_body(STAR_MASS, (0, 0), radius=16, kind="star", fixed=True)
+        for a, b in (("missile", "ship"), ("ship", "ship"), ("missile", "missile")):
+            w.set_collision(a, b, "destroy_both")
+        w.set_collision("*", "star", "destroy_a")             # whatever falls in is gone
+        self.hull = sp.ShipSpec(dry_mass=1, fuel_mass=1, max_thrust=60, exhaust_speed=3000,
+                                turn_rate=3, radius=10,
+                                explosion=sp.ExplosionSpec(count=60, speed=60, lifetime=1.5,
+                                                           lifetime_spread=0.5))
+        self.torpedo = sp.MissileSpec(mass=0.01, launch_speed=220, lifetime=2.5, radius=2,
+                                      arming_delay=0.2,
+                                      explosion=sp.ExplosionSpec(count=8, speed=40,
+                                                                 lifetime=0.6))
+        v = orbit_speed(STAR_MASS, 300.0)                     # a circular orbit at r = 300
+        self.starts = [((-300.0, 0.0), (0.0, -v), -math.pi / 2),
+                       ((300.0, 0.0), (0.0, v), math.pi / 2)]
+        self.ships = [w.add_ship(self.hull, *start) for start in self.starts]
+        self.score = [0, 0]
+        self.dead_since = [None, None]
+        self.next_fire = [0.0, 0.0]
+        return w
+
+    def start(self):
+        self.pilots = [None, None]
+        for k in range(self.players, 2):                      # the computer flies the rest
+            self.pilots[k] = self._pilot(k)
+
+    def _pilot(self, k):
+        return Pilot(self, self.ships[k], self.torpedo, hazards=("star",), reload=0.4,
+                     range=450.0)
+
+    def controls(self, held, pressed):
+        w = self.world
+        for k in range(2):
+            ship = self.ships[k]
+            if ship not in w:
+                if self.dead_since[k] is not None and w.t - self.dead_since[k] >= RESPAWN:
+                    self.ships[k] = w.add_ship(self.hull, *self.starts[k])
+                    self.dead_since[k] = None
+                    if self.pilots[k] is not None:
+                        self.pilots[k] = self._pilot(k)
+                continue
+            if self.pilots[k] is not None:
+                self.pilots[k].fly(self.ships[1 - k])
+            elif self.human(k, ship, held) and w.t >= self.next_fire[k]:
+                w.launch(ship, self.torpedo)
+                self.next_fire[k] = w.t + 0.25
+
+    def after(self, events):
+        for e in events:
+            if e["kind"] != sp.events.DESTROY:
+                continue
+            for k in range(2):
+                if self.ships[k] in (e["a"], e["b"]) and self.dead_since[k] is None:
+                    self.dead_since[k] = float(e["time"])
+                    self.score[1 - k] += 1
+                    self.message = f"{('needle', 'wedge')[k]} destroyed at t = {e['time']:.2f}"
+
+    def hud(self):
+        who = ["computer" if p is not None else f"keys {KEYS[k]['thrust']}"
+               for k, p in enumerate(self.pilots)]
+        return [f"Spacewar!  needle {self.score[0]} : {self.score[1]} wedge    "
+                f"t = {self.world.t:6.2f}", f"needle: {who[0]}   wedge: {who[1]}",
+                self.message]
+
+    def colour(self, body_id):
+        w = self.world
+        if body_id in self.ships:
+            return TEAM_COLOURS[self.ships.index(body_id)]
+        if body_id in w:                                     # a torpedo: its launcher's side
+            return (240, 240, 200)
+        return (255, 255, 255)

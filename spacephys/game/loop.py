@@ -1,0 +1,163 @@
+"""The frame loop: inputs, the mode's controls and the computer's pilots, fixed physics steps
+through World.advance(frame time), drawing at the interpolated positions; a recording of the
+match (a run log) and its replay, bit for bit. Headless (SDL's dummy video driver) for tests
+and benchmarks, with key presses scripted frame by frame."""
+import dataclasses
+import os
+import time
+
+import numpy as np
+
+from .modes import KEYS, Watch
+
+
+def _pygame(headless):
+    if headless:
+        os.environ["SDL_VIDEODRIVER"] = "dummy"      # no window: frames drawn off screen
+    try:
+        import pygame
+    except ImportError:
+        raise SystemExit("spacephys play needs pygame-ce: pip install 'spacephys[game]'")
+    pygame.display.init()
+    pygame.font.init()
+    return pygame
+
+
+@dataclasses.dataclass
+class Played:
+    """What a run of the loop did: frames drawn, and per frame the milliseconds of physics
+    and the computer's pilots (controls + advance + events), of drawing, and of the whole
+    frame (without the wait for the display's rate)."""
+    frames: int
+    physics_ms: np.ndarray
+    draw_ms: np.ndarray
+    frame_ms: np.ndarray
+    quit: bool = False
+
+
+def _watched(mode):
+    """The key names a mode reads (the players' and its own)."""
+    names = {n for keys in KEYS for n in keys.values()}
+    for k, _ in mode.keys:
+        names.update(part.strip().lower() for part in k.replace("/", " ").split())
+    return names
+
+
+def play(mode, *, frames=None, script=None, headless=False, record=None, record_every=None,
+         screenshot=None, size=(960, 720), realtime=None):
+    """Run `mode` (a game Mode) for `frames` frames (None: until the window closes or escape).
+
+    script : {frame: key names held from that frame on} in place of the keyboard (a name
+    counts as pressed on the frame it first appears). realtime (default: not headless): each
+    frame advances the World by the time the last one took and waits for 60 frames a second;
+    otherwise by the mode's frame_time. record : a run log path (World.record) of the whole
+    match, a frame of positions every `record_every` steps (default: about 10 a second).
+    screenshot : a PNG of the last frame. Returns Played."""
+    pygame = _pygame(headless)
+    from .view import View
+    screen = pygame.display.set_mode(size)
+    pygame.display.set_caption(f"spacephys play {mode.name}")
+    view = View(screen)
+    realtime = (not headless) if realtime is None else realtime
+    clock = pygame.time.Clock()
+    w = mode.world
+    log = None
+    if record is not None:
+        every = record_every or max(1, round(0.1 / w.dt))
+        log = w.record(record, every=every)
+    watched = _watched(mode)
+    codes = {}
+    for name in watched:
+        try:
+            codes[name] = pygame.key.key_code(name)
+        except ValueError:
+            pass
+    held, times, frame, quit = set(), [], 0, False
+    try:
+        while frames is None or frame < frames:
+            start = time.perf_counter()
+            pressed = set()
+            for event in pygame.event.get():
+                if event.type == pygame.QUIT:
+                    quit = True
+                elif event.type == pygame.KEYDOWN:
+                    name = pygame.key.name(event.key)
+                    quit |= name == "escape"
+                    pressed.add(name)
+            if quit:
+                break
+            if script is not None:
+                if frame in script:
+                    now = set(script[frame])
+                    pressed |= now - held
+                    held = now
+            else:
+                state = pygame.key.get_pressed()
+                held = {name for name, code in codes.items() if state[code]}
+            step = min(clock.get_time() / 1000.0, 0.1) if realtime and frame else 0.0
+            mode.controls(held, pressed)
+            alpha = w.advance(float(step or mode.frame_time) * mode.warp)
+            mode.after(w.events)
+            mode.frame += 1
+            mid = time.perf_counter()
+            view.draw(mode, alpha)
+            pygame.display.flip()
+            end = time.perf_counter()
+            times.append((mid - start, end - mid, end - start))
+            frame += 1
+            if realtime:
+                clock.tick(60)
+    finally:
+        if log is not None:
+            log.close()
+        if screenshot is not None:
+            pygame.image.save(screen, str(screenshot))
+        pygame.display.quit()
+    t = 1e3 * np.array(times).reshape(-1, 3)
+    return Played(frame, t[:, 0], t[:, 1], t[:, 2], quit)
+
+
+class _Stop(Exception):
+    pass
+
+
+def replay(path, *, headless=False, size=(960, 720), realtime=None, screenshot=None):
+    """Re-run a recorded match (sp.replay: its calls from its first checkpoint, compared bit
+    for bit with what was recorded) and draw it after each advance() or step(). Returns
+    (sp.ReplayResult, frames drawn); closing the window stops it (result None)."""
+    import spacephys as sp
+    pygame = _pygame(headless)
+    from .view import View
+    screen = pygame.display.set_mode(size)
+    pygame.display.set_caption(f"spacephys play --replay {path}")
+    view = View(screen)
+    realtime = (not headless) if realtime is None else realtime
+    clock = pygame.time.Clock()
+    seen = {"frames": 0, "watch": None}
+
+    def each(world, call, result):
+        if call not in ("advance", "step"):
+            return
+        for event in pygame.event.get():
+            if event.type == pygame.QUIT or (event.type == pygame.KEYDOWN and
+                                             pygame.key.name(event.key) == "escape"):
+                raise _Stop
+        if seen["watch"] is None:
+            seen["watch"] = Watch(world)
+        watch = seen["watch"]
+        watch.message = f"replay of {os.path.basename(str(path))}"
+        view.draw(watch, result if call == "advance" else 1.0)
+        pygame.display.flip()
+        seen["frames"] += 1
+        if realtime:
+            clock.tick(60)
+
+    try:
+        result = sp.replay(path, each=each)
+    except _Stop:
+        result = None
+    finally:
+        if screenshot is not None:
+            pygame.image.save(screen, str(screenshot))
+        pygame.display.quit()
+    return result, seen["frames"]

@@ -1,0 +1,129 @@
+"""What every game mode has: a World, the ships its players and the computer fly, the keys,
+the HUD and the camera. The modes themselves: duel.py, orbit.py, arena.py; `Watch` draws a
+World it is given (a replay)."""
+import math
+
+import numpy as np
+
+# the keys of the two players on one keyboard (pygame's key names)
+KEYS = ({"thrust": "w", "left": "a", "right": "d", "fire": "space"},
+        {"thrust": "up", "left": "left", "right": "right", "fire": "return"})
+TEAM_COLOURS = ((90, 200, 255), (255, 120, 90))
+
+
+class Mode:
+    """A game mode. Subclasses set `name`, build their World in `build()` and fly it in
+    `controls()` (before each frame's physics) and `after()` (its events, after it).
+
+    world : the World; warp : simulated time per frame over frame_time; message : a line
+    the HUD shows (the last thing that happened)."""
+    name = ""
+    frame_time = 1 / 60                 # [time] simulated per frame at warp 1
+    keys = ()                           # (key, what it does), for the help line and docs
+    players_allowed = (0, 1, 2)
+
+    def __init__(self, players=1, seed=0):
+        if players not in self.players_allowed:
+            raise ValueError(f"players = {players!r}: {self.name} takes "
+                             f"{', '.join(map(str, self.players_allowed))}")
+        self.players = players
+        self.seed = seed
+        self.frame = 0
+        self.warp = 1
+        self.message = ""
+        self._held = {}                 # ship id -> (throttle, turn) last given to control()
+        self.world = self.build()
+        self.start()
+
+    # ------------------------------------------------------------------ subclasses
+    def build(self):
+        """The mode's World, its bodies and rules."""
+        raise NotImplementedError
+
+    def start(self):
+        """After build(), with self.world set: the computer's pilots."""
+
+    def controls(self, held, pressed):
+        """This frame's inputs: held, pressed (sets of key names: down now, went down now)."""
+
+    def after(self, events):
+        """This frame's events (the World's, after its steps)."""
+
+    def hud(self):
+        """Lines of text for the top-left corner."""
+        return [f"{self.name}  t = {self.world.t:7.2f}", self.message]
+
+    def overlay(self):
+        """What to draw over the bodies: {"paths": [((P, 2) positions, colour)],
+        "markers": [((2,) position, colour, label)]}."""
+        return {"paths": [], "markers": []}
+
+    def camera(self, drawn):
+        """(centre (2,), half height) of the view, given the drawn positions (n, 2)."""
+        w = self.world
+        mode, lo, hi, _ = w.boundary
+        if mode == "periodic":
+            return (lo + hi)[:2] / 2, float(hi[1] - lo[1]) / 2
+        heavy = drawn[w.kind != w.kind_code("debris")] if w.n else drawn
+        reach = float(np.abs(heavy).max()) if heavy.size else 1.0
+        return np.zeros(2), 1.2 * max(reach, 1e-9)
+
+    def colour(self, body_id):
+        """The colour of a ship or missile: its side's."""
+        return TEAM_COLOURS[0]
+
+    def thrusting(self, body_id):
+        """Whether a ship's engine is lit (for the flame)."""
+        held = self._held.get(body_id)
+        return held is not None and held[0] > 0
+
+    # ------------------------------------------------------------------ helpers
+    def steer(self, ship, throttle, turn):
+        """w.control(ship, ...) only when the command changes (each call is a journal entry
+        when recorded, and costs a microsecond or two)."""
+        if self._held.get(ship) != (throttle, turn):
+            self.world.control(ship, throttle=throttle, turn=turn)
+            self._held[ship] = (throttle, turn)
+
+    def human(self, player, ship, held):
+        """Player's keys (KEYS[player]) to the ship's controls; True if fire is held."""
+        k = KEYS[player]
+        turn = (1.0 if k["left"] in held else 0.0) - (1.0 if k["right"] in held else 0.0)
+        self.steer(ship, 1.0 if k["thrust"] in held else 0.0, turn)
+        return k["fire"] in held
+
+
+class Watch(Mode):
+    """A World to look at, with nobody flying it (a replay): the camera on the periodic box
+    or on the bodies that are not debris."""
+    name = "replay"
+    players_allowed = (0,)
+
+    def __init__(self, world):
+        self._world = world
+        super().__init__(players=0)
+
+    def build(self):
+        return self._world
+
+    def colour(self, body_id):
+        ships = [int(i) for i, k in zip(self.world.ids, self.world.kind)
+                 if self.world.kinds[k] == "ship"]
+        return TEAM_COLOURS[ships.index(body_id) % 2] if body_id in ships else (230, 230, 230)
+
+
+def orbit_speed(mu, r):
+    """The circular speed at distance r about mu = G M."""
+    return math.sqrt(mu / r)
+
+
+def make_mode(name, players=1, seed=0):
+    """The mode called `name` ("duel", "orbit", "arena")."""
+    if name not in MODES:
+        raise ValueError(f"mode = {name!r}: choose one of {', '.join(MODES)}")
+    module, cls = MODES[name]
+    import importlib
+    return getattr(importlib.import_module(f".{module}", __package__), cls)(players, seed)
+
+
+MODES = {"duel": ("duel", "Duel"), "orbit": ("orbit", "Orbit"), "arena": ("arena", "Arena")}

@@ -1,0 +1,133 @@
+"""The computer's pilot: flies any ship of a World with the public API only — queries
+(shapecast, nearest), the missiles' own guidance, orbital elements and manoeuvre plans — so
+what it does, a game's own AI can do."""
+import math
+
+import numpy as np
+
+import spacephys as sp
+
+
+def _wrap_angle(a):
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def intercept(d, u, speed):
+    """The unit direction to launch at `speed` (relative to the launcher) to meet a target at
+    d (2,) moving at u (2,) relative to the launcher, on straight lines; d's own direction
+    when the target cannot be caught."""
+    a = u @ u - speed * speed
+    b = 2.0 * (d @ u)
+    c = d @ d
+    t = -1.0
+    if abs(a) < 1e-12:
+        t = -c / b if b < 0 else -1.0
+    else:
+        disc = b * b - 4.0 * a * c
+        if disc >= 0.0:
+            roots = ((-b - math.sqrt(disc)) / (2 * a), (-b + math.sqrt(disc)) / (2 * a))
+            positive = [r for r in roots if r > 0]
+            t = min(positive) if positive else -1.0
+    aim = d + u * t if t > 0 else d
+    norm = math.hypot(*aim)
+    return aim / norm if norm > 0 else np.array([1.0, 0.0])
+
+
+class Pilot:
+    """Flies `ship` for `mode` (a game Mode: its World and steer()): keeps out of the bodies of
+    kinds `hazards`, turns to where its weapon would meet the target and fires when on aim.
+
+    weapon : a MissileSpec (guided ones are launched at the target and steer themselves;
+    unguided ones are aimed ahead of it); reload [time] between launches, salvo missiles a
+    launch fanned `spread` [rad] apart, at most `magazine` of its missiles alive; range
+    [length] it fires from; lookahead [time] of the path it checks for hazards."""
+
+    def __init__(self, mode, ship, weapon, *, hazards=("star", "planet"), reload=0.5, salvo=1,
+                 spread=0.0, magazine=8, range=400.0, lookahead=1.5):
+        self.mode, self.ship, self.weapon = mode, ship, weapon
+        self.hazards = [k for k in hazards if k in mode.world.kinds]
+        self.reload, self.salvo, self.spread = reload, salvo, spread
+        self.magazine, self.range, self.lookahead = magazine, range, lookahead
+        self.guided = weapon.guidance != "none"
+        self.next_launch = 0.0
+        self.missiles = []
+
+    def _offset(self, d):
+        """d made the shortest way round a periodic box."""
+        mode, lo, hi, _ = self.mode.world.boundary
+        if mode == "periodic":
+            size = (hi - lo)[:d.size]
+            d = d - size * np.round(d / size)
+        return d
+
+    def fly(self, target):
+        """One frame: the ship's controls, and launches at `target` (an id, or None); returns
+        the ids launched."""
+        w = self.mode.world
+        ship = self.ship
+        if ship not in w:
+            return []
+        i = w.index_of(ship)
+        p, v = w.pos[i].copy(), w.vel[i].copy()
+        heading = w.heading(ship)
+        aim, thrust = None, 0.0
+        if self.hazards and v @ v > 0:              # falling into something: climb out
+            hit = w.shapecast(ship, v * self.lookahead, kinds=self.hazards, walls=False)[0]
+            if hit.ids.size:                        # (the normal points away from it)
+                away = hit.normals[0] + v / math.sqrt(v @ v)
+                aim = math.atan2(away[1], away[0])
+                thrust = 1.0
+        launched = []
+        if target is not None and target in w:
+            j = w.index_of(target)
+            d = self._offset(w.pos[j] - p)
+            dist = math.hypot(*d)
+            if self.guided:
+                to = d / dist if dist > 0 else np.array([1.0, 0.0])
+            else:
+                to = intercept(d, w.vel[j] - v, self.weapon.launch_speed)
+            want = math.atan2(to[1], to[0])
+            if aim is None:
+                aim = want
+                thrust = 1.0 if dist > 0.6 * self.range and \
+                    abs(_wrap_angle(want - heading)) < 0.4 else 0.0
+            on_aim = abs(_wrap_angle(want - heading)) < (0.5 if self.guided else 0.08)
+            self.missiles = [m for m in self.missiles if m in w]
+            if on_aim and dist < self.range and w.t >= self.next_launch and \
+                    len(self.missiles) + self.salvo <= self.magazine:
+                for k in range(self.salvo):
+                    fan = heading + (k - (self.salvo - 1) / 2) * self.spread
+                    launched.append(w.launch(ship, self.weapon,
+                                             target=target if self.guided else None,
+                                             heading=fan))
+                self.missiles += launched
+                self.next_launch = w.t + self.reload
+        if aim is None:
+            self.mode.steer(ship, 0.0, 0.0)
+        else:
+            self.mode.steer(ship, thrust, float(np.clip(3.0 * _wrap_angle(aim - heading),
+                                                        -1.0, 1.0)))
+        return launched
+
+    def transfer(self, radius, about=None):
+        """Plan a Hohmann transfer to a circular orbit of `radius` (sp.hohmann, flown by the
+        World's autopilot); returns the burns."""
+        burns = sp.hohmann(self.mode.world, self.ship, radius, about=about)
+        self.mode.world.plan(self.ship, burns)
+        return burns
+
+    def match(self, target, gain=0.5):
+        """Turn against the velocity relative to `target` and burn it off (proportionally,
+        so it ends gently); returns that relative speed."""
+        w = self.mode.world
+        i, j = w.index_of(self.ship), w.index_of(target)
+        rel = w.vel[i] - w.vel[j]
+        speed = math.hypot(*rel)
+        if speed < 1e-3:
+            self.mode.steer(self.ship, 0.0, 0.0)
+            return speed
+        want = math.atan2(-rel[1], -rel[0])
+        err = _wrap_angle(want - w.heading(self.ship))
+        throttle = float(min(1.0, gain * speed)) if abs(err) < 0.2 else 0.0
+        self.mode.steer(self.ship, throttle, float(np.clip(3.0 * err, -1.0, 1.0)))
+        return speed
