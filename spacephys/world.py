@@ -83,40 +83,59 @@ class World:
     Parameters
     ----------
     dim : 2 or 3
-    units : "game" (G = 1), "si" (G = 6.6743e-11), "au-msun-yr" (G = 39.4769...)
-    G : float >= 0, overrides the units' G [length^3 / (mass time^2)]
-    integrator : a name of spacephys.INTEGRATORS
-    dt : float > 0, the step [time]; for an adaptive integrator the output interval: step(n)
-         lands exactly on n * dt, taking as many substeps as the accuracy needs
-    tolerance : float >= 0, the adaptive integrator's error parameter (1e-9 gives machine
-                precision for Gauss-Radau; 0 turns adaptivity off: steps of min(dt, max_step))
-    max_step : float > 0 or None, longest adaptive substep (so that thrust changes, collisions
-               and frame boundaries are not stepped over) [time]
-    min_step : float >= 0, shortest adaptive substep; reaching it warns, since accuracy is no
-               longer controlled [time]
-    step_control : "auto" | "pulling" | "all", which bodies set the adaptive step. "pulling":
-               only the bodies that pull, so test particles and passive ships never change
-               their trajectories (the passive bodies are still iterated to convergence within
-               those steps). "all": every body. "auto" (default): "pulling" when two or more
-               bodies pull under direct gravity, else "all" (a lone star has no dynamics of its
-               own to set a step)
-    softening : float >= 0, Plummer softening length [length]
-    gravity : "direct" (mutual, bodies of mass 0 or passive feel but do not pull),
-              "tree" (the same, the sum by a Barnes-Hut tree: for thousands of pulling bodies
-              and more, docs/tree.md), "uniform" (a constant field g), "central" (a fixed
-              body central_mass at central_pos; bodies ignore each other), "none"
-    theta : the tree's opening angle, 0 < theta <= 1.5 (default 0.5; smaller: more accurate
-            and slower), with gravity="tree"
-    quadrupole : the tree's nodes pull with quadrupole moments (default True) or as point
-                 masses, with gravity="tree"
-    g : (dim,) uniform field [length / time^2], with gravity="uniform"
-    central_mass, central_pos : the fixed body, with gravity="central" (pos defaults to 0)
-    max_substeps : int >= 1, most steps one advance() call may take (against the spiral of death)
-    capacity : int, initial room for bodies (grows by doubling)
-    seed : int >= 0, seeds every random choice (explosions): same seed, same run
-    drag : float >= 0, linear drag rate k [1/time]: every body also accelerates by
-           -k (v - wind) (an atmosphere, the seed's wind resistance)
-    wind : (dim,) the air's velocity [length/time] (default 0)
+    units
+        "game" (G = 1), "si" (G = 6.6743e-11), "au-msun-yr" (G = 39.4769...)
+    G : float >= 0
+        overrides the units' G [length^3 / (mass time^2)]
+    integrator
+        a name of spacephys.INTEGRATORS
+    dt : float > 0
+        the step [time]; for an adaptive integrator the output interval: step(n)
+        lands exactly on n * dt, taking as many substeps as the accuracy needs
+    tolerance : float >= 0
+        the adaptive integrator's error parameter (1e-9 gives machine
+        precision for Gauss-Radau; 0 turns adaptivity off: steps of min(dt, max_step))
+    max_step : float > 0 or None
+        longest adaptive substep (so that thrust changes, collisions
+        and frame boundaries are not stepped over) [time]
+    min_step : float >= 0
+        shortest adaptive substep; reaching it warns, since accuracy is no
+        longer controlled [time]
+    step_control : "auto" | "pulling" | "all"
+        which bodies set the adaptive step. "pulling":
+        only the bodies that pull, so test particles and passive ships never change
+        their trajectories (the passive bodies are still iterated to convergence within
+        those steps). "all": every body. "auto" (default): "pulling" when two or more
+        bodies pull under direct gravity, else "all" (a lone star has no dynamics of its
+        own to set a step)
+    softening : float >= 0
+        Plummer softening length [length]
+    gravity
+        "direct" (mutual, bodies of mass 0 or passive feel but do not pull),
+        "tree" (the same, the sum by a Barnes-Hut tree: for thousands of pulling bodies
+        and more, docs/tree.md), "uniform" (a constant field g), "central" (a fixed
+        body central_mass at central_pos; bodies ignore each other), "none"
+    theta
+        the tree's opening angle, 0 < theta <= 1.5 (default 0.5; smaller: more accurate
+        and slower), with gravity="tree"
+    quadrupole
+        the tree's nodes pull with quadrupole moments (default True) or as point
+        masses, with gravity="tree"
+    g : (dim,)
+        uniform field [length / time^2], with gravity="uniform"
+    central_mass, central_pos
+        the fixed body, with gravity="central" (pos defaults to 0)
+    max_substeps : int >= 1
+        most steps one advance() call may take (against the spiral of death)
+    capacity : int
+        initial room for bodies (grows by doubling)
+    seed : int >= 0
+        seeds every random choice (explosions): same seed, same run
+    drag : float >= 0
+        linear drag rate k [1/time]: every body also accelerates by
+        -k (v - wind) (an atmosphere, the seed's wind resistance)
+    wind : (dim,)
+        the air's velocity [length/time] (default 0)
     """
 
     def __init__(self, dim=2, *, units="game", G=None, integrator="leapfrog", dt=1 / 240,

@@ -56,9 +56,10 @@ def test_bad_arguments_exit_2_without_traceback(args, message):
     assert "Traceback" not in res.stderr
 
 
-def _readme_example(tag):
-    """Run the README's python block marked <!-- tag --> as pasted; its output lines."""
-    text = (ROOT / "README.md").read_text()
+def _doc_example(page, tag):
+    """Run the python block marked <!-- tag --> of the repository's file `page` (README.md or
+    a page of docs/) as pasted; its output lines."""
+    text = (ROOT / page).read_text()
     block = re.search(rf"<!-- {tag} -->\s*```python\n(.*?)```", text, re.S).group(1)
     res = subprocess.run([sys.executable, "-c", block], capture_output=True, text=True,
                          cwd=ROOT, timeout=600)
@@ -67,26 +68,26 @@ def _readme_example(tag):
 
 
 def test_readme_quickstart_runs_as_pasted():
-    assert any("energy error" in line for line in _readme_example("quickstart"))
+    assert any("energy error" in line for line in _doc_example("README.md", "quickstart"))
 
 
-def test_readme_collision_example_runs_as_pasted():
-    assert _readme_example("collisions")[0].startswith("bounce 0 1 ")   # the ball hits the brick
+def test_guide_collision_example_runs_as_pasted():
+    assert _doc_example("docs/guide/collisions.md", "collisions")[0].startswith("bounce 0 1 ")   # the ball hits the brick
 
 
-def test_readme_ships_example_runs_as_pasted():
-    lines = _readme_example("ships")
+def test_guide_ships_example_runs_as_pasted():
+    lines = _doc_example("docs/guide/ships.md", "ships")
     assert lines[1].startswith("launch ") and lines[2].startswith("detonation ")
     assert lines[-1].startswith("debris: 50 ")       # the prey's explosion
 
 
-def test_readme_spacewar_loop_runs_as_pasted():
-    lines = _readme_example("spacewar")
+def test_guide_spacewar_loop_runs_as_pasted():
+    lines = _doc_example("docs/guide/game-loop.md", "spacewar")
     assert re.match(r"1200 frames: [\d.]+ ms per frame, \d+ bodies now; score ", lines[-1])
 
 
-def test_readme_runlog_example_runs_as_pasted():
-    lines = _readme_example("runlog")
+def test_runlog_page_example_runs_as_pasted():
+    lines = _doc_example("docs/runlog.md", "runlog")
     # 300 steps / 5 + 100 / 5 + the first = 81 frames; 1 fuel at 1/3 per time: empty at 3
     assert lines[0] == "81 frames; last at t = 3.5"
     assert lines[1] == "fuel burned out at t = [3.]"

@@ -1,0 +1,109 @@
+"""The docs build's own code: an mkdocs hook and a griffe extension (both named in mkdocs.yml).
+
+- The hook makes the Examples page at build time from every file of examples/: each
+  examples/*.py with its whole source (and the files they read, such as salvo.toml, after
+  them), so a script added to examples/ is on the site without editing the docs.
+- PlainDocstrings, for the API reference: the docstrings are plain prose, with arguments on
+  lines of their own ("tof : float > 0, the time of flight [time]", continued on indented
+  lines); Markdown would run those lines into one paragraph, so each becomes an item of a
+  list. A docstring with a numpy section (World's "Parameters") is left to the numpy parser.
+
+mkdocs.yml keeps this file out of the site (`exclude_docs`).
+"""
+import ast
+import re
+from pathlib import Path
+
+import griffe
+from mkdocs.structure.files import File
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+PAGE = "examples.md"
+LANGUAGES = {".py": "python", ".toml": "toml", ".json": "json", ".yml": "yaml",
+             ".yaml": "yaml", ".txt": "text", ".csv": "text"}
+
+
+def _fenced(text, language):
+    """text in a fenced block whose fence is longer than any run of backticks inside it."""
+    longest = max((len(run) for run in re.findall(r"`+", text)), default=0)
+    fence = "`" * max(3, longest + 1)
+    return f"{fence}{language}\n{text.rstrip()}\n{fence}\n"
+
+
+def _anchor(path):
+    return re.sub(r"[^a-z0-9]+", "-", path.name.lower()).strip("-")
+
+
+def _summary(path):
+    """': ' and the first sentence of a script's docstring ('' for other files, or none)."""
+    if path.suffix != ".py":
+        return ""
+    try:
+        doc = ast.get_docstring(ast.parse(path.read_text())) or ""
+    except SyntaxError:
+        return ""
+    first = " ".join(doc.split("\n\n")[0].split())
+    first = re.split(r"(?<=\.)\s", first)[0]
+    return f": {first}" if first else ""
+
+
+def examples_page():
+    scripts = sorted(EXAMPLES.glob("*.py"))
+    others = sorted(p for p in EXAMPLES.iterdir()
+                    if p.is_file() and p.suffix != ".py" and p.suffix in LANGUAGES)
+    lines = ["# Examples", "",
+             "Scripts to copy, from the repository's `examples/` folder. Each runs from the "
+             "repository root as `python examples/NAME.py` (its docstring says how), and "
+             "`tests/test_examples.py` runs them. This page is made from the folder when the "
+             "site is built (`docs/hooks.py`): every script is here, with its whole source.", ""]
+    lines += [f"- [`{p.name}`](#{_anchor(p)})" + _summary(p) for p in scripts + others]
+    lines.append("")
+    for p in scripts:
+        lines += [f"## {p.name} {{#{_anchor(p)}}}", "", _fenced(p.read_text(), "python")]
+    if others:
+        lines += ["## Files the scripts read", ""]
+        for p in others:
+            lines += [f"### {p.name} {{#{_anchor(p)}}}", "",
+                      _fenced(p.read_text(), LANGUAGES[p.suffix])]
+    return "\n".join(lines)
+
+
+def on_files(files, config):
+    files.append(File.generated(config, PAGE, content=examples_page()))
+    return files
+
+
+# "name : what" or "a, b : what" at the start of a docstring's line
+ENTRY = re.compile(r"^([A-Za-z_][\w.]*(?:, [A-Za-z_][\w.]*)*) : ")
+NUMPY_SECTION = re.compile(r"^\s*-{3,}\s*$", re.M)
+
+
+def entries_as_list(text):
+    """A docstring's "name : what" lines (and their indented continuations) as a list."""
+    if NUMPY_SECTION.search(text):
+        return text
+    out, in_list = [], False
+    for line in text.split("\n"):
+        found = ENTRY.match(line)
+        if found:
+            if not in_list and out and out[-1].strip():
+                out.append("")
+            out.append(f"- `{found.group(1)}` : {line[found.end():]}")
+            in_list = True
+        elif in_list and line.startswith(" ") and line.strip():
+            out.append("    " + line.strip())
+        else:
+            if in_list and line.strip():
+                out.append("")
+            in_list = False
+            out.append(line)
+    return "\n".join(out)
+
+
+class PlainDocstrings(griffe.Extension):
+    """Griffe extension: the argument lines of plain-prose docstrings as Markdown lists."""
+
+    def on_instance(self, *, node, obj, agent, **kwargs):
+        if obj.docstring is not None:
+            obj.docstring.value = entries_as_list(obj.docstring.value)

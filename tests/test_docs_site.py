@@ -1,0 +1,69 @@
+"""The documentation site builds from docs/ with no warning, and the README's links lead somewhere.
+
+`mkdocs build --strict` turns every warning into a failure: a broken link or a missing anchor
+(mkdocs.yml's `validation:`), a page left out of the navigation, a snippet of the README that
+is gone, a docstring the API reference cannot read.
+"""
+import html
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+LINK = re.compile(r"!?\[[^\]]*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")   # [t](x), ![a](x)
+IMG = re.compile(r"<img\b[^>]*\bsrc=\"([^\"]+)\"")
+
+
+def build(site):
+    return subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict",
+                           "--config-file", str(ROOT / "mkdocs.yml"), "--site-dir", str(site)],
+                          capture_output=True, text=True, cwd=ROOT, timeout=600)
+
+
+def test_the_site_builds_strict_with_every_page(tmp_path):
+    site = tmp_path / "site"
+    done = build(site)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "WARNING" not in done.stderr, done.stderr
+    for page in ("index.html", "guide/world.html", "performance.html", "api/world.html",
+                 "api/functions.html", "examples.html"):
+        assert (site / page).is_file(), page
+    # the API reference is made from the docstrings
+    world = (site / "api" / "world.html").read_text()
+    assert "advance" in world and "Bodies under gravity" in world
+    # every script of examples/ is on the Examples page, with its source
+    examples = html.unescape((site / "examples.html").read_text())
+    for script in sorted((ROOT / "examples").glob("*.py")):
+        last = [line for line in script.read_text().splitlines() if line.strip()][-1]
+        assert f">{script.name}<" in examples, script.name
+        assert last.strip() in examples, script.name
+    # the home page takes the README's sections (snippets), the commands among them
+    home = (site / "index.html").read_text()
+    assert "python3.11 dev.py test" in home and "--8&lt;--" not in home
+
+
+def readme_targets():
+    text = (ROOT / "README.md").read_text()
+    text = re.sub(r"```.*?```", "", text, flags=re.S)            # code is not a link
+    return LINK.findall(text) + IMG.findall(text)
+
+
+def test_readme_links_and_images_point_at_files_that_exist():
+    targets = readme_targets()
+    assert any(t.endswith(".png") for t in targets)               # the picture
+    assert any(t.startswith("docs/") for t in targets)            # where to go next
+    missing = []
+    for target in targets:
+        if re.match(r"[a-z]+:", target) or target.startswith("#"):
+            continue                                               # a URL, or this page
+        path = ROOT / target.split("#")[0]
+        if not path.exists():
+            missing.append(target)
+    assert not missing, f"README.md links to files that do not exist: {missing}"
+
+
+def test_the_readme_picture_is_small():
+    for target in readme_targets():
+        if target.endswith(".png"):
+            assert (ROOT / target).stat().st_size < 200_000, target
