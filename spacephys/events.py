@@ -31,12 +31,12 @@ EVENT_DTYPE = np.dtype([
 
 Per kind: a collision (bounce, merge, destroy, wall) as described above; sensor_begin and
 sensor_end: a sensor pair starts or stops overlapping, contact_begin and contact_end: an
-elastic or bounce pair starts or stops resting in contact (README, "Begin and end": at the
-moment, the point on a's surface, normal a -> b, speed the closing speed); launch: a the
-missile, b its launcher, the point where it appeared; burnout (the burn time ended) and
-fuel_empty: a the ship or missile, b = -1, at the moment it happened; detonation: a the
-missile, b its target, the point the missile was at, normal toward the target, closing speed,
-distance the miss distance; expiry: a the body whose lifetime ended."""
+elastic or bounce pair starts or stops resting in contact (docs/guide/collisions.md, "Begin
+and end": at the moment, the point on a's surface, normal a -> b, speed the closing speed);
+launch: a the missile, b its launcher, the point where it appeared; burnout (the burn time
+ended) and fuel_empty: a the ship or missile, b = -1, at the moment it happened; detonation:
+a the missile, b its target, the point the missile was at, normal toward the target, closing
+speed, distance the miss distance; expiry: a the body whose lifetime ended."""
 
 
 def kind_name(code):

@@ -1,5 +1,5 @@
 """`spacephys bench queries` (a quick run): every query beside cKDTree gives the same answers;
-the figures themselves are the benchmark's (README)."""
+the figures themselves are the benchmark's (docs/performance.md)."""
 from spacephys.study import bench, querybench
 
 

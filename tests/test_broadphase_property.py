@@ -190,7 +190,7 @@ def make_scene(seed, dim, n, periodic, cell, n_giants, n_fast, n_edge, n_touch, 
 
 
 def documented_default_cell(radius):
-    """The default cell as README.md describes it: the largest diameter, once the giants (the
+    """The default cell as docs/guide/collisions.md describes it: the largest diameter, once the giants (the
     bodies above the widest gap, at least 2x in radius, among the 65 largest) are set aside.
     Only used to keep the scenes' grids small (fit_grid_budget), never as an expectation.
     Returns (cell, giant flags)."""

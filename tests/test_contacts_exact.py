@@ -90,7 +90,7 @@ def test_elastic_bounces_in_a_uniform_field_keep_the_energy_and_the_analytic_tim
     most the chord's sag per crossing, (2k+1) g dt^2 / (8 v*) (measured 0.97, 0.91, 0.77 of
     it), with the impact speed v* = g t* to g dt^2 / 8 / v* * g (measured 0.97 of it). The
     first contact also lands where the chord crosses the touching height, to 1e-12 (measured
-    2e-16 in time, 1.3e-15 in speed): the model the README documents."""
+    2e-16 in time, 1.3e-15 in speed): the model docs/guide/collisions.md documents."""
     dt, h = 1 / 240, 1.0
     w, ball = uniform_drop(h, dt, target=target)
     t_star = math.sqrt(2 * h / G0)

@@ -68,7 +68,7 @@ def test_a_small_scene_never_starts_the_thread_pool():
 
 def test_the_openmp_threads_spin_briefly_unless_the_user_says_otherwise():
     """spacephys sets GNU OpenMP's spin count before numba loads it (long spinning beside a
-    busy process costs the step's serial part: README, threads), and keeps a user's value."""
+    busy process costs the step's serial part: docs/performance.md, threads), and keeps a user's value."""
     import os
     import subprocess
     import sys
