@@ -68,6 +68,27 @@ def _plot(args):
     return 0
 
 
+def _play(args):
+    from .game import loop, make_mode
+    if args.replay is not None:
+        result, frames = loop.replay(args.replay, headless=args.headless,
+                                     screenshot=args.screenshot)
+        if result is None:
+            print(f"replay of {args.replay} stopped after {frames} frames")
+            return 0
+        print(f"replay of {args.replay}: {frames} frames drawn; {result.message}")
+        return 0 if result.ok else 1
+    mode = make_mode(args.mode, players=args.players, seed=args.seed)
+    done = loop.play(mode, frames=args.frames, headless=args.headless, record=args.record,
+                     screenshot=args.screenshot)
+    print("\n".join(line for line in mode.hud() if line))
+    median = lambda ms: float(sorted(ms)[len(ms) // 2]) if len(ms) else 0.0
+    print(f"{done.frames} frames; physics and pilots {median(done.physics_ms):.2f} ms, "
+          f"the whole frame {median(done.frame_ms):.2f} ms a frame (median)"
+          + (f"; recorded in {args.record}" if args.record else ""))
+    return 0
+
+
 def _bench(args):
     from .study import bench
     if args.what == "peers":
@@ -174,7 +195,7 @@ def main(argv=None):
     bench = sub.add_parser("bench", help="benchmark side by side with REBOUND")
     bench.add_argument("what", choices=["gravity", "integrators", "collisions", "fleet", "log",
                                         "tradeoff", "peers", "memory", "models", "overhead",
-                                        "predict", "tree", "queries", "sweep"])
+                                        "predict", "tree", "queries", "sweep", "play"])
     bench.add_argument("--out", default="tradeoff", metavar="DIR",
                        help="tradeoff, peers: where the CSV, JSON and plots go (default ./tradeoff)")
     bench.add_argument("--quick", action="store_true", help="fewer repeats, smaller cases")
@@ -198,6 +219,22 @@ def main(argv=None):
     sw.add_argument("--logs", metavar="DIR", help="a run log per run, in DIR")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
     sw.set_defaults(func=_sweep)
+
+    pl = sub.add_parser("play", help="play: Spacewar! (duel), orbit (predicted paths, time "
+                                     "warp) or arena (ten ships); needs pygame-ce")
+    pl.add_argument("mode", nargs="?", default="duel", choices=["duel", "orbit", "arena"])
+    pl.add_argument("--players", type=int, default=1,
+                    help="players at the keyboard; the computer flies the other ships "
+                         "(duel: 0-2, orbit and arena: 0-1; default 1)")
+    pl.add_argument("--seed", type=int, default=0)
+    pl.add_argument("--record", metavar="MATCH.h5", help="record the match (a run log)")
+    pl.add_argument("--replay", metavar="MATCH.h5",
+                    help="replay a recorded match, bit for bit, and say so")
+    pl.add_argument("--frames", type=int, help="stop after this many frames")
+    pl.add_argument("--headless", action="store_true",
+                    help="no window (SDL's dummy video driver), fixed frame time, no waiting")
+    pl.add_argument("--screenshot", metavar="PNG", help="save the last frame")
+    pl.set_defaults(func=_play)
 
     val = sub.add_parser("validate", help="every integrator on the reference problems, "
                                           "against REBOUND IAS15")

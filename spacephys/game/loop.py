@@ -12,6 +12,7 @@ from .modes import KEYS, Watch
 
 
 def _pygame(headless):
+    os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")    # (its banner on stdout)
     if headless:
         os.environ["SDL_VIDEODRIVER"] = "dummy"      # no window: frames drawn off screen
     try:

@@ -575,6 +575,9 @@ def format_table(results):
     if results["benchmark"] == "sweep":
         from .sweepbench import format_sweep
         return format_sweep(results)
+    if results["benchmark"] == "play":
+        from .playbench import format_play
+        return format_play(results)
     lines = [f"{results['benchmark']} benchmark on {results['machine']} "
              f"({results['numba_threads']} numba threads; {results['versions']})",
              f"{'case':40s} {'spacephys':>14s} {'REBOUND':>14s} {'speed-up':>9s} "
@@ -729,7 +732,12 @@ def _sweep(quick=False):
     return sweep_bench(quick)
 
 
+def _play(quick=False):
+    from .playbench import play_bench
+    return play_bench(quick)
+
+
 BENCHMARKS = {"gravity": gravity, "integrators": integrators, "collisions": collisions,
               "fleet": fleet, "log": log, "memory": memory, "models": models,
               "overhead": _overhead, "predict": _predict, "tree": _tree, "queries": _queries,
-              "sweep": _sweep}
+              "sweep": _sweep, "play": _play}

@@ -1,0 +1,197 @@
+"""Orbit: a ship about a planet with a moon, steered by its predicted path (w.predict: the
+path, its apsides, the closest approach to a station to rendezvous with), a HUD of its
+orbital elements, fuel and delta-v, and time warp from x1 to x1000 whose integrator and step
+are what sp.recommend measures for that warp."""
+import math
+import threading
+
+import spacephys as sp
+
+from .modes import Mode, orbit_speed
+from .pilot import Pilot
+
+PLANET_MASS, PLANET_RADIUS = 4e5, 40.0       # G = 1
+SHIP_ORBIT, STATION_ORBIT, MOON_ORBIT = 120.0, 200.0, 600.0
+WARPS = (1, 10, 100, 1000)
+ERROR = 1e-6               # the orbit error sp.recommend is asked for at every warp...
+SESSION = 300.0            # ...over this much play [s of wall time] at that warp
+FRAME_BUDGET = 2e-3        # [s] of physics a frame (spacephys bench play)
+RENDEZVOUS = (8.0, 1.0)    # within this distance and relative speed of the station
+
+
+def _circular(w, mass, distance, angle, **kw):
+    """A body on a circular orbit of `distance` about the planet, `angle` [rad] along it."""
+    v = orbit_speed(PLANET_MASS, distance)
+    return w.add_body(mass, (distance * math.cos(angle), distance * math.sin(angle)),
+                      (-v * math.sin(angle), v * math.cos(angle)), **kw)
+
+
+class Orbit(Mode):
+    name = "orbit"
+    players_allowed = (0, 1)
+    keys = (("W", "thrust"), ("A D", "turn"), (", .", "time warp"),
+            ("H", "Hohmann transfer to the station's orbit"), ("M", "match its velocity"),
+            ("esc", "quit"))
+
+    def build(self):
+        w = sp.World(dim=2, dt=1 / 60, integrator="leapfrog", seed=self.seed)
+        self.planet = w.add_body(PLANET_MASS, (0, 0), radius=PLANET_RADIUS, kind="planet")
+        self.moon = _circular(w, 2e3, MOON_ORBIT, 0.0, radius=12, kind="moon")
+        w.add_kind("station")
+        self.station = _circular(w, 0.0, STATION_ORBIT, math.radians(100), radius=4,
+                                 kind="station")
+        self.hull = sp.ShipSpec(dry_mass=10, fuel_mass=5, max_thrust=20, exhaust_speed=100,
+                                turn_rate=2, radius=3)
+        v = orbit_speed(PLANET_MASS, SHIP_ORBIT)
+        self.start_state = ((SHIP_ORBIT, 0.0), (0.0, v), math.pi / 2)
+        self.ship = w.add_ship(self.hull, *self.start_state)
+        w.set_collision("ship", "planet", "destroy_a")
+        w.set_collision("ship", "moon", "destroy_a")
+        self.prediction = None
+        self._pending = None               # the prediction running on its thread
+        self._predicted = -10              # the frame it started
+        self.met = False
+        self.choices = {}                  # warp -> sp.Recommendation, once measured
+        self.wanted = 1
+        return w
+
+    def start(self):
+        self.pilot = Pilot(self, self.ship, sp.MissileSpec(mass=0.01), hazards=("planet",))
+        self.planned = False
+        # sp.recommend measures on copies for a few seconds a warp: on a thread, while the
+        # game runs (the kernels release the GIL); a warp asked for before is applied then
+        copy = self.world.copy()
+        self._chooser = threading.Thread(target=self._choose, args=(copy,), daemon=True)
+        self._chooser.start()
+
+    def _choose(self, copy):
+        for warp in WARPS:
+            self.choices[warp] = sp.recommend(
+                copy, ERROR, budget=FRAME_BUDGET / (warp * self.frame_time),
+                duration=SESSION * warp)
+
+    def wait_for_choices(self, timeout=None):
+        """Block until sp.recommend has chosen for every warp (tests, benchmarks)."""
+        self._chooser.join(timeout)
+        return not self._chooser.is_alive()
+
+    def _set_warp(self):
+        choice = self.choices.get(self.wanted)
+        if choice is None or self.warp == self.wanted and self.world.dt == choice.dt:
+            return
+        w = self.world
+        choice.apply(w)
+        # the steps of a frame at this warp, and one more for the accumulator's remainder
+        w.max_substeps = math.ceil(self.wanted * self.frame_time / w.dt) + 1
+        self.warp = self.wanted
+
+    def controls(self, held, pressed):
+        w = self.world
+        if "." in pressed:
+            self.wanted = WARPS[min(WARPS.index(self.wanted) + 1, len(WARPS) - 1)]
+        if "," in pressed:
+            self.wanted = WARPS[max(WARPS.index(self.wanted) - 1, 0)]
+        self._set_warp()
+        if self.ship not in w:
+            self.ship = w.add_ship(self.hull, *self.start_state)
+            self.pilot.ship = self.ship
+            self.planned = False
+            self.message = "a new ship"
+            return
+        if self.players == 0:                              # the computer's flight
+            if not self.planned:
+                self.pilot.transfer(STATION_ORBIT)
+                self.planned = True
+            elif not w.planned(self.ship) and self._distance() < 40.0:
+                self.pilot.match(self.station)
+        else:
+            if "h" in pressed:
+                burns = self.pilot.transfer(STATION_ORBIT)
+                self.message = (f"Hohmann transfer planned: burns at t = "
+                                f"{burns[0].start:.1f} and {burns[1].start:.1f}")
+            if "m" in held:
+                self.pilot.match(self.station)
+            elif not w.planned(self.ship):
+                self.human(0, self.ship, held)
+        self._predict()
+
+    def _distance(self):
+        w = self.world
+        i, j = w.index_of(self.ship), w.index_of(self.station)
+        return math.dist(w.pos[i], w.pos[j])
+
+    def _predict(self):
+        """The path ahead, on a worker thread (w.predict_async: the frame pays only for the
+        state it takes, 0.2-1.3 ms, not the 1.5-10 ms of the prediction): the last one
+        finished is drawn, a new one starts when it is done, at most every 10 frames."""
+        w = self.world
+        if self._pending is not None:
+            if not self._pending.done():
+                return
+            self.prediction = self._pending.result()
+            self._pending = None
+        if self.frame - self._predicted < 10:
+            return
+        el = w.elements(self.ship, about=self.planet)
+        horizon = min(1.2 * el.period, 200.0) if el.e < 1 else 60.0
+        horizon = max(horizon, 3 * self.warp * self.frame_time)
+        self._pending = w.predict_async(self.ship, horizon, points=240, target=self.station)
+        self._predicted = self.frame
+
+    def finish_prediction(self):
+        """Wait for the prediction running, if any, and draw it (tests, screenshots)."""
+        if self._pending is not None:
+            self.prediction = self._pending.result()
+            self._pending = None
+
+    def after(self, events):
+        w = self.world
+        for e in events:
+            if e["kind"] == sp.events.DESTROY and e["a"] == self.ship:
+                self.message = f"the ship crashed at t = {e['time']:.1f}"
+        if self.ship in w and not self.met:
+            i, j = w.index_of(self.ship), w.index_of(self.station)
+            speed = math.dist(w.vel[i], w.vel[j])
+            if self._distance() < RENDEZVOUS[0] and speed < RENDEZVOUS[1]:
+                self.met = True
+                self.message = f"rendezvous with the station at t = {w.t:.1f}"
+
+    def hud(self):
+        w = self.world
+        lines = [f"orbit  t = {w.t:9.1f}   warp x{self.warp}"
+                 + ("" if self.wanted == self.warp else f" (x{self.wanted}: sp.recommend "
+                                                         f"is measuring)")
+                 + f"   {w.integrator}, dt {w.dt:.4g}"
+                 + ("" if self.warp not in self.choices or self.choices[self.warp].met else
+                    f" (the closest to {ERROR:g} within the frame budget: "
+                    f"{self.choices[self.warp].error:.1g})")]
+        if self.ship in w:
+            el = w.elements(self.ship, about=self.planet)
+            lines.append(f"a {el.a:8.1f}   e {el.e:.4f}   periapsis {el.pericentre - PLANET_RADIUS:7.1f}"
+                         f"   apoapsis {el.apocentre - PLANET_RADIUS:7.1f}   period {el.period:6.1f}")
+            lines.append(f"fuel {w.fuel(self.ship):5.2f}   delta-v {w.delta_v(self.ship):6.2f}")
+            line = f"station: distance {self._distance():7.1f}"
+            if self.prediction is not None and self.prediction.approaches:
+                a = self.prediction.approaches[0]
+                line += f"   closest approach {a.distance:6.1f} in {a.t - w.t:6.1f}"
+            lines.append(line)
+        lines.append(self.message)
+        return lines
+
+    def overlay(self):
+        p = self.prediction
+        if p is None or self.ship not in self.world:
+            return {"paths": [], "markers": []}
+        markers = [(a.pos[:2], (255, 255, 120), "Pe" if a.kind == "pericentre" else "Ap")
+                   for a in p.apsides]
+        for a in p.approaches:
+            k = min(range(len(p.t)), key=lambda q: abs(p.t[q] - a.t))
+            markers.append((p.pos[0, k], (150, 255, 150), f"closest {a.distance:.1f}"))
+        return {"paths": [(p.pos[0], (120, 160, 255))], "markers": markers}
+
+    def camera(self, drawn):
+        w = self.world
+        reach = STATION_ORBIT
+        if self.ship in w:
+            reach = max(reach, math.hypot(*w.pos[w.index_of(self.ship)][:2]))
+        return w.pos[w.index_of(self.planet)][:2], 1.25 * reach
