@@ -34,6 +34,7 @@ class Played:
     draw_ms: np.ndarray
     frame_ms: np.ndarray
     quit: bool = False
+    alpha: float = 0.0            # the last frame's (World.advance's), as it was drawn
 
 
 def _watched(mode):
@@ -73,7 +74,7 @@ def play(mode, *, frames=None, script=None, headless=False, record=None, record_
             codes[name] = pygame.key.key_code(name)
         except ValueError:
             pass
-    held, times, frame, quit = set(), [], 0, False
+    held, times, frame, quit, alpha = set(), [], 0, False, 0.0
     try:
         while frames is None or frame < frames:
             start = time.perf_counter()
@@ -115,7 +116,7 @@ def play(mode, *, frames=None, script=None, headless=False, record=None, record_
             pygame.image.save(screen, str(screenshot))
         pygame.display.quit()
     t = 1e3 * np.array(times).reshape(-1, 3)
-    return Played(frame, t[:, 0], t[:, 1], t[:, 2], quit)
+    return Played(frame, t[:, 0], t[:, 1], t[:, 2], quit, alpha)
 
 
 class _Stop(Exception):

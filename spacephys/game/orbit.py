@@ -3,7 +3,9 @@ path, its apsides, the closest approach to a station to rendezvous with), a HUD 
 orbital elements, fuel and delta-v, and time warp from x1 to x1000 whose integrator and step
 are what sp.recommend measures for that warp."""
 import math
+import queue
 import threading
+import time
 
 import spacephys as sp
 
@@ -14,7 +16,7 @@ PLANET_MASS, PLANET_RADIUS = 4e5, 40.0       # G = 1
 SHIP_ORBIT, STATION_ORBIT, MOON_ORBIT = 120.0, 200.0, 600.0
 WARPS = (1, 10, 100, 1000)
 ERROR = 1e-6               # the orbit error sp.recommend is asked for at every warp...
-SESSION = 300.0            # ...over this much play [s of wall time] at that warp
+SESSION = 60.0             # ...over this much play [s of wall time] at that warp
 FRAME_BUDGET = 2e-3        # [s] of physics a frame (spacephys bench play)
 RENDEZVOUS = (8.0, 1.0)    # within this distance and relative speed of the station
 
@@ -52,28 +54,48 @@ class Orbit(Mode):
         self._predicted = -10              # the frame it started
         self.met = False
         self.choices = {}                  # warp -> sp.Recommendation, once measured
+        self._requested = set()
         self.wanted = 1
         return w
 
     def start(self):
         self.pilot = Pilot(self, self.ship, sp.MissileSpec(mass=0.01), hazards=("planet",))
         self.planned = False
-        # sp.recommend measures on copies for a few seconds a warp: on a thread, while the
-        # game runs (the kernels release the GIL); a warp asked for before is applied then
-        copy = self.world.copy()
-        self._chooser = threading.Thread(target=self._choose, args=(copy,), daemon=True)
+        # sp.recommend measures on a copy for seconds (x1: 2-5 s, x1000: about a minute): on
+        # a thread, while the game runs (the kernels release the GIL), each warp the first
+        # time it is asked for; until then the HUD says so and the warp stays
+        self._asked = queue.Queue()
+        self._chooser = threading.Thread(target=self._choose, args=(self.world.copy(),),
+                                         daemon=True)
         self._chooser.start()
+        self._ask(1)
+
+    def _ask(self, warp):
+        if warp not in self.choices and warp not in self._requested:
+            self._requested.add(warp)
+            self._asked.put(warp)
 
     def _choose(self, copy):
-        for warp in WARPS:
+        while (warp := self._asked.get()) is not None:
             self.choices[warp] = sp.recommend(
                 copy, ERROR, budget=FRAME_BUDGET / (warp * self.frame_time),
                 duration=SESSION * warp)
 
-    def wait_for_choices(self, timeout=None):
-        """Block until sp.recommend has chosen for every warp (tests, benchmarks)."""
-        self._chooser.join(timeout)
-        return not self._chooser.is_alive()
+    def wait_for_choice(self, warp, timeout=None):
+        """Ask for `warp` and block until sp.recommend has chosen for it (tests,
+        benchmarks); whether it has."""
+        self._ask(warp)
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while warp not in self.choices and self._chooser.is_alive():
+            if deadline is not None and time.monotonic() > deadline:
+                break
+            time.sleep(0.05)
+        return warp in self.choices
+
+    def close(self):
+        """Stop the measuring thread (after the warp it is measuring, if any)."""
+        self._asked.put(None)
+        self._chooser.join()
 
     def _set_warp(self):
         choice = self.choices.get(self.wanted)
@@ -91,6 +113,7 @@ class Orbit(Mode):
             self.wanted = WARPS[min(WARPS.index(self.wanted) + 1, len(WARPS) - 1)]
         if "," in pressed:
             self.wanted = WARPS[max(WARPS.index(self.wanted) - 1, 0)]
+        self._ask(self.wanted)
         self._set_warp()
         if self.ship not in w:
             self.ship = w.add_ship(self.hull, *self.start_state)
