@@ -51,8 +51,10 @@ def _candidates(world, kinds, mask):
     if kinds is None and mask is None:
         return np.arange(world.n, dtype=np.int64)
     ok = np.ones(world.n, bool)
-    if kinds is not None:
-        ok &= np.isin(world.kind, kinds)
+    if kinds is not None:                  # a table by code: np.isin sorts, 10x the time
+        wanted = np.zeros(len(world.kinds), bool)
+        wanted[np.asarray(kinds, dtype=np.int64)] = True
+        ok &= wanted[world.kind]
     if mask is not None:
         if isinstance(mask, (bool, np.bool_)) or not isinstance(mask, (int, np.integer)):
             raise ValueError(f"mask = {mask!r}: expected an integer of category bits")

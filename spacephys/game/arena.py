@@ -70,19 +70,25 @@ class Arena(Mode):
         return Pilot(self, self.slots[k], self.warhead, hazards=("planet",), reload=0.6,
                      salvo=4, spread=0.5, magazine=40, range=1200.0)
 
-    def _enemy(self, ship):
-        """The nearest ship of the other side (w.nearest over the ships), or None."""
+    def _enemies(self):
+        """{ship: the nearest ship of the other side, or None}, for every live ship: one
+        batched w.nearest over the ships."""
         w = self.world
-        i = w.index_of(ship)
-        ids, _ = w.nearest(w.pos[i], k=SHIPS, kinds=["ship"])
-        for other in ids[0]:
-            other = int(other)
-            if other >= 0 and other != ship and self.side.get(other) != self.side[ship]:
-                return other
-        return None
+        ships = [s for s in self.slots if s in w]
+        if not ships:
+            return {}
+        ids, _ = w.nearest(w.pos[[w.index_of(s) for s in ships]], k=SHIPS, kinds=["ship"])
+        out = {}
+        for q, ship in enumerate(ships):
+            out[ship] = next((int(o) for o in ids[q] if o >= 0 and o != ship and
+                              self.side.get(int(o)) != self.side[ship]), None)
+        return out
 
     def controls(self, held, pressed):
         w = self.world
+        enemies = self._enemies()
+        flying = [p for p in self.pilots if p is not None]
+        hits = dict(zip(map(id, flying), Pilot.look(flying)))
         for k in range(SHIPS):
             ship = self.slots[k]
             if ship not in w:
@@ -93,10 +99,10 @@ class Arena(Mode):
                         self.pilots[k] = self._pilot(k)
                 continue
             if self.pilots[k] is not None:
-                self.pilots[k].fly(self._enemy(ship))
+                self.pilots[k].fly(enemies[ship], hit=hits.get(id(self.pilots[k])))
             else:                                        # the player: slot 0
                 fire = self.human(0, ship, held)
-                enemy = self._enemy(ship)
+                enemy = enemies[ship]
                 if fire and "space" in pressed and enemy is not None:
                     for j in range(4):
                         w.launch(ship, self.warhead, target=enemy,

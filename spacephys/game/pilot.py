@@ -60,9 +60,29 @@ class Pilot:
             d = d - size * np.round(d / size)
         return d
 
-    def fly(self, target):
+    @staticmethod
+    def look(pilots):
+        """What each pilot's ship would meet of its hazards over its lookahead (one batched
+        w.shapecast for all: a query costs its call, not its rays): a list of RayHits rows
+        (None for a ship that is gone or at rest), for fly(..., hit=)."""
+        if not pilots:
+            return []
+        w = pilots[0].mode.world
+        flying = [p for p in pilots if p.ship in w and p.hazards]
+        out = {}
+        if flying:
+            rows = [w.index_of(p.ship) for p in flying]
+            move = w.vel[rows] * np.array([[p.lookahead] for p in flying])
+            moving = np.flatnonzero(np.abs(move).sum(axis=1) > 0)
+            if moving.size:
+                hits = w.shapecast([flying[k].ship for k in moving], move[moving],
+                                   kinds=flying[0].hazards, walls=False)
+                out = {id(flying[k]): hits[q] for q, k in enumerate(moving)}
+        return [out.get(id(p)) for p in pilots]
+
+    def fly(self, target, hit=False):
         """One frame: the ship's controls, and launches at `target` (an id, or None); returns
-        the ids launched."""
+        the ids launched. hit : this ship's row of Pilot.look (False: look alone)."""
         w = self.mode.world
         ship = self.ship
         if ship not in w:
@@ -71,12 +91,12 @@ class Pilot:
         p, v = w.pos[i].copy(), w.vel[i].copy()
         heading = w.heading(ship)
         aim, thrust = None, 0.0
-        if self.hazards and v @ v > 0:              # falling into something: climb out
-            hit = w.shapecast(ship, v * self.lookahead, kinds=self.hazards, walls=False)[0]
-            if hit.ids.size:                        # (the normal points away from it)
-                away = hit.normals[0] + v / math.sqrt(v @ v)
-                aim = math.atan2(away[1], away[0])
-                thrust = 1.0
+        if hit is False:
+            hit = Pilot.look([self])[0]
+        if hit is not None and hit.ids.size:        # falling into something: climb out
+            away = hit.normals[0] + v / math.sqrt(v @ v)     # (the normal points away)
+            aim = math.atan2(away[1], away[0])
+            thrust = 1.0
         launched = []
         if target is not None and target in w:
             j = w.index_of(target)
