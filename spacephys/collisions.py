@@ -10,11 +10,6 @@ from .kernels.arrays import largest
 from .kernels.codes import (BOUNDARIES, BREAK_A, BREAK_B, BOUNCE, IGNORE, MIRRORED, OPEN,
                             PLANE, RESPONSES, SEGMENT)
 
-# the grid leaves out kinds that meet nothing of their own (debris) when they are at least
-# this many and this many times the rest: their bodies look the grid up instead (collide.py)
-LOOSE_MIN = 16
-LOOSE_RATIO = 2
-
 
 def _restitution(value):
     value = check.scalar("restitution", value, minimum=0.0)
@@ -188,25 +183,6 @@ class CollisionRules:
         biggest = ordered[giants] if giants < ordered.size else 0.0
         return np.sort(rows[:giants]).astype(np.int64), 2.0 * biggest if biggest > 0 else 1.0
 
-    def loose_kinds(self, counts):
-        """(K,) bool: the kinds left out of the grid, whose bodies look up the grid's cells
-        instead: kinds that ignore themselves and each other (debris), largest first, when
-        together they number at least LOOSE_MIN bodies and LOOSE_RATIO times the rest (5e4
-        debris among 2 200 ships and missiles: 5e4 entries made, sorted and scanned each
-        step for pairs among 2 200). counts (K,): the bodies of each kind in the grid. None
-        when the user set the cell (every body in the grid)."""
-        chosen = np.zeros(counts.size, bool)
-        if self.cell is not None:
-            return chosen
-        ignores = (self.response == IGNORE) & (self.response.T == IGNORE)
-        for k in np.argsort(-counts, kind="stable"):
-            if counts[k] > 0 and ignores[k, k] and ignores[k, chosen].all():
-                chosen[k] = True
-        many, rest = counts[chosen].sum(), counts[~chosen].sum()
-        if many < LOOSE_MIN or many < LOOSE_RATIO * rest:
-            chosen[:] = False
-        return chosen
-
     def table(self, kind, radius, category, mask, fixed, owner, dim, index, scratch):
         """The collision pass's Rules for the bodies (n,) columns given (shared), or None
         when nothing can collide. owner : (n,) int64 launcher rows of unarmed missiles;
@@ -226,9 +202,6 @@ class CollisionRules:
         needs = meets.any(axis=1)
         if not needs.all():
             gridded &= needs[kind]
-        loose = self.loose_kinds(counts * needs)
-        if loose.any():
-            gridded &= ~loose[kind]
         return collide.make(kind, radius, category, mask, fixed, self.response,
                             self.restitution, self.walls, self.boundary, self.box,
                             self.box_restitution, cell, dim, owner, giants, gridded, index,

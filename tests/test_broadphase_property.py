@@ -30,16 +30,14 @@ import itertools
 import math
 from decimal import Decimal, localcontext
 
-import numba
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import spacephys as sp
 # The grid under test, called directly by the broad-phase tests (their scenes' tables come from
 # World.tables()). The reference does not use it, nor anything else of spacephys.kernels.
-from spacephys.collisions import LOOSE_MIN
 from spacephys.kernels.collide import candidate_pairs
 
 EPS = 2.0 ** -52
@@ -684,52 +682,6 @@ def test_candidate_pairs_hold_every_pair_whose_swept_discs_overlap(scene, seed):
     missed = sorted(must - set(got))
     assert not missed, f"swept discs overlap but the grid misses {missed}\n" + \
         describe(scene, np.ones(scene.n, bool), [], [], {}, {})
-
-
-@numba.njit
-def _gridded(rules):
-    return rules.gridded.copy()
-
-
-@st.composite
-def loose_scenes(draw):
-    """Scenes whose most numerous kind (0, "debris") ignores itself and meets kind 1: the
-    grid leaves it out (collisions.LOOSE_MIN, LOOSE_RATIO) and its bodies look the grid up."""
-    scene = draw(scenes(["ignore", "sensor", "elastic", "destroy_both"], n_max=90))
-    assume(scene.n >= 3 * LOOSE_MIN // 2 and scene.cell is None)
-    rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
-    kinds = max(2, int(scene.kind.max()) + 1)
-    scene.kind = np.where(rng.random(scene.n) < 0.8, 0, rng.integers(1, kinds, scene.n))
-    scene.rules = {k: v for k, v in scene.rules.items() if k != (0, 0)}
-    scene.rules[(0, 1)] = (draw(st.sampled_from(["sensor", "destroy_both", "elastic"])), None)
-    return scene
-
-
-@settings(max_examples=200, **PROFILE)
-@given(scene=loose_scenes(), seed=st.integers(0, 2 ** 32 - 1))
-def test_bodies_left_out_of_the_grid_find_every_partner(scene, seed):
-    # debris among few ships: the grid holds the few, each debris looks up its cells
-    w, _ = build_world(scene)
-    gridded = _gridded(w.tables().rules)
-    loose = ~gridded & (scene.kind == 0)
-    assume(loose.sum() >= LOOSE_MIN)
-    got, must, allowed, _ = broad_phase_case(scene, seed)
-    assert len(set(got)) == len(got), "a pair reported twice"
-    assert all(i < j for i, j in got)
-    assert set(got) <= allowed, f"not allowed, or dead: {sorted(set(got) - allowed)}"
-    missed = sorted(must - set(got))
-    assert not missed, f"swept discs overlap but the grid misses {missed}\n" + \
-        describe(scene, np.ones(scene.n, bool), [], [], {}, {})
-
-
-@settings(max_examples=80, **PROFILE)
-@given(scene=loose_scenes())
-def test_bodies_left_out_of_the_grid_collide_as_the_brute_force_says(scene):
-    # contacts in time order, lines changed by bounces: later passes build the grid anew
-    w, _ = build_world(scene)
-    assume((~_gridded(w.tables().rules) & (scene.kind == 0)).sum() >= LOOSE_MIN)
-    keep, ref, events, optional = reference_step(scene)
-    check_step(scene, keep, ref, events, optional)
 
 
 @settings(max_examples=80, **PROFILE)

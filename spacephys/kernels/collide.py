@@ -648,59 +648,24 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     for j in range(n):
         loose[j] = alive[j] and not gridded[j]
     loose[giants] = False                              # ...that are no giants
-    hunts = _hunting(alive, rules)
-    if not loose.any() or (giants.size == 0 and not hunts.any()):
+    if giants.size == 0 or not loose.any():
         return pairs[:m], grid                         # (a duel's star and ships: no grid)
-    # the loose bodies look up the giants (in a grid of theirs) and, when their kind meets
-    # a kind in the grid (debris and missiles), the grid's cells their box covers
     ggrid = _giants_grid(giants, alive, lo, hi, rules, L)
     table = _key_table(ggrid[0])
-    mtable = _key_table(keys) if hunts.any() else nothing
     for j in range(n):
         if not loose[j]:
             continue
-        count = 0
-        if giants.size:
-            count = _grid_meets(j, ggrid, table, lo, hi, L, alive, none, near, work)
-            if count < 0:                              # a box over too many cells: all
-                count = 0
-                for p in range(giants.size):
-                    if alive[giants[p]] and _boxes_meet(lo, hi, min(j, giants[p]),
-                                                         max(j, giants[p]), L):
-                        near[count] = giants[p]
-                        count += 1
-        if hunts[kind[j]]:
-            more = _grid_meets(j, grid, mtable, lo, hi, L, alive, none, near[count:], work)
-            if more < 0:                               # a box over too many cells: all
-                for i in range(n):
-                    if gridded[i] and alive[i] and i != j and \
-                            _boxes_meet(lo, hi, min(i, j), max(i, j), L):
-                        near[count] = i
-                        count += 1
-            else:
-                count += more
+        count = _grid_meets(j, ggrid, table, lo, hi, L, alive, none, near, work)
+        if count < 0:                                  # a box over too many cells: all
+            count = 0
+            for p in range(giants.size):
+                if alive[giants[p]] and _boxes_meet(lo, hi, min(j, giants[p]),
+                                                     max(j, giants[p]), L):
+                    near[count] = giants[p]
+                    count += 1
         if count:
             m, pairs = _append(j, near, count, rules, kind, pairs, m)
     return pairs[:m], grid
-
-
-@kernel
-def _hunting(alive, rules):
-    """(K,) bool: the kinds that meet a kind with live bodies in the grid (the loose bodies
-    of these kinds look the grid up)."""
-    K = rules.response.shape[0]
-    in_grid = np.zeros(K, np.bool_)
-    kind, gridded = rules.kind, rules.gridded
-    for j in range(kind.size):
-        if alive[j] and gridded[j]:
-            in_grid[kind[j]] = True
-    hunts = np.zeros(K, np.bool_)
-    for a in range(K):
-        for b in range(K):
-            if in_grid[b] and (rules.response[a, b] != IGNORE or
-                               rules.response[b, a] != IGNORE):
-                hunts[a] = True
-    return hunts
 
 
 @kernel
@@ -815,14 +780,6 @@ def focused_pairs(A, B, tb, alive, rules, lo, hi, focus, in_focus, stale, change
     _bounds(A, B, tb, rules.radius, alive, lo, hi, focus)
     if focus.size * changed.size > 4 * n + 4096:
         return np.empty((0, 2), np.int64), False
-    # loose bodies that meet the grid's kinds are in no grid a focus body could look up:
-    # a new pass of the whole broad phase (rare: debris die or pass by, their lines stay)
-    hunts = _hunting(alive, rules)
-    if hunts.any():
-        gridded, kind = rules.gridded, rules.kind
-        for j in range(n):
-            if alive[j] and not gridded[j] and not is_giant[j] and hunts[kind[j]]:
-                return np.empty((0, 2), np.int64), False
     near = np.empty(n, np.int64)
     found = np.empty(4 * focus.size + 64, np.int64)    # i * n + j: sorted at the end
     m = _focused(alive, rules, lo, hi, focus, in_focus, stale, changed, grid, is_giant, found,
