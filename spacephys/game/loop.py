@@ -24,6 +24,15 @@ def _pygame(headless):
     return pygame
 
 
+def _window(headless, size, caption):
+    """(pygame, the window's surface, a View of it, a Clock)."""
+    pygame = _pygame(headless)
+    from .view import View
+    screen = pygame.display.set_mode(size)
+    pygame.display.set_caption(caption)
+    return pygame, screen, View(screen), pygame.time.Clock()
+
+
 @dataclasses.dataclass
 class Played:
     """What a run of the loop did: frames drawn, and per frame the milliseconds of physics
@@ -55,13 +64,8 @@ def play(mode, *, frames=None, script=None, headless=False, record=None, record_
     otherwise by the mode's frame_time. record : a run log path (World.record) of the whole
     match, a frame of positions every `record_every` steps (default: about 10 a second).
     screenshot : a PNG of the last frame. Returns Played."""
-    pygame = _pygame(headless)
-    from .view import View
-    screen = pygame.display.set_mode(size)
-    pygame.display.set_caption(f"spacephys play {mode.name}")
-    view = View(screen)
+    pygame, screen, view, clock = _window(headless, size, f"spacephys play {mode.name}")
     realtime = (not headless) if realtime is None else realtime
-    clock = pygame.time.Clock()
     w = mode.world
     log = None
     if record is not None:
@@ -128,13 +132,8 @@ def replay(path, *, headless=False, size=(960, 720), realtime=None, screenshot=N
     for bit with what was recorded) and draw it after each advance() or step(). Returns
     (sp.ReplayResult, frames drawn); closing the window stops it (result None)."""
     import spacephys as sp
-    pygame = _pygame(headless)
-    from .view import View
-    screen = pygame.display.set_mode(size)
-    pygame.display.set_caption(f"spacephys play --replay {path}")
-    view = View(screen)
+    pygame, screen, view, clock = _window(headless, size, f"spacephys play --replay {path}")
     realtime = (not headless) if realtime is None else realtime
-    clock = pygame.time.Clock()
     seen = {"frames": 0, "watch": None}
 
     def each(world, call, result):
