@@ -193,3 +193,8 @@ def test_play_command_records_and_replays(tmp_path):
     bad = subprocess.run(run + ["duel", "--players", "3", "--headless"], capture_output=True,
                          text=True, env=env)
     assert bad.returncode == 2 and "players = 3" in bad.stderr
+
+
+def test_replay_refuses_a_callback_that_is_not_callable(tmp_path):
+    with pytest.raises(ValueError, match="each = 3"):
+        sp.replay(tmp_path / "match.h5", each=3)
