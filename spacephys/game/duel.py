@@ -86,9 +86,6 @@ class Duel(Mode):
                 self.message]
 
     def colour(self, body_id):
-        w = self.world
         if body_id in self.ships:
             return TEAM_COLOURS[self.ships.index(body_id)]
-        if body_id in w:                                     # a torpedo: its launcher's side
-            return (240, 240, 200)
-        return (255, 255, 255)
+        return (240, 240, 200)                               # a torpedo

@@ -101,14 +101,18 @@ class Watch(Mode):
 
     def __init__(self, world):
         self._world = world
+        self._ships = None              # ((t, n), ship ids in row order) of the frame drawn
         super().__init__(players=0)
 
     def build(self):
         return self._world
 
     def colour(self, body_id):
-        ships = [int(i) for i, k in zip(self.world.ids, self.world.kind)
-                 if self.world.kinds[k] == "ship"]
+        w = self.world
+        if self._ships is None or self._ships[0] != (w.t, w.n):   # once a frame, not a body
+            ship = w.kind == w.kind_code("ship") if "ship" in w.kinds else np.zeros(w.n, bool)
+            self._ships = ((w.t, w.n), w.ids[ship].tolist())
+        ships = self._ships[1]
         return TEAM_COLOURS[ships.index(body_id) % 2] if body_id in ships else (230, 230, 230)
 
 
