@@ -126,6 +126,70 @@ def test_bodies_that_meet_only_giants_find_them_through_the_giants_grid(seed, pl
     assert grid == brute
 
 
+def _followers(rules):
+    """How many bodies the grid enters only where the others are (collide.FOLLOWS)."""
+    return int(np.sum(collide.gridded_of(rules) == collide.FOLLOWS))
+
+
+@settings(deadline=None, max_examples=40)
+@given(seed=st.integers(0, 10_000), ships=st.integers(1, 30), dim=st.sampled_from([2, 3]),
+       periodic=st.booleans(), fast=st.booleans(), planets=st.integers(0, 3))
+def test_followers_enter_only_the_cells_others_cover_and_find_every_pair(seed, ships, dim,
+                                                                           periodic, fast,
+                                                                           planets):
+    # debris meets ships, missiles and planets but not debris, and outnumbers them: a debris
+    # box is entered only in the cells a ship's, a missile's or a planet's covers (a cell of
+    # debris alone holds no pair); some sweep far (boxes over many cells), some cross the seam
+    rng = np.random.default_rng(seed)
+    w = sp.World(dim=dim, gravity="none", dt=0.1)
+    side = 12.0 if dim == 2 else 6.0
+    if periodic:
+        w.set_boundary("periodic", lo=[0] * dim, hi=[side] * dim)
+    for a, b in (("ship", "ship"), ("ship", "missile"), ("missile", "missile")):
+        w.set_collision(a, b, "elastic")
+    for a in ("ship", "missile"):
+        w.set_collision(a, "debris", "destroy_both")
+    w.set_collision("debris", "planet", "destroy_a")
+    w.set_collision("ship", "planet", "destroy_a")
+    w.add_bodies(1.0, rng.uniform(0, side, (ships, dim)), rng.normal(scale=3.0, size=(ships, dim)),
+                 radius=rng.uniform(0.2, 0.5, ships), kind="ship")
+    w.add_bodies(1.0, rng.uniform(0, side, (ships, dim)), rng.normal(scale=30.0, size=(ships, dim)),
+                 radius=0.25, kind="missile")             # (radii within 2x: no giants)
+    if planets:              # the giants meet debris: no followers then
+        w.add_bodies(10.0, rng.uniform(0, side, (planets, dim)), radius=3.0, kind="planet")
+    k = 400
+    vel = rng.normal(scale=300.0 if fast else 3.0, size=(k, dim))
+    w.add_bodies(0.01, rng.uniform(0, side, (k, dim)), vel, radius=0.15, kind="debris")
+    B = np.zeros((w.n, 3))
+    B[:, :dim] = w.vel * w.dt
+    tb = rng.uniform(0, 0.5, w.n) * (rng.random(w.n) < 0.3)
+    grid, brute, plan = _grid_and_brute(w, B, tb)
+    assert _followers(plan.rules) == (0 if planets else k)
+    assert len(brute) > ships // 2
+    assert grid == brute
+
+
+def test_a_bounce_into_a_cell_of_followers_alone_finds_them():
+    # ship A (at x = 0, +10 over the step) meets ship B (at rest at x = 6) at 0.4 of the
+    # step; B then moves on to x = 12 through a debris disc at x = 12.5, in a cell no box
+    # covered when the grid was built (its debris left out): the later pass needs a new grid
+    w = sp.World(dim=2, gravity="none", dt=1.0)
+    w.set_collision("ship", "ship", "elastic")
+    w.set_collision("ship", "debris", "destroy_both")
+    w.collision_cell = 2.0
+    a, b = w.add_bodies(1.0, [[0.0, 0.0], [6.0, 0.0]], [[10.0, 0.0], [0.0, 0.0]], radius=1.0,
+                        kind="ship")
+    target = w.add_body(0.01, [12.5, 0.0], radius=0.2, kind="debris")
+    w.add_bodies(0.01, np.column_stack([np.arange(10.0), np.full(10, -2.5)]), radius=0.2,
+                 kind="debris")                        # far from both lines: followers
+    assert _followers(w.tables().rules) == 11
+    w.step(1)
+    events = [(int(e["kind"]), {int(e["a"]), int(e["b"])}) for e in w.events]
+    assert (sp.events.BOUNCE, {a, b}) in events
+    assert (sp.events.DESTROY, {b, target}) in events
+    assert target not in w.ids and b not in w.ids and a in w.ids
+
+
 @pytest.mark.parametrize("r", [0.1, 0.3, 0.35, 0.7, 1.3])
 @pytest.mark.parametrize("lo", [0.0, -1.7, 0.3])
 def test_a_periodic_lattice_of_touching_discs_finds_every_contact(r, lo):

@@ -49,6 +49,9 @@ _SLOT_MASK = (1 << 32) - 1                # an id's slot (state.py: (generation 
 # passed over without reading either body (debris among debris, in heaps after explosions)
 _KIND_BITS = 16
 _KIND_MASK = (1 << _KIND_BITS) - 1
+# gridded's mark of a body whose kind meets no kind so marked (debris that hit ships and
+# planets but not each other): only a cell that also holds an unmarked body can make its pairs
+FOLLOWS = 2
 
 
 @structref.register
@@ -76,8 +79,9 @@ FIELDS = (
     "dim",           # 2 or 3: merged radii keep area (2D) or volume (3D)
     "owner",         # (n,) int64: the launcher of a missile not yet armed (ignored by it), -1
     "giants",        # (G,) int64 rows of bodies far larger than the cell: tested against all
-    "gridded",       # (n,) bool: the bodies entered in the grid (not giants, and of a kind
-                     # that can meet some body other than a giant)
+    "gridded",       # (n,) int8: 0 a body left out of the grid (a giant, or of a kind that
+                     # meets giants only), 1 entered in every cell its box covers, FOLLOWS
+                     # entered only in the cells a body entered with 1 covers (see _entries)
     "index",         # (slots,) int64: the World's slot -> row table (ids to rows)
     "touch",         # (cap, 3) int64: the pairs overlapping (sensors) or touching (contacts)
                      # at the end of the last step: ids a < b, 1 for a sensor pair, 0 a contact
@@ -136,6 +140,12 @@ def touch_of(rules):
 def giants_of(rules):
     """The rows of the giants a Rules table holds (for tests and tools)."""
     return rules.giants
+
+
+@kernel
+def gridded_of(rules):
+    """How the grid enters each row (0, 1, FOLLOWS: see FIELDS), for tests and tools."""
+    return rules.gridded
 
 
 SCRATCH = {"A": (3, np.float64), "B": (3, np.float64), "D": (3, np.float64),
@@ -379,9 +389,12 @@ def _entries(lo, hi, alive, gridded, kind, size, low, high, rules, L):
     """The grid of cells `size` over the boxes' span low..high (3,), its entries (cell key,
     row << _KIND_BITS | kind) grouped by cell: (keys, bodies, single (n,) whether a body's box
     lies in one cell, origin (3,), inverse cell (3,), ncell (3,) cells around a period or 0,
-    entries)."""
+    entries, the sort's mask of low bits, _lead_cells's set)."""
     n = lo.shape[0]
     origin, cell, ncell = _layout(size, low, high, rules, L)
+    # followers (FOLLOWS) only go into the cells the others cover: the 5e4 debris of a fleet
+    # battle then cost a look-up each instead of an entry made, sorted and scanned
+    lead = _lead_cells(lo, hi, alive, gridded, origin, cell, ncell)
     # the entries (cell, body) in body order, in one pass into the scratch kept from step to
     # step (fresh arrays cost 3 ms of page faults a step at 1e5 bodies): room for 4 a body,
     # grown to what the first pass found when the boxes cover more (a dense field of mixed
@@ -390,30 +403,32 @@ def _entries(lo, hi, alive, gridded, kind, size, low, high, rules, L):
     room = spare.size // 4
     single = np.empty(n, np.bool_)
     total = _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, spare[:room],
-                  spare[room:2 * room], single)
+                  spare[room:2 * room], single, lead)
     if total > room:
         rules.grid = np.empty(((total + total // 4) // 4 + 1, 16), np.int64)
         spare = rules.grid.reshape(rules.grid.size)
         room = spare.size // 4
         _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, spare[:room],
-              spare[room:2 * room], single)
+              spare[room:2 * room], single, lead)
     # grouped by as many low bits of the hashes as keep other cells out of most runs (a run
     # mixing two cells costs a skipped comparison; a pass of the sort costs a quarter of it)
     bits = 16 if total < 1 << 11 else (24 if total < 1 << 21 else 32)
     keys, bodies = _radix_sort(spare[:total], spare[room:room + total],
                                spare[2 * room:2 * room + total],
                                spare[3 * room:3 * room + total], bits)
-    return keys, bodies, single, origin, cell, ncell, total, (1 << bits) - 1
+    return keys, bodies, single, origin, cell, ncell, total, (1 << bits) - 1, lead
 
 
 @kernel
-def _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, single):
+def _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, single, lead):
     """Write the grid's entries (see _entries) into keys, bodies while they fit, and single;
-    returns how many there are. (Hot loops here and below write into arrays they are given
-    and never replace one: an array assigned anew inside a loop made the loop 3x slower.)"""
+    returns how many there are. lead : _lead_cells's set (a follower's entries only in
+    them), or empty. (Hot loops here and below write into arrays they are given and never
+    replace one: an array assigned anew inside a loop made the loop 3x slower.)"""
     first = np.empty(3, np.int64)
     last = np.empty(3, np.int64)
     total = 0
+    following = lead.shape[0] > 0
     for i in range(lo.shape[0]):
         if not alive[i] or not gridded[i]:
             continue
@@ -426,17 +441,79 @@ def _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, singl
                 last[c] = first[c] + ncell[c] - 1
             count *= last[c] - first[c] + 1
         single[i] = count == 1
-        if total + count > keys.size:
+        follower = following and gridded[i] == FOLLOWS
+        if not follower and total + count > keys.size:
             total += count
             continue
         for x in range(first[0], last[0] + 1):
             for y in range(first[1], last[1] + 1):
                 for z in range(first[2], last[2] + 1):
-                    keys[total] = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
-                                            _wrap_index(z, ncell[2]))
-                    bodies[total] = (i << _KIND_BITS) | kind[i]
+                    key = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
+                                    _wrap_index(z, ncell[2]))
+                    if follower and not _in_set(lead, key):
+                        continue
+                    if total < keys.size:
+                        keys[total] = key
+                        bodies[total] = (i << _KIND_BITS) | kind[i]
                     total += 1
     return total
+
+
+@kernel
+def _lead_cells(lo, hi, alive, gridded, origin, cell, ncell):
+    """The cells the boxes of the grid's bodies not marked FOLLOWS cover, as an open-addressed
+    set of their keys ((T, 2) int64: key, 1 where taken, -1 where free; T a power of 2, at
+    least twice the entries); empty when no live body follows (everyone is entered
+    everywhere), or when a box covers more cells than _cell_range allows."""
+    n = lo.shape[0]
+    first = np.empty(3, np.int64)
+    last = np.empty(3, np.int64)
+    follows = False
+    count = 0
+    for i in range(n):
+        if alive[i] and gridded[i] == FOLLOWS:
+            follows = True
+            break
+    if follows:
+        for i in range(n):
+            if alive[i] and gridded[i] == 1:
+                if not _cell_range(i, lo, hi, origin, cell, ncell, first, last):
+                    follows = False
+                    break
+                count += (last[0] - first[0] + 1) * (last[1] - first[1] + 1) * \
+                    (last[2] - first[2] + 1)
+    if not follows:
+        return np.empty((0, 2), np.int64)
+    size = 16
+    while size < 2 * count:
+        size *= 2
+    lead = np.full((size, 2), -1, np.int64)
+    for i in range(n):
+        if not (alive[i] and gridded[i] == 1):
+            continue
+        _cell_range(i, lo, hi, origin, cell, ncell, first, last)
+        for x in range(first[0], last[0] + 1):
+            for y in range(first[1], last[1] + 1):
+                for z in range(first[2], last[2] + 1):
+                    key = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
+                                    _wrap_index(z, ncell[2]))
+                    h = key & (size - 1)
+                    while lead[h, 1] >= 0 and lead[h, 0] != key:
+                        h = (h + 1) & (size - 1)
+                    lead[h, 0] = key
+                    lead[h, 1] = 1
+    return lead
+
+
+@kernel(inline=True)
+def _in_set(lead, key):
+    """Whether _lead_cells's set holds key."""
+    h = key & (lead.shape[0] - 1)
+    while lead[h, 1] >= 0:
+        if lead[h, 0] == key:
+            return True
+        h = (h + 1) & (lead.shape[0] - 1)
+    return False
 
 
 @kernel(inline=True)
@@ -551,7 +628,8 @@ def _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell,
 def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     """candidate_pairs, and the grid it built: (keys (E,), bodies (E,): the entries (cell
     key, row << _KIND_BITS | its kind) grouped by cell, origin (3,), inverse cell (3,),
-    ncell (3,))."""
+    ncell (3,), the sort's mask of low bits, the cells followers were entered in (empty:
+    everywhere))."""
     radius, kind = rules.radius, rules.kind
     n = A.shape[0]
     L = _periods(rules)
@@ -598,13 +676,13 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
         for c in range(rules.dim):
             share *= max(high[c] - low[c], size)
         coarse = max(size, _SPARSE * (share / members) ** (1.0 / rules.dim))
-    keys, bodies, single, origin, cell, ncell, total, low_bits = _entries(
+    keys, bodies, single, origin, cell, ncell, total, low_bits, lead = _entries(
         lo, hi, alive, gridded, kind, coarse, low, high, rules, L)
     if coarse > size:
         crowd, met = _crowding(keys, bodies, total, low_bits, rules.response)
         fine = _cells_covered(lo, hi, alive, gridded, size, rules.dim)
         if 1.5 * crowd + 8.0 * met > 25.0 * (fine - total):
-            keys, bodies, single, origin, cell, ncell, total, low_bits = _entries(
+            keys, bodies, single, origin, cell, ncell, total, low_bits, lead = _entries(
                 lo, hi, alive, gridded, kind, size, low, high, rules, L)
     wraps = L[0] > 0.0 or L[1] > 0.0 or L[2] > 0.0
     # the pairs within each cell (written into pairs while they fit: a second scan into
@@ -620,7 +698,7 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     # covers (a test of every body took 16 ms for 70 giants among 6e4 bodies), a pair of
     # giants once, from the lower row, each giant's partners in row order; then the bodies
     # outside the grid (loose: they meet giants only) looked up in a grid of the giants
-    grid = (keys, bodies, origin, cell, ncell, low_bits)
+    grid = (keys, bodies, origin, cell, ncell, low_bits, lead)
     giants = rules.giants
     none = np.zeros(n, np.bool_)
     near = np.empty(n, np.int64)                       # a body's partners, each once
@@ -630,7 +708,8 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
         g = giants[q]
         if not alive[g]:
             continue
-        count = _grid_meets(g, grid, nothing, lo, hi, L, alive, none, near, work)
+        # (strict=False: collisions.table marks no followers of a kind a giant meets)
+        count = _grid_meets(g, grid, nothing, lo, hi, L, alive, none, near, work, False)
         if count < 0:                                  # a giant over too many cells: all
             count = 0
             for j in range(n):
@@ -655,7 +734,8 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     for j in range(n):
         if not loose[j]:
             continue
-        count = _grid_meets(j, ggrid, table, lo, hi, L, alive, none, near, work)
+        count = _grid_meets(j, ggrid, table, lo, hi, L, alive, none, near, work,
+                            False)
         if count < 0:                                  # a box over too many cells: all
             count = 0
             for p in range(giants.size):
@@ -723,7 +803,8 @@ def _giants_grid(giants, alive, lo, hi, rules, L):
             keys = np.empty(total, np.int64)
             bodies = np.empty(total, np.int64)
     order = np.argsort(keys, kind="mergesort")
-    return keys[order], bodies[order], origin, cell, ncell, np.int64(-1)
+    return (keys[order], bodies[order], origin, cell, ncell, np.int64(-1),
+            np.empty((0, 2), np.int64))
 
 
 @kernel
@@ -832,7 +913,8 @@ def _focused(alive, rules, lo, hi, focus, in_focus, stale, changed, grid, is_gia
                     m += 1
             continue
         if gridded[i]:
-            count = _grid_meets(i, grid, nothing, lo, hi, L, alive, stale, near, work)
+            count = _grid_meets(i, grid, nothing, lo, hi, L, alive, stale, near, work,
+                                gridded[i] == 1)
             if count < 0:
                 return -1
             for p in range(count):
@@ -900,15 +982,16 @@ def _meets_here(i, j, key, lo, hi, L, origin, cell, ncell, corner):
 
 
 @kernel(lean=True)
-def _grid_meets(i, grid, table, lo, hi, L, alive, skip, near, work):
+def _grid_meets(i, grid, table, lo, hi, L, alive, skip, near, work, strict):
     """The live bodies of the grid whose boxes meet body i's box (j's image nearest i when
     wrapping), each once (found in the cell of the low corner of the two boxes' overlap),
     skip[j] left out, written into near (n,) in the grid's order: returns how many, or -1
-    when i's box covers more than 4096 cells (search otherwise). i itself need not be in
+    when i's box covers more than 4096 cells (search otherwise), or, strict, a cell where
+    the grid left its followers out (i may meet them: a new grid). i itself need not be in
     the grid. table : the grid's _key_table (a small grid's: the giants'), or empty (a
     binary search finds a cell). work : (3, 3) int64 scratch (three small arrays a call
     cost more than the look-up of a body that meets nothing)."""
-    keys, bodies, origin, cell, ncell, low_bits = grid
+    keys, bodies, origin, cell, ncell, low_bits, lead = grid
     first, last, corner = work[0], work[1], work[2]
     if not _cell_range(i, lo, hi, origin, cell, ncell, first, last):
         return -1
@@ -918,6 +1001,8 @@ def _grid_meets(i, grid, table, lo, hi, L, alive, skip, near, work):
             for z in range(first[2], last[2] + 1):
                 key = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
                                 _wrap_index(z, ncell[2]))
+                if strict and lead.shape[0] > 0 and not _in_set(lead, key):
+                    return -1
                 if table.shape[0]:                     # the key's first entry, if any
                     h = key & (table.shape[0] - 1)
                     while table[h, 1] >= 0 and table[h, 0] != key:
