@@ -211,6 +211,17 @@ def _wall_hits(world, o, d, tmax, extra):
     return t, nrm
 
 
+def _unit(v):
+    """(unit vectors, lengths) of the rows of v (Q, 3), each scaled by its largest component
+    first: the squares of a direction like (0, 1e-160) underflow, and its plain norm is off
+    by 1e-4. Zero rows: returned as they are, length 0."""
+    scale = np.abs(v).max(axis=1)
+    safe = np.where(scale > 0.0, scale, 1.0)[:, None]
+    norm = np.linalg.norm(v / safe, axis=1)
+    unit = np.where(scale[:, None] > 0.0, v / safe / np.where(norm > 0, norm, 1.0)[:, None], v)
+    return unit, norm * scale
+
+
 def raycast(world, origins, directions, max_distance, kinds=None, mask=None, first=True,
             walls=True):
     """Rays from origins along directions ((dim,) or (Q, dim) each; directions non-zero, made
@@ -223,12 +234,11 @@ def raycast(world, origins, directions, max_distance, kinds=None, mask=None, fir
     d = _points("directions", directions, world.dim)
     if d.shape[0] != o.shape[0]:
         raise ValueError(f"directions has {d.shape[0]} rays, origins {o.shape[0]}")
-    norm = np.linalg.norm(d, axis=1)
+    d, norm = _unit(d)
     if np.any(norm == 0.0):
         q = int(np.flatnonzero(norm == 0.0)[0])
         raise ValueError(f"directions[{q}] = {d[q, :world.dim].tolist()}: a direction must "
                          f"not be zero")
-    d = d / norm[:, None]
     tmax = check.per_body("max_distance", max_distance, o.shape[0], minimum=0.0)
     tmax = np.ascontiguousarray(tmax, np.float64)
     return _cast(world, o, d, tmax, np.zeros(o.shape[0]), np.full(o.shape[0], -1),
@@ -298,9 +308,9 @@ def shapecast(world, shape, displacement, kinds=None, mask=None, walls=True):
         dvec = np.repeat(dvec, o.shape[0], axis=0)
     if dvec.shape[0] != o.shape[0]:
         raise ValueError(f"displacement has {dvec.shape[0]} moves for {o.shape[0]} shapes")
-    length = np.linalg.norm(dvec, axis=1)
+    unit, length = _unit(dvec)
     if np.any(length == 0.0):
         q = int(np.flatnonzero(length == 0.0)[0])
         raise ValueError(f"displacement[{q}] is zero: a shape cast needs a move")
-    return _cast(world, o, dvec / length[:, None], length, np.ascontiguousarray(extra, float),
+    return _cast(world, o, unit, length, np.ascontiguousarray(extra, float),
                  np.ascontiguousarray(skip, np.int64), kinds, mask, True, walls)
