@@ -190,35 +190,33 @@ class CollisionRules:
         collide.SCRATCH."""
         if not self.enabled():
             return None
-        n = kind.shape[0]
         giants, cell = self.giants(radius)
         # a kind needs the grid if it can meet a kind with bodies besides giants (itself: two);
         # bodies that meet only giants stay out of it (they look up a grid of the giants)
-        gridded = np.ones(n, np.bool_)
-        gridded[giants] = False
         K = self.response.shape[0]
         counts = np.bincount(kind, minlength=K) - np.bincount(kind[giants], minlength=K)
         meets = (self.response != IGNORE) & (counts[None, :] > np.eye(K, dtype=np.int64))
         needs = meets.any(axis=1)
-        if not needs.all():
-            gridded &= needs[kind]
-        gridded = gridded.astype(np.int8)
-        follows = self._followers(kind, gridded, kind[giants])
-        gridded[follows[kind] & (gridded == 1)] = collide.FOLLOWS
+        follows = self._followers(counts * needs, kind[giants])
+        # how the grid enters each body, by its kind (one gather: this runs after every step
+        # that destroys something)
+        entered = np.where(needs, np.where(follows, collide.FOLLOWS, 1), 0).astype(np.int8)
+        gridded = entered[kind]
+        gridded[giants] = 0
         return collide.make(kind, radius, category, mask, fixed, self.response,
                             self.restitution, self.walls, self.boundary, self.box,
                             self.box_restitution, cell, dim, owner, giants, gridded, index,
                             self.touch, self.ntouch, scratch)
 
-    def _followers(self, kind, gridded, giant_kinds):
+    def _followers(self, counts, giant_kinds):
         """(K,) bool: the kinds whose bodies the grid enters only in cells that hold a body of
         another kind (collide.FOLLOWS). They meet none of their own or of each other (so
         a cell of followers alone holds no pair) nor a giant's kind (giants look the grid
         up), and are worth it: at least twice as many as the others (the 5e4 debris among
-        2e3 ships and missiles of a fleet battle: a look-up each instead of an entry)."""
+        2e3 ships and missiles of a fleet battle: a look-up each instead of an entry).
+        counts : (K,) the bodies of each kind the grid holds."""
         K = self.response.shape[0]
         meets = (self.response != IGNORE) | (self.response.T != IGNORE)
-        counts = np.bincount(kind[gridded > 0], minlength=K)
         follows = np.zeros(K, np.bool_)
         for k in np.argsort(-counts, kind="stable"):
             if counts[k] and not meets[k, follows].any() and not meets[k, k] and \
