@@ -362,6 +362,35 @@ def test_rays_near_tiny_grids_of_huge_bodies():
     assert hit.ids.tolist() == [b] and hit.distances.tolist() == [0.0]
 
 
+TINY_SCENE = """
+import spacephys as sp
+w = sp.World(dim=2, gravity="none")
+w.add_bodies(1.0, [[0.0, 0.0], [5e-324, 1e-300], [2e-300, -1e-300]], radius=[0.0, 1e-310, 0.0])
+every = w.raycast((-5.0, 0.0), (1.0, 0.0), 20.0, first=False)[0]
+print(every.ids.tolist(), w.shapecast(((-5.0, 0.0), 0.5), (10.0, 0.0))[0].ids.tolist())
+"""
+
+
+def test_a_walk_through_cells_of_1e_300_ends():
+    # bodies a few ulps apart make a grid of cells 1e-300 wide, 5 away from the ray's
+    # origin: a step of one cell there leaves the crossing time where it was, and the walk
+    # once ran forever (found by hypothesis); in a subprocess, so that a regression fails
+    # here instead of hanging the suite
+    import subprocess
+    import sys
+    done = subprocess.run([sys.executable, "-c", TINY_SCENE], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+    w = sp.World(dim=2, gravity="none")
+    w.add_bodies(1.0, [[0.0, 0.0], [5e-324, 1e-300], [2e-300, -1e-300]],
+                 radius=[0.0, 1e-310, 0.0])
+    o, d = np.array([[-5.0, 0.0, 0.0]]), np.array([[1.0, 0.0, 0.0]])
+    want = _brute_rays(w, o, d, np.array([20.0]), _period(w))[0]
+    every = w.raycast((-5.0, 0.0), (1.0, 0.0), 20.0, first=False)[0]
+    assert every.ids.tolist() == want[0].tolist() and len(want[0]) == 3
+    assert done.stdout.split("]")[0] + "]" == str(want[0].tolist())
+
+
 # ----------------------------------------------------------------------------- shape casts
 
 @settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])

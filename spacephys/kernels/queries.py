@@ -572,8 +572,10 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
         cur[c] = int(math.floor(u))          # within reach of the grid: t0 is clipped
         if period[c] == 0.0 and u == ncell[c]:
             cur[c] = ncell[c] - 1                # on the far edge, where its bodies are kept
-        # (a margin: a body on the ray but a rounding into the next cell is still seen)
-        reach[c] = int(math.ceil(rmax / cell[c] + 1e-9))
+        # (a margin: a body on the ray but a rounding into the next cell is still seen; on an
+        # open axis no more than the grid: bodies a few ulps apart make cells of 1e-300)
+        r = rmax / cell[c] + 1e-9
+        reach[c] = ncell[c] if period[c] == 0.0 and r >= ncell[c] else int(math.ceil(r))
         if d[c] > 0.0:
             step[c] = 1
             tnext[c] = (origin[c] + (cur[c] + 1) * cell[c] - o[c]) / d[c]
@@ -659,6 +661,10 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
         t_cell = tnext[c]
         cur[c] += step[c]
         tnext[c] += tdelta[c]
+        # past the grid and its reach on an open axis: nothing is left ahead (and the walk
+        # ends even when cells of 1e-300 far from the origin leave tnext where it was)
+        if period[c] == 0.0 and (cur[c] > ncell[c] - 1 + reach[c] or cur[c] < -reach[c]):
+            break
     return n
 
 
