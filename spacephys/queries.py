@@ -216,10 +216,9 @@ def _unit(v):
     first: the squares of a direction like (0, 1e-160) underflow, and its plain norm is off
     by 1e-4. Zero rows: returned as they are, length 0."""
     scale = np.abs(v).max(axis=1)
-    safe = np.where(scale > 0.0, scale, 1.0)[:, None]
-    norm = np.linalg.norm(v / safe, axis=1)
-    unit = np.where(scale[:, None] > 0.0, v / safe / np.where(norm > 0, norm, 1.0)[:, None], v)
-    return unit, norm * scale
+    u = v / np.where(scale > 0.0, scale, 1.0)[:, None]    # a largest component of 1: norm >= 1
+    norm = np.linalg.norm(u, axis=1)
+    return u / np.where(norm > 0.0, norm, 1.0)[:, None], norm * scale
 
 
 def raycast(world, origins, directions, max_distance, kinds=None, mask=None, first=True,
