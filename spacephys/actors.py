@@ -517,7 +517,7 @@ class Actors:
             target = np.zeros(0, np.int64)             # actors is empty too
             cols = _EMPTY
         expires = b.expires[:n] if has_life else _EMPTY["expires"]
-        plan, planned = plans.table(self.plans, b.lookup, b.ids[actors].tolist())
+        plan, planned = plans.table(self.plans, b.lookup, b.ids[actors])
         return control.make(cols, actors, target, self.curves, expires, self.w.dim, plan,
                             self.clock, planned)
 

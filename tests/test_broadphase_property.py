@@ -728,3 +728,14 @@ def test_a_tiny_fast_body_does_not_fill_millions_of_cells(speed):
     # it passes through within the step: the overlap begins and ends
     assert w.events["kind"].tolist() == [sp.events.SENSOR_BEGIN, sp.events.SENSOR_END]
     assert w.events["time"][0] == pytest.approx(0.5 - 0.002 / (math.sqrt(3) * speed), rel=1e-12)
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(st.sampled_from([0.0, 0.2, 0.5, 1.0, 3.0, 20.0]) | st.floats(0.0, 100.0),
+                max_size=300), st.integers(1, 70))
+def test_the_giants_candidates_are_the_k_largest_radii_ties_in_row_order(radii, k):
+    """arrays.largest (the giants' candidates): the rows of the k largest values, largest
+    first, ties in row order: a stable sort's answer, whatever the ties and the order."""
+    from spacephys.kernels.arrays import largest
+    values = np.array(radii, np.float64)
+    assert largest(values, k).tolist() == np.argsort(-values, kind="stable")[:k].tolist()

@@ -4,12 +4,16 @@ Each case is either accurate within a stated bound, measured against a closed fo
 REBOUND, or the World raises InstabilityError naming the bodies; never silent garbage.
 """
 import math
+import warnings
 
+import hypothesis.strategies as st
 import numpy as np
 import pytest
+from hypothesis import given, settings
 
 import spacephys as sp
 from spacephys import scenes
+from spacephys.kernels import diagnostics
 from spacephys.study import rebound as peer
 
 P = 2 * math.pi          # the period of an a = 1 orbit about mu = 1
@@ -172,6 +176,24 @@ def test_far_from_the_origin_precision_is_lost_and_a_shifted_origin_keeps_it():
     assert np.array_equal(shifted.origin, [1e15, 0.0])
     p, _ = sp.kepler_state(1.0, 1.0, 0.0, near.t)
     assert np.abs(near.pos[1] - p[:2]).max() < 1e-5      # and near 0 it is a good orbit
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 40), st.integers(1, 3), st.integers(0, 2**32 - 1), st.booleans())
+def test_the_precision_checks_extent_is_numpys(n, d, seed, nans):
+    """diagnostics.extent (the widest span along an axis, the largest |coordinate|, NaNs
+    passed over) is numpy's nanmin/nanmax answer, on strided (n, d) views as World hands it."""
+    rng = np.random.default_rng(seed)
+    pos = (rng.normal(size=(n, 3)) * 10.0 ** rng.integers(-3, 9, (n, 3)))[:, :d]
+    if nans and n:
+        pos[rng.integers(0, n, max(1, n // 4)), rng.integers(0, d)] = np.nan
+    span, far = diagnostics.extent(pos)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)      # an all-NaN column
+        lo, hi = np.nanmin(pos, axis=0, initial=np.inf), np.nanmax(pos, axis=0, initial=-np.inf)
+    want_span = max([0.0] + [h - l for l, h in zip(lo, hi) if l <= h]) if n else 0.0
+    want_far = max([0.0] + list(np.abs(lo)) + list(np.abs(hi))) if n else 0.0
+    assert span == want_span and far == want_far
 
 
 def test_shift_origin_moves_everything_that_has_a_position():
