@@ -497,23 +497,28 @@ def _lead_cells(lo, hi, alive, gridded, origin, cell, ncell):
                 for z in range(first[2], last[2] + 1):
                     key = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
                                     _wrap_index(z, ncell[2]))
-                    h = key & (size - 1)
-                    while lead[h, 1] >= 0 and lead[h, 0] != key:
-                        h = (h + 1) & (size - 1)
+                    h = _slot(lead, key)
                     lead[h, 0] = key
                     lead[h, 1] = 1
     return lead
 
 
 @kernel(inline=True)
+def _slot(table, key):
+    """The slot of key in an open-addressed table ((T, 2) int64 rows of key, value; value -1
+    where free; T a power of 2; _lead_cells's set, _key_table's table): where key is, or
+    the free slot where it would go."""
+    mask = table.shape[0] - 1
+    h = key & mask
+    while table[h, 1] >= 0 and table[h, 0] != key:
+        h = (h + 1) & mask
+    return h
+
+
+@kernel(inline=True)
 def _in_set(lead, key):
     """Whether _lead_cells's set holds key."""
-    h = key & (lead.shape[0] - 1)
-    while lead[h, 1] >= 0:
-        if lead[h, 0] == key:
-            return True
-        h = (h + 1) & (lead.shape[0] - 1)
-    return False
+    return lead[_slot(lead, key), 1] >= 0
 
 
 @kernel(inline=True)
@@ -818,9 +823,7 @@ def _key_table(keys):
     for e in range(keys.size):
         if e > 0 and keys[e] == keys[e - 1]:
             continue
-        h = keys[e] & (size - 1)
-        while table[h, 1] >= 0:
-            h = (h + 1) & (size - 1)
+        h = _slot(table, keys[e])
         table[h, 0] = keys[e]
         table[h, 1] = e
     return table
@@ -1004,9 +1007,7 @@ def _grid_meets(i, grid, table, lo, hi, L, alive, skip, near, work, strict):
                 if strict and lead.shape[0] > 0 and not _in_set(lead, key):
                     return -1
                 if table.shape[0]:                     # the key's first entry, if any
-                    h = key & (table.shape[0] - 1)
-                    while table[h, 1] >= 0 and table[h, 0] != key:
-                        h = (h + 1) & (table.shape[0] - 1)
+                    h = _slot(table, key)
                     a = table[h, 1] if table[h, 1] >= 0 else keys.size
                 else:                                  # the run of the key's low bits (the
                     a, b = 0, keys.size                # sort's order): binary search
