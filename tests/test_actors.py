@@ -366,6 +366,20 @@ def test_same_seed_same_explosion_bitwise():
     assert np.array_equal(a.pos, b.pos) and np.array_equal(a.vel, b.vel)
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2**32 - 1, 2**32, 2**64 + 5, 3**80])
+def test_each_blast_draws_as_numpys_generator_seeded_by_the_seed_and_body_id(seed):
+    """The blasts' generators, seeded all at once (kernels/seeds.py), draw bit for bit as
+    np.random.default_rng([seed, id & 0xFFFFFFFF, id >> 32]): every explosion keeps the
+    debris it had (ids of the first generation and later ones, one seed word and several)."""
+    from spacephys.actors import blast_generators
+    ids = [0, 1, 7, 2**32 - 1, 2**32, (5 << 32) | 3, (2**31 - 1 << 32) | 2**31, 123456789]
+    for body_id, rng in zip(ids, blast_generators(seed, ids)):
+        ref = np.random.default_rng([seed, body_id & 0xFFFFFFFF, body_id >> 32])
+        assert rng.bit_generator.state == ref.bit_generator.state, body_id
+        assert np.array_equal(rng.normal(size=(7, 3)), ref.normal(size=(7, 3)))
+        assert np.array_equal(rng.random((3, 7)), ref.random((3, 7)))
+
+
 def test_debris_surround_the_exploding_body_and_fade_out():
     w, debris = _blast(3)
     assert w.n == 200 and np.all(w.kind == w.kind_code("debris"))
