@@ -92,33 +92,6 @@ def _rotate(q, v):
                      vz + w * tz + (x * ty - y * tx)])
 
 
-_PCG_MULT = 0x2360ED051FC65DA44385DF649FCCF645      # PCG64's 128-bit multiplier
-_M128 = (1 << 128) - 1
-
-
-def blast_generators(seed, ids):
-    """For each body id in turn, a numpy Generator that draws exactly as
-    np.random.default_rng([seed, id & 0xFFFFFFFF, id >> 32]) would (an explosion is the
-    same every run): one generator re-seeded in place (a fresh one costs 20 us a blast).
-    seed : int >= 0; ids : the blasts' body ids. Use each before taking the next."""
-    head = [seed & 0xFFFFFFFF]                       # the seed's 32-bit words, low first
-    seed >>= 32
-    while seed:
-        head.append(seed & 0xFFFFFFFF)
-        seed >>= 32
-    words = seeds.seed_words(np.array(head, np.uint64), np.array(ids, np.int64)).tolist()
-    bits = np.random.PCG64(0)
-    generator = np.random.Generator(bits)
-    for s0, s1, i0, i1 in words:
-        # PCG64 seeded by those words (its published seeding): an odd increment from the
-        # second pair, the state stepped twice around the first
-        inc = ((((i0 << 64) | i1) << 1) | 1) & _M128
-        state = ((inc + ((s0 << 64) | s1)) * _PCG_MULT + inc) & _M128
-        bits.state = {"bit_generator": "PCG64", "state": {"state": state, "inc": inc},
-                      "has_uint32": 0, "uinteger": 0}
-        yield generator
-
-
 class Actors:
     """Ships, missiles, explosions and lifetimes of one World (see the module).
 
@@ -444,7 +417,7 @@ class Actors:
             return []
         d = self.w.dim
         direction, u = [], []
-        rngs = blast_generators(self.seed, [blast[1] for blast in blasts])
+        rngs = seeds.blast_generators(self.seed, [blast[1] for blast in blasts])
         for (spec, _, _, _, _), rng in zip(blasts, rngs):   # each blast's own draws, in order
             direction.append(rng.normal(size=(spec.count, d)))
             u.append(rng.random((3, spec.count)))        # speed, offset, lifetime

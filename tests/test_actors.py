@@ -371,7 +371,7 @@ def test_each_blast_draws_as_numpys_generator_seeded_by_the_seed_and_body_id(see
     """The blasts' generators, seeded all at once (kernels/seeds.py), draw bit for bit as
     np.random.default_rng([seed, id & 0xFFFFFFFF, id >> 32]): every explosion keeps the
     debris it had (ids of the first generation and later ones, one seed word and several)."""
-    from spacephys.actors import blast_generators
+    from spacephys.kernels.seeds import blast_generators
     ids = [0, 1, 7, 2**32 - 1, 2**32, (5 << 32) | 3, (2**31 - 1 << 32) | 2**31, 123456789]
     for body_id, rng in zip(ids, blast_generators(seed, ids)):
         ref = np.random.default_rng([seed, body_id & 0xFFFFFFFF, body_id >> 32])

@@ -1,4 +1,4 @@
-"""The seeds of explosions' generators, many at once.
+"""The seeds of explosions' generators, many at once (blast_generators).
 
 Each blast draws from numpy's PCG64 seeded by SeedSequence([world seed, id & 0xFFFFFFFF,
 id >> 32]) (actors.spawn_debris). Building that SeedSequence and generator costs ~20 us a
@@ -70,3 +70,30 @@ def seed_words(entropy_head, ids):
         for j in range(4):                         # uint64 words, low half first
             out[q, j] = words[2 * j] | (words[2 * j + 1] << _HIGH)
     return out
+
+
+_PCG_MULT = 0x2360ED051FC65DA44385DF649FCCF645      # PCG64's 128-bit multiplier
+_M128 = (1 << 128) - 1
+
+
+def blast_generators(seed, ids):
+    """For each body id in turn, a numpy Generator that draws exactly as
+    np.random.default_rng([seed, id & 0xFFFFFFFF, id >> 32]) would (an explosion is the
+    same every run): one generator re-seeded in place (a fresh one costs 20 us a blast).
+    seed : int >= 0; ids : the blasts' body ids. Use each before taking the next."""
+    head = [seed & 0xFFFFFFFF]                       # the seed's 32-bit words, low first
+    seed >>= 32
+    while seed:
+        head.append(seed & 0xFFFFFFFF)
+        seed >>= 32
+    words = seed_words(np.array(head, np.uint64), np.array(ids, np.int64)).tolist()
+    bits = np.random.PCG64(0)
+    generator = np.random.Generator(bits)
+    for s0, s1, i0, i1 in words:
+        # PCG64 seeded by those words (its published seeding): an odd increment from the
+        # second pair, the state stepped twice around the first
+        inc = ((((i0 << 64) | i1) << 1) | 1) & _M128
+        state = ((inc + ((s0 << 64) | s1)) * _PCG_MULT + inc) & _M128
+        bits.state = {"bit_generator": "PCG64", "state": {"state": state, "inc": inc},
+                      "has_uint32": 0, "uinteger": 0}
+        yield generator
