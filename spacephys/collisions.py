@@ -197,7 +197,7 @@ class CollisionRules:
         counts = np.bincount(kind, minlength=K) - np.bincount(kind[giants], minlength=K)
         meets = (self.response != IGNORE) & (counts[None, :] > np.eye(K, dtype=np.int64))
         needs = meets.any(axis=1)
-        follows = self._followers(counts * needs, kind[giants])
+        follows = self._followers(counts * needs)
         # how the grid enters each body, by its kind (one gather: this runs after every step
         # that destroys something)
         entered = np.where(needs, np.where(follows, collide.FOLLOWS, 1), 0).astype(np.int8)
@@ -208,19 +208,19 @@ class CollisionRules:
                             self.box_restitution, cell, dim, owner, giants, gridded, index,
                             self.touch, self.ntouch, scratch)
 
-    def _followers(self, counts, giant_kinds):
+    def _followers(self, counts):
         """(K,) bool: the kinds whose bodies the grid enters only in cells that hold a body of
         another kind (collide.FOLLOWS). They meet none of their own or of each other (so
-        a cell of followers alone holds no pair) nor a giant's kind (giants look the grid
-        up), and are worth it: at least twice as many as the others (the 5e4 debris among
-        2e3 ships and missiles of a fleet battle: a look-up each instead of an entry).
+        a cell of followers alone holds no pair; those that meet a giant look the giants
+        up, as the bodies outside the grid do), and are worth it: at least twice as many as
+        the others (the 5e4 debris among 2e3 ships and missiles of a fleet battle: a look-up
+        each instead of an entry).
         counts : (K,) the bodies of each kind the grid holds."""
         K = self.response.shape[0]
         meets = (self.response != IGNORE) | (self.response.T != IGNORE)
         follows = np.zeros(K, np.bool_)
         for k in np.argsort(-counts, kind="stable"):
-            if counts[k] and not meets[k, follows].any() and not meets[k, k] and \
-                    not meets[k, giant_kinds].any():
+            if counts[k] and not meets[k, follows].any() and not meets[k, k]:
                 follows[k] = True
         if counts[follows].sum() < 2 * counts[~follows].sum():
             follows[:] = False

@@ -705,20 +705,33 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     # outside the grid (loose: they meet giants only) looked up in a grid of the giants
     grid = (keys, bodies, origin, cell, ncell, low_bits, lead)
     giants = rules.giants
-    none = np.zeros(n, np.bool_)
+    # followers are not looked up by giants (the grid holds them only where others are):
+    # those of a kind a giant meets look the giants up themselves, as loose bodies do
+    follower = np.zeros(n, np.bool_)
+    if lead.shape[0] > 0 and giants.size > 0:
+        for j in range(n):
+            follower[j] = gridded[j] == FOLLOWS
     near = np.empty(n, np.int64)                       # a body's partners, each once
     work = np.empty((3, 3), np.int64)
     nothing = np.empty((0, 2), np.int64)               # (no key table: binary searches)
+    entered = np.empty(0, np.int64)                    # the grid's bodies, if needed
+    listed = False
     for q in range(giants.size):
         g = giants[q]
         if not alive[g]:
             continue
         # (strict=False: collisions.table marks no followers of a kind a giant meets)
-        count = _grid_meets(g, grid, nothing, lo, hi, L, alive, none, near, work, False)
+        count = _grid_meets(g, grid, nothing, lo, hi, L, alive, follower, near, work, False)
         if count < 0:                                  # a giant over too many cells: all
+            # (the grid's bodies but followers, not all: 64 planets over 5e4 debris that
+            # meet only them, and so no grid, took 3.5 ms a step)
+            if not listed:
+                entered = np.nonzero(alive & (gridded == 1))[0]
+                listed = True
             count = 0
-            for j in range(n):
-                if gridded[j] and alive[j] and j != g and _boxes_meet(lo, hi, g, j, L):
+            for e in range(entered.size):
+                j = entered[e]
+                if j != g and _boxes_meet(lo, hi, g, j, L):
                     near[count] = j
                     count += 1
         for p in range(q + 1, giants.size):
@@ -728,28 +741,20 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
                 count += 1
         near[:count].sort()
         m, pairs = _append(g, near, count, rules, kind, pairs, m)
-    loose = np.zeros(n, np.bool_)                      # live bodies outside the grid...
-    for j in range(n):
-        loose[j] = alive[j] and not gridded[j]
-    loose[giants] = False                              # ...that are no giants
+    reach = np.zeros(rules.response.shape[0], np.bool_)    # kinds a live giant meets
+    for q in range(giants.size):
+        if alive[giants[q]]:
+            for k in range(reach.size):
+                reach[k] = reach[k] or rules.response[k, kind[giants[q]]] != IGNORE or \
+                    rules.response[kind[giants[q]], k] != IGNORE
+    loose = np.zeros(n, np.bool_)                      # live bodies outside the grid or
+    for j in range(n):                                 # following in it, that may meet a
+        loose[j] = alive[j] and gridded[j] != 1 and reach[kind[j]]     # giant...
+    loose[giants] = False                              # ...and are no giants
     if giants.size == 0 or not loose.any():
         return pairs[:m], grid                         # (a duel's star and ships: no grid)
-    ggrid = _giants_grid(giants, alive, lo, hi, rules, L)
-    table = _key_table(ggrid[0])
-    for j in range(n):
-        if not loose[j]:
-            continue
-        count = _grid_meets(j, ggrid, table, lo, hi, L, alive, none, near, work,
-                            False)
-        if count < 0:                                  # a box over too many cells: all
-            count = 0
-            for p in range(giants.size):
-                if alive[giants[p]] and _boxes_meet(lo, hi, min(j, giants[p]),
-                                                     max(j, giants[p]), L):
-                    near[count] = giants[p]
-                    count += 1
-        if count:
-            m, pairs = _append(j, near, count, rules, kind, pairs, m)
+    m, pairs = _loose_pairs(loose, giants, alive, lo, hi, rules, L, wraps, near, work, pairs,
+                            m)
     return pairs[:m], grid
 
 
@@ -767,6 +772,62 @@ def _append(i, near, count, rules, kind, pairs, m):
             pairs[m, 0] = a
             pairs[m, 1] = b
             m += 1
+    return m, pairs
+
+
+@kernel
+def _loose_pairs(loose, giants, alive, lo, hi, rules, L, wraps, near, work, pairs, m):
+    """The pairs of the bodies outside the grid (loose (n,) bool: they meet giants only) with
+    the giants their boxes meet, each body looked up in a grid of the giants, added to
+    pairs[:m]: (m, pairs). near (n,) int64, work (3, 3) int64: scratch."""
+    n = lo.shape[0]
+    grid = _giants_grid(giants, alive, lo, hi, rules, L)
+    table = _key_table(grid[0])
+    # most loose bodies (5e4 debris after the ships of a battle are gone) are nowhere near
+    # a giant: their cells looked up in a dense map of the giants' cells first (written out
+    # here: a helper called per body cost 34 ns; the hashed look-up of each took 80)
+    occupied, low = _occupancy(giants, alive, lo, hi, grid, wraps, n)
+    origin, cell = grid[2], grid[3]
+    dense = occupied.size > 0
+    first, last = work[0], work[1]
+    none = np.zeros(n, np.bool_)
+    for j in range(n):
+        if not loose[j]:
+            continue
+        if dense:
+            far = False                                # no cell of j's holds a giant
+            cells = 1
+            for c in range(3):
+                # in floats until clipped to the map: a box far out would overflow an int
+                f0 = math.floor((lo[j, c] - origin[c]) * cell[c]) - low[c]
+                f1 = math.floor((hi[j, c] - origin[c]) * cell[c]) - low[c]
+                if not (f0 == f0 and f1 == f1):
+                    cells = 1 << 20                    # NaN: the look-up decides
+                    break
+                if f1 < 0.0 or f0 >= occupied.shape[c]:
+                    far = True
+                    break
+                first[c] = int(max(f0, 0.0))
+                last[c] = int(min(f1, occupied.shape[c] - 1.0))
+                cells *= last[c] - first[c] + 1
+            if not far and cells <= 64:                # (a long box: the look-up)
+                far = True
+                for x in range(first[0], last[0] + 1):
+                    for y in range(first[1], last[1] + 1):
+                        for z in range(first[2], last[2] + 1):
+                            far = far and not occupied[x, y, z]
+            if far:
+                continue
+        count = _grid_meets(j, grid, table, lo, hi, L, alive, none, near, work, False)
+        if count < 0:                                  # a box over too many cells: all
+            count = 0
+            for p in range(giants.size):
+                if alive[giants[p]] and _boxes_meet(lo, hi, min(j, giants[p]),
+                                                     max(j, giants[p]), L):
+                    near[count] = giants[p]
+                    count += 1
+        if count:
+            m, pairs = _append(j, near, count, rules, rules.kind, pairs, m)
     return m, pairs
 
 
@@ -810,6 +871,44 @@ def _giants_grid(giants, alive, lo, hi, rules, L):
     order = np.argsort(keys, kind="mergesort")
     return (keys[order], bodies[order], origin, cell, ncell, np.int64(-1),
             np.empty((0, 2), np.int64))
+
+
+@kernel
+def _occupancy(giants, alive, lo, hi, grid, wraps, n):
+    """The cells of a grid of the giants (_giants_grid's) they cover, densely: (occupied
+    (X, Y, Z) bool over the box of those cells, its low cell (3,) int64); an empty map (every
+    body looked up) when wrapping, or when the box holds more than max(4096, 4 n) cells."""
+    origin, cell, ncell = grid[2], grid[3], grid[4]
+    first, last = np.empty(3, np.int64), np.empty(3, np.int64)
+    low = np.full(3, np.iinfo(np.int64).max)
+    high = np.full(3, np.iinfo(np.int64).min)
+    nothing = (np.zeros((0, 0, 0), np.bool_), low)
+    if wraps:
+        return nothing
+    for sweep in range(2):                             # the box, then its cells
+        if sweep == 1:
+            cells = 1.0
+            for c in range(3):
+                cells *= max(0, high[c] - low[c] + 1)
+            if cells > max(4096.0, 4.0 * n):
+                return nothing
+            occupied = np.zeros((max(0, high[0] - low[0] + 1), max(0, high[1] - low[1] + 1),
+                                 max(0, high[2] - low[2] + 1)), np.bool_)
+        for q in range(giants.size):
+            g = giants[q]
+            if not alive[g]:
+                continue
+            if not _cell_range(g, lo, hi, origin, cell, ncell, first, last):
+                return nothing
+            if sweep == 0:
+                for c in range(3):
+                    low[c] = min(low[c], first[c])
+                    high[c] = max(high[c], last[c])
+            else:
+                occupied[first[0] - low[0]:last[0] - low[0] + 1,
+                         first[1] - low[1]:last[1] - low[1] + 1,
+                         first[2] - low[2]:last[2] - low[2] + 1] = True
+    return occupied, low
 
 
 @kernel
