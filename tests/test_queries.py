@@ -362,6 +362,20 @@ def test_rays_near_tiny_grids_of_huge_bodies():
     assert hit.ids.tolist() == [b] and hit.distances.tolist() == [0.0]
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_ray_from_beyond_a_one_cell_grid_meets_a_body_reaching_past_it(dim):
+    """Found by the shape-cast property test: one body (a grid of one cell) of radius 2 whose
+    surface is 0.5 ahead of a ray that starts 2.5 cells outside the grid: the neighbourhood
+    of a cell outside the grid, capped at the grid's width, once held none of its cells."""
+    w = sp.World(dim=dim, gravity="none")
+    b = w.add_body(1.0, np.pad([-2.5], (0, dim - 1), constant_values=-5.0), radius=2.0)
+    origin, ahead = np.full(dim, -5.0), np.eye(dim)[0]
+    hit = w.raycast(origin, ahead, 1.0, first=False)[0]
+    assert hit.ids.tolist() == [b] and hit.distances[0] == pytest.approx(0.5, rel=1e-15)
+    cast = w.shapecast((origin, 0.5), ahead)[0]             # grown by 0.5: meets at 0
+    assert cast.ids.tolist() == [b] and cast.distances.tolist() == [0.0]
+
+
 TINY_SCENE = """
 import spacephys as sp
 w = sp.World(dim=2, gravity="none")

@@ -515,14 +515,19 @@ def _axis_cell(i, n, period):
 @kernel(inline=True)
 def _from(cur, reach, n, period):
     """The first walk cell of a neighbourhood on one axis (open axes: within the grid; a body
-    on the grid's far edge, geometrically in cell n, is kept in cell n - 1)."""
-    return cur - reach if period > 0.0 else min(max(cur - reach, 0), n - 1)
+    on the grid's far edge, geometrically in cell n, is kept in cell n - 1; a reach of the
+    whole grid, n, is all of it wherever the walk is: it starts up to the true reach outside)."""
+    if period > 0.0:
+        return cur - reach
+    return 0 if reach >= n else min(max(cur - reach, 0), n - 1)
 
 
 @kernel(inline=True)
 def _to(cur, reach, n, period):
     """The last walk cell of a neighbourhood on one axis (open axes: not past the grid)."""
-    return cur + reach if period > 0.0 else min(cur + reach, n - 1)
+    if period > 0.0:
+        return cur + reach
+    return n - 1 if reach >= n else min(cur + reach, n - 1)
 
 
 @kernel(lean=True)
