@@ -702,7 +702,8 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     # the giants against everyone: the grid's bodies looked up in the cells a giant's box
     # covers (a test of every body took 16 ms for 70 giants among 6e4 bodies), a pair of
     # giants once, from the lower row, each giant's partners in row order; then the bodies
-    # outside the grid (loose: they meet giants only) looked up in a grid of the giants
+    # outside the grid (they meet giants only) and the followers that meet a giant (loose)
+    # looked up in a grid of the giants
     grid = (keys, bodies, origin, cell, ncell, low_bits, lead)
     giants = rules.giants
     # followers are not looked up by giants (the grid holds them only where others are):
@@ -720,7 +721,8 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
         g = giants[q]
         if not alive[g]:
             continue
-        # (strict=False: collisions.table marks no followers of a kind a giant meets)
+        # (strict=False and followers skipped: those of a kind a giant meets look the
+        # giants up themselves, below)
         count = _grid_meets(g, grid, nothing, lo, hi, L, alive, follower, near, work, False)
         if count < 0:                                  # a giant over too many cells: all
             # (the grid's bodies but followers, not all: 64 planets over 5e4 debris that
@@ -777,9 +779,10 @@ def _append(i, near, count, rules, kind, pairs, m):
 
 @kernel
 def _loose_pairs(loose, giants, alive, lo, hi, rules, L, wraps, near, work, pairs, m):
-    """The pairs of the bodies outside the grid (loose (n,) bool: they meet giants only) with
-    the giants their boxes meet, each body looked up in a grid of the giants, added to
-    pairs[:m]: (m, pairs). near (n,) int64, work (3, 3) int64: scratch."""
+    """The pairs of the loose bodies (loose (n,) bool: outside the grid, or following in
+    it, and of a kind a giant meets) with the giants their boxes meet, each body looked up in
+    a grid of the giants, added to pairs[:m]: (m, pairs). near (n,) int64, work (3, 3)
+    int64: scratch."""
     n = lo.shape[0]
     grid = _giants_grid(giants, alive, lo, hi, rules, L)
     table = _key_table(grid[0])
