@@ -469,9 +469,10 @@ class Actors:
         """A ship or missile that survived a merge carries the other body's mass as dry mass
         (the kernels keep its mass at dry + fuel)."""
         b = self.b
-        if "actor" not in b.columns:
+        merges = events["kind"] == EV_MERGE
+        if "actor" not in b.columns or not merges.any():
             return
-        survivors = b.lookup(events["a"][events["kind"] == EV_MERGE])
+        survivors = b.lookup(events["a"][merges])
         for i in survivors[survivors >= 0]:
             if b.actor[i]:
                 b.dry[i] = b.mass[i] - b.fuel[i]

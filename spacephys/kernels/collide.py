@@ -389,7 +389,7 @@ def _entries(lo, hi, alive, gridded, kind, size, low, high, rules, L):
     """The grid of cells `size` over the boxes' span low..high (3,), its entries (cell key,
     row << _KIND_BITS | kind) grouped by cell: (keys, bodies, single (n,) whether a body's box
     lies in one cell, origin (3,), inverse cell (3,), ncell (3,) cells around a period or 0,
-    entries, the sort's mask of low bits, _lead_cells's set)."""
+    entries, the sort's mask of low bits, _lead_cells's cells)."""
     n = lo.shape[0]
     origin, cell, ncell = _layout(size, low, high, rules, L)
     # followers (FOLLOWS) only go into the cells the others cover: the 5e4 debris of a fleet
@@ -422,13 +422,14 @@ def _entries(lo, hi, alive, gridded, kind, size, low, high, rules, L):
 @kernel
 def _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, single, lead):
     """Write the grid's entries (see _entries) into keys, bodies while they fit, and single;
-    returns how many there are. lead : _lead_cells's set (a follower's entries only in
-    them), or empty. (Hot loops here and below write into arrays they are given and never
+    returns how many there are. lead : _lead_cells's cells (a follower's entries only in
+    them). (Hot loops here and below write into arrays they are given and never
     replace one: an array assigned anew inside a loop made the loop 3x slower.)"""
     first = np.empty(3, np.int64)
     last = np.empty(3, np.int64)
     total = 0
-    following = lead.shape[0] > 0
+    following = _follows(lead)
+    lead_set, lead_map, lead_low = lead
     for i in range(lo.shape[0]):
         if not alive[i] or not gridded[i]:
             continue
@@ -448,10 +449,21 @@ def _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, singl
         for x in range(first[0], last[0] + 1):
             for y in range(first[1], last[1] + 1):
                 for z in range(first[2], last[2] + 1):
+                    if follower:                       # (_led written out: as a
+                        if lead_map.shape[0] > 0:      # helper it took 3x the loop)
+                            a = x - lead_low[0]
+                            b = y - lead_low[1]
+                            d = z - lead_low[2]
+                            if a < 0 or b < 0 or d < 0 or a >= lead_map.shape[0] or \
+                                    b >= lead_map.shape[1] or d >= lead_map.shape[2] or \
+                                    not lead_map[a, b, d]:
+                                continue
+                        elif not _in_set(lead_set, _cell_key(_wrap_index(x, ncell[0]),
+                                                             _wrap_index(y, ncell[1]),
+                                                             _wrap_index(z, ncell[2]))):
+                            continue
                     key = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
                                     _wrap_index(z, ncell[2]))
-                    if follower and not _in_set(lead, key):
-                        continue
                     if total < keys.size:
                         keys[total] = key
                         bodies[total] = (i << _KIND_BITS) | kind[i]
@@ -461,37 +473,40 @@ def _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, singl
 
 @kernel
 def _lead_cells(lo, hi, alive, gridded, origin, cell, ncell):
-    """The cells the boxes of the grid's bodies not marked FOLLOWS cover, as an open-addressed
-    set of their keys ((T, 2) int64: key, 1 where taken, -1 where free; T a power of 2, at
-    least twice the entries); empty when no live body follows (everyone is entered
-    everywhere), or when a box covers more cells than _cell_range allows."""
+    """The cells the boxes of the grid's bodies not marked FOLLOWS cover: (set, map, low),
+    as _cell_map's dense map where it serves (set empty), otherwise as an open-addressed set
+    of their keys ((T, 2) int64: key, 1 where taken, -1 where free; T a power of 2, at least
+    twice the entries; map empty); all empty when no live body follows (everyone is entered
+    everywhere), or when a box covers more cells than _cell_range allows. _led reads it."""
     n = lo.shape[0]
     first = np.empty(3, np.int64)
     last = np.empty(3, np.int64)
+    nothing = (np.empty((0, 2), np.int64), np.zeros((0, 0, 0), np.bool_), first)
     follows = False
-    count = 0
     for i in range(n):
         if alive[i] and gridded[i] == FOLLOWS:
             follows = True
             break
-    if follows:
-        for i in range(n):
-            if alive[i] and gridded[i] == 1:
-                if not _cell_range(i, lo, hi, origin, cell, ncell, first, last):
-                    follows = False
-                    break
-                count += (last[0] - first[0] + 1) * (last[1] - first[1] + 1) * \
-                    (last[2] - first[2] + 1)
     if not follows:
-        return np.empty((0, 2), np.int64)
+        return nothing
+    leaders = np.nonzero(alive & (gridded == 1))[0]
+    # the map: a byte read where the set took a hash and a probe (5e4 debris following
+    # 2e3 ships and missiles: _fill 1.55 -> 0.86 ms)
+    occupied, low = _cell_map(leaders, lo, hi, origin, cell, ncell, max(4096.0, 4.0 * n))
+    if occupied.shape[0] > 0:
+        return np.empty((0, 2), np.int64), occupied, low
+    count = 0
+    for e in range(leaders.size):
+        if not _cell_range(leaders[e], lo, hi, origin, cell, ncell, first, last):
+            return nothing
+        count += (last[0] - first[0] + 1) * (last[1] - first[1] + 1) * \
+            (last[2] - first[2] + 1)
     size = 16
     while size < 2 * count:
         size *= 2
     lead = np.full((size, 2), -1, np.int64)
-    for i in range(n):
-        if not (alive[i] and gridded[i] == 1):
-            continue
-        _cell_range(i, lo, hi, origin, cell, ncell, first, last)
+    for e in range(leaders.size):
+        _cell_range(leaders[e], lo, hi, origin, cell, ncell, first, last)
         for x in range(first[0], last[0] + 1):
             for y in range(first[1], last[1] + 1):
                 for z in range(first[2], last[2] + 1):
@@ -500,7 +515,25 @@ def _lead_cells(lo, hi, alive, gridded, origin, cell, ncell):
                     h = _slot(lead, key)
                     lead[h, 0] = key
                     lead[h, 1] = 1
-    return lead
+    return lead, occupied, low
+
+
+@kernel(inline=True)
+def _follows(lead):
+    """Whether _lead_cells found bodies that follow (entered only in the cells it holds)."""
+    return lead[0].shape[0] > 0 or lead[1].shape[0] > 0
+
+
+@kernel(inline=True)
+def _led(table, occupied, low, x, y, z, ncell):
+    """Whether _lead_cells's cells (table, occupied, low: unpacked before a loop, as an
+    unpacking per body cost more than the look-up) hold cell (x, y, z)."""
+    if occupied.shape[0] > 0:
+        a, b, c = x - low[0], y - low[1], z - low[2]
+        return 0 <= a < occupied.shape[0] and 0 <= b < occupied.shape[1] and \
+            0 <= c < occupied.shape[2] and occupied[a, b, c]
+    return _in_set(table, _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
+                                    _wrap_index(z, ncell[2])))
 
 
 @kernel(inline=True)
@@ -517,7 +550,7 @@ def _slot(table, key):
 
 @kernel(inline=True)
 def _in_set(lead, key):
-    """Whether _lead_cells's set holds key."""
+    """Whether an open-addressed set (_slot's) holds key."""
     return lead[_slot(lead, key), 1] >= 0
 
 
@@ -633,8 +666,8 @@ def _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell,
 def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     """candidate_pairs, and the grid it built: (keys (E,), bodies (E,): the entries (cell
     key, row << _KIND_BITS | its kind) grouped by cell, origin (3,), inverse cell (3,),
-    ncell (3,), the sort's mask of low bits, the cells followers were entered in (empty:
-    everywhere))."""
+    ncell (3,), the sort's mask of low bits, the cells followers were entered in
+    (_lead_cells's)))."""
     radius, kind = rules.radius, rules.kind
     n = A.shape[0]
     L = _periods(rules)
@@ -709,7 +742,7 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     # followers are not looked up by giants (the grid holds them only where others are):
     # those of a kind a giant meets look the giants up themselves, as loose bodies do
     follower = np.zeros(n, np.bool_)
-    if lead.shape[0] > 0 and giants.size > 0:
+    if _follows(lead) and giants.size > 0:
         for j in range(n):
             follower[j] = gridded[j] == FOLLOWS
     near = np.empty(n, np.int64)                       # a body's partners, each once
@@ -755,8 +788,7 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     loose[giants] = False                              # ...and are no giants
     if giants.size == 0 or not loose.any():
         return pairs[:m], grid                         # (a duel's star and ships: no grid)
-    m, pairs = _loose_pairs(loose, giants, alive, lo, hi, rules, L, wraps, near, work, pairs,
-                            m)
+    m, pairs = _loose_pairs(loose, giants, alive, lo, hi, rules, L, near, work, pairs, m)
     return pairs[:m], grid
 
 
@@ -778,7 +810,7 @@ def _append(i, near, count, rules, kind, pairs, m):
 
 
 @kernel
-def _loose_pairs(loose, giants, alive, lo, hi, rules, L, wraps, near, work, pairs, m):
+def _loose_pairs(loose, giants, alive, lo, hi, rules, L, near, work, pairs, m):
     """The pairs of the loose bodies (loose (n,) bool: outside the grid, or following in
     it, and of a kind a giant meets) with the giants their boxes meet, each body looked up in
     a grid of the giants, added to pairs[:m]: (m, pairs). near (n,) int64, work (3, 3)
@@ -789,7 +821,8 @@ def _loose_pairs(loose, giants, alive, lo, hi, rules, L, wraps, near, work, pair
     # most loose bodies (5e4 debris after the ships of a battle are gone) are nowhere near
     # a giant: their cells looked up in a dense map of the giants' cells first (written out
     # here: a helper called per body cost 34 ns; the hashed look-up of each took 80)
-    occupied, low = _occupancy(giants, alive, lo, hi, grid, wraps, n)
+    occupied, low = _cell_map(giants[alive[giants]], lo, hi, grid[2], grid[3], grid[4],
+                              max(4096.0, 4.0 * n))
     origin, cell = grid[2], grid[3]
     dense = occupied.size > 0
     first, last = work[0], work[1]
@@ -873,44 +906,37 @@ def _giants_grid(giants, alive, lo, hi, rules, L):
             bodies = np.empty(total, np.int64)
     order = np.argsort(keys, kind="mergesort")
     return (keys[order], bodies[order], origin, cell, ncell, np.int64(-1),
-            np.empty((0, 2), np.int64))
+            (np.empty((0, 2), np.int64), np.zeros((0, 0, 0), np.bool_), np.zeros(3, np.int64)))
 
 
 @kernel
-def _occupancy(giants, alive, lo, hi, grid, wraps, n):
-    """The cells of a grid of the giants (_giants_grid's) they cover, densely: (occupied
-    (X, Y, Z) bool over the box of those cells, its low cell (3,) int64); an empty map (every
-    body looked up) when wrapping, or when the box holds more than max(4096, 4 n) cells."""
-    origin, cell, ncell = grid[2], grid[3], grid[4]
+def _cell_map(rows, lo, hi, origin, cell, ncell, limit):
+    """The cells of a grid (origin, inverse cell, ncell (3,)) the boxes of `rows` cover,
+    densely: (occupied (X, Y, Z) bool over the box of those cells, its low cell (3,)); an
+    empty map when a period wraps, when a box covers more cells than _cell_range allows, or
+    when the box holds more than `limit` cells. No rows: one free cell."""
     first, last = np.empty(3, np.int64), np.empty(3, np.int64)
     low = np.full(3, np.iinfo(np.int64).max)
     high = np.full(3, np.iinfo(np.int64).min)
-    nothing = (np.zeros((0, 0, 0), np.bool_), low)
-    if wraps:
-        return nothing
-    for sweep in range(2):                             # the box, then its cells
-        if sweep == 1:
-            cells = 1.0
-            for c in range(3):
-                cells *= max(0, high[c] - low[c] + 1)
-            if cells > max(4096.0, 4.0 * n):
-                return nothing
-            occupied = np.zeros((max(0, high[0] - low[0] + 1), max(0, high[1] - low[1] + 1),
-                                 max(0, high[2] - low[2] + 1)), np.bool_)
-        for q in range(giants.size):
-            g = giants[q]
-            if not alive[g]:
-                continue
-            if not _cell_range(g, lo, hi, origin, cell, ncell, first, last):
-                return nothing
-            if sweep == 0:
-                for c in range(3):
-                    low[c] = min(low[c], first[c])
-                    high[c] = max(high[c], last[c])
-            else:
-                occupied[first[0] - low[0]:last[0] - low[0] + 1,
-                         first[1] - low[1]:last[1] - low[1] + 1,
-                         first[2] - low[2]:last[2] - low[2] + 1] = True
+    if ncell[0] > 0 or ncell[1] > 0 or ncell[2] > 0:
+        return np.zeros((0, 0, 0), np.bool_), low
+    if rows.size == 0:
+        return np.zeros((1, 1, 1), np.bool_), np.zeros(3, np.int64)
+    for e in range(rows.size):                         # the box of the cells...
+        if not _cell_range(rows[e], lo, hi, origin, cell, ncell, first, last):
+            return np.zeros((0, 0, 0), np.bool_), low
+        for c in range(3):
+            low[c] = min(low[c], first[c])
+            high[c] = max(high[c], last[c])
+    if (high[0] - low[0] + 1.0) * (high[1] - low[1] + 1.0) * (high[2] - low[2] + 1.0) > limit:
+        return np.zeros((0, 0, 0), np.bool_), low
+    occupied = np.zeros((high[0] - low[0] + 1, high[1] - low[1] + 1, high[2] - low[2] + 1),
+                        np.bool_)
+    for e in range(rows.size):                         # ...then the cells
+        _cell_range(rows[e], lo, hi, origin, cell, ncell, first, last)
+        occupied[first[0] - low[0]:last[0] - low[0] + 1,
+                 first[1] - low[1]:last[1] - low[1] + 1,
+                 first[2] - low[2]:last[2] - low[2] + 1] = True
     return occupied, low
 
 
@@ -1097,6 +1123,8 @@ def _grid_meets(i, grid, table, lo, hi, L, alive, skip, near, work, strict):
     binary search finds a cell). work : (3, 3) int64 scratch (three small arrays a call
     cost more than the look-up of a body that meets nothing)."""
     keys, bodies, origin, cell, ncell, low_bits, lead = grid
+    following = _follows(lead)
+    lead_set, lead_map, lead_low = lead
     first, last, corner = work[0], work[1], work[2]
     if not _cell_range(i, lo, hi, origin, cell, ncell, first, last):
         return -1
@@ -1104,10 +1132,10 @@ def _grid_meets(i, grid, table, lo, hi, L, alive, skip, near, work, strict):
     for x in range(first[0], last[0] + 1):
         for y in range(first[1], last[1] + 1):
             for z in range(first[2], last[2] + 1):
+                if strict and following and not _led(lead_set, lead_map, lead_low, x, y, z, ncell):
+                    return -1
                 key = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
                                 _wrap_index(z, ncell[2]))
-                if strict and lead.shape[0] > 0 and not _in_set(lead, key):
-                    return -1
                 if table.shape[0]:                     # the key's first entry, if any
                     h = _slot(table, key)
                     a = table[h, 1] if table[h, 1] >= 0 else keys.size
