@@ -526,8 +526,9 @@ def _follows(lead):
 
 @kernel(inline=True)
 def _led(table, occupied, low, x, y, z, ncell):
-    """Whether _lead_cells's cells (table, occupied, low: unpacked before a loop, as an
-    unpacking per body cost more than the look-up) hold cell (x, y, z)."""
+    """Whether _lead_cells's cells (its set, map and low cell) hold cell (x, y, z) (ncell:
+    the grid's, for the set's key). _fill writes this out: in its loop over 6e4 bodies the
+    helper took 3x as long as the same test written there."""
     if occupied.shape[0] > 0:
         a, b, c = x - low[0], y - low[1], z - low[2]
         return 0 <= a < occupied.shape[0] and 0 <= b < occupied.shape[1] and \
