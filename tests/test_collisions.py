@@ -196,6 +196,38 @@ def test_followers_enter_only_the_cells_others_cover_and_find_every_pair(seed, s
     assert grid == brute
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("spread, k, mapped", [(40.0, 60, True), (1e6, 200, False)])
+def test_followers_find_every_pair_with_the_leaders_cells_mapped_or_hashed(dim, spread, k,
+                                                                          mapped):
+    # the cells of the bodies that lead (ships) are a dense map where it is small (ships a
+    # few cells apart) and a hashed set where the map would hold too many cells (ships a
+    # million apart, each in a crowd of 200 debris: the crowds make the grid take fine
+    # cells); either way the debris (followers) meet the ships exactly as brute force finds
+    rng = np.random.default_rng(11)
+    w = sp.World(dim=dim, gravity="none", dt=0.1)
+    w.set_collision("ship", "ship", "elastic")
+    w.set_collision("ship", "debris", "destroy_both")
+    ships = 6
+    centres = rng.uniform(0.0, spread, (ships, dim))
+    w.add_bodies(1.0, centres, radius=0.15, kind="ship")          # (within 2x: no giants)
+    w.add_bodies(0.01, np.repeat(centres, k, axis=0) + rng.normal(scale=0.6, size=(ships * k,
+                 dim)), radius=0.1, kind="debris")
+    B = np.zeros((w.n, 3))
+    B[:, :dim] = rng.normal(scale=0.2, size=(w.n, dim))
+    grid, brute, plan = _grid_and_brute(w, B)
+    assert _followers(plan.rules) == ships * k
+    n = w.n
+    A = np.zeros((n, 3))
+    A[:, :dim] = w.pos
+    lo, hi = np.empty((n, 3)), np.empty((n, 3))
+    lead_set, lead_map, _ = collide._grid_pairs(A, B, np.zeros(n), plan.alive, plan.rules,
+                                                 lo, hi)[1][6]
+    assert (lead_map.size > 0, lead_set.shape[0] > 0) == (mapped, not mapped)
+    assert len(brute) > ships
+    assert grid == brute
+
+
 def test_a_bounce_into_a_cell_of_followers_alone_finds_them():
     # ship A (at x = 0, +10 over the step) meets ship B (at rest at x = 6) at 0.4 of the
     # step; B then moves on to x = 12 through a debris disc at x = 12.5, in a cell no box
