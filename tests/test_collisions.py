@@ -228,16 +228,21 @@ def test_followers_find_every_pair_with_the_leaders_cells_mapped_or_hashed(dim, 
     assert grid == brute
 
 
-def test_a_bounce_into_a_cell_of_followers_alone_finds_them():
+@pytest.mark.parametrize("third", [False, True])
+def test_a_bounce_into_a_cell_of_followers_alone_finds_them(third):
     # ship A (at x = 0, +10 over the step) meets ship B (at rest at x = 6) at 0.4 of the
     # step; B then moves on to x = 12 through a debris disc at x = 12.5, in a cell no box
-    # covered when the grid was built (its debris left out): the later pass needs a new grid
+    # covered when the grid was built (its debris left out): the later pass needs a new grid.
+    # A third ship at x = 30 widens the leaders' map past x = 12.5: the debris disc's cell
+    # then lies inside the map, free (and must be read as free, not as inside)
     w = sp.World(dim=2, gravity="none", dt=1.0)
     w.set_collision("ship", "ship", "elastic")
     w.set_collision("ship", "debris", "destroy_both")
     w.collision_cell = 2.0
     a, b = w.add_bodies(1.0, [[0.0, 0.0], [6.0, 0.0]], [[10.0, 0.0], [0.0, 0.0]], radius=1.0,
                         kind="ship")
+    if third:
+        w.add_body(1.0, [30.0, 0.0], radius=1.0, kind="ship")
     target = w.add_body(0.01, [12.5, 0.0], radius=0.2, kind="debris")
     w.add_bodies(0.01, np.column_stack([np.arange(10.0), np.full(10, -2.5)]), radius=0.2,
                  kind="debris")                        # far from both lines: followers

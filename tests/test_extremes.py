@@ -349,6 +349,23 @@ def test_speed_past_the_range_of_doubles_is_reported_naming_the_body():
     w.step(1)                                  # the rest goes on
 
 
+def test_a_speed_past_the_range_of_doubles_among_debris_that_follow_ships_is_reported():
+    """The same overflow where the collision grid enters debris only in the cells ships
+    cover (followers): the ship's infinite box has no cells, the broad phase passes it by,
+    and the step reports the body as above (it once failed inside the grid, building a
+    map of the ships' cells with a negative size)."""
+    rng = np.random.default_rng(1)
+    w = sp.World(dim=2, gravity="none", integrator="leapfrog", dt=1e10)
+    w.set_collision("ship", "ship", "elastic")
+    w.set_collision("ship", "debris", "destroy_both")
+    w.add_bodies(1.0, rng.uniform(0.0, 40.0, (6, 2)), radius=0.15, kind="ship")
+    w.add_bodies(0.01, rng.uniform(0.0, 40.0, (400, 2)), radius=0.1, kind="debris")
+    rock = w.add_body(1.0, (50.0, 50.0), (1e300, 0.0), radius=0.15, kind="ship")
+    with pytest.raises(sp.InstabilityError, match=r"NaN or infinite .* \(ship\)") as err:
+        w.step(1)
+    assert list(err.value.ids) == [rock]
+
+
 @pytest.mark.filterwarnings("ignore::spacephys.PrecisionWarning")  # its subject
 def test_a_floating_origin_is_recorded_and_replays(tmp_path):
     """shift_origin and watch_energy are journaled like every other change: a run that

@@ -836,8 +836,9 @@ def _loose_pairs(loose, giants, alive, lo, hi, rules, L, near, work, pairs, m):
             cells = 1
             for c in range(3):
                 # in floats until clipped to the map: a box far out would overflow an int
-                f0 = math.floor((lo[j, c] - origin[c]) * cell[c]) - low[c]
-                f1 = math.floor((hi[j, c] - origin[c]) * cell[c]) - low[c]
+                # (np.floor: math.floor gives an int64, garbage for NaN or past 2^63)
+                f0 = np.floor((lo[j, c] - origin[c]) * cell[c]) - low[c]
+                f1 = np.floor((hi[j, c] - origin[c]) * cell[c]) - low[c]
                 if not (f0 == f0 and f1 == f1):
                     cells = 1 << 20                    # NaN: the look-up decides
                     break
@@ -1088,8 +1089,8 @@ def _cell_range(i, lo, hi, origin, cell, ncell, first, last):
     changed after the grid was sized), in floats first."""
     count = 1.0
     for c in range(3):
-        f0 = math.floor((lo[i, c] - origin[c]) * cell[c])
-        f1 = math.floor((hi[i, c] - origin[c]) * cell[c])
+        f0 = np.floor((lo[i, c] - origin[c]) * cell[c])    # (a float: NaN fails below;
+        f1 = np.floor((hi[i, c] - origin[c]) * cell[c])    # math.floor's int64 would not)
         if not (abs(f0) < 2.0 ** 52 and abs(f1) < 2.0 ** 52):
             return False
         first[c] = int(f0)
