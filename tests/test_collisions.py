@@ -43,17 +43,23 @@ def kinetic(w):
 
 # ----------------------------------------------------------------------------- properties
 
-def _grid_and_brute(w, B=None, tb=None):
-    """The candidate pairs of the grid and of brute force for w's bodies, as sets."""
+def _pass_inputs(w, B=None, tb=None):
+    """The broad phase's arguments for w's bodies: (A, B, tb, alive, rules, lo, hi) with
+    lines from the positions along B (n, 3) (none by default), and the plan."""
     plan = w.tables()
-    n, dim = w.n, w.dim
+    n = w.n
     A = np.zeros((n, 3))
-    A[:, :dim] = w.pos
+    A[:, :w.dim] = w.pos
     B = np.zeros((n, 3)) if B is None else B
     tb = np.zeros(n) if tb is None else tb
-    lo, hi = np.empty((n, 3)), np.empty((n, 3))
-    grid, _ = collide.candidate_pairs(A, B, tb, plan.alive, plan.rules, lo, hi)
-    brute = collide.brute_pairs(A, B, tb, plan.alive, plan.rules, lo, hi)
+    return (A, B, tb, plan.alive, plan.rules, np.empty((n, 3)), np.empty((n, 3))), plan
+
+
+def _grid_and_brute(w, B=None, tb=None):
+    """The candidate pairs of the grid and of brute force for w's bodies, as sets."""
+    args, plan = _pass_inputs(w, B, tb)
+    grid, _ = collide.candidate_pairs(*args)
+    brute = collide.brute_pairs(*args)
     as_set = lambda pairs: {tuple(p) for p in pairs.tolist()}
     assert len(as_set(grid)) == len(grid)            # never reported twice
     return as_set(grid), as_set(brute), plan
@@ -217,12 +223,7 @@ def test_followers_find_every_pair_with_the_leaders_cells_mapped_or_hashed(dim, 
     B[:, :dim] = rng.normal(scale=0.2, size=(w.n, dim))
     grid, brute, plan = _grid_and_brute(w, B)
     assert _followers(plan.rules) == ships * k
-    n = w.n
-    A = np.zeros((n, 3))
-    A[:, :dim] = w.pos
-    lo, hi = np.empty((n, 3)), np.empty((n, 3))
-    lead_set, lead_map, _ = collide._grid_pairs(A, B, np.zeros(n), plan.alive, plan.rules,
-                                                 lo, hi)[1][6]
+    lead_set, lead_map, _ = collide._grid_pairs(*_pass_inputs(w, B)[0])[1][6]
     assert (lead_map.size > 0, lead_set.shape[0] > 0) == (mapped, not mapped)
     assert len(brute) > ships
     assert grid == brute
