@@ -5,6 +5,7 @@ import os
 import sys
 import threading
 import time
+import types as types_
 import warnings
 from pathlib import Path
 
@@ -58,7 +59,7 @@ PRANGE_ONLY = {"prange": True, "comprehension": False, "reduction": False,
                "fusion": False}
 
 
-def kernel(fn=None, *, fast=False, parallel=False, inline=False, lean=False):
+def kernel(fn=None, *, fast=False, parallel=False, inline=False, lean=False, counted=False):
     """Compile `fn` with numba: cached, numpy error model (x/0 gives inf, no exception check).
 
     fast : allow reassociation and FMA (see FAST); parallel : compile prange loops to threads.
@@ -68,7 +69,10 @@ def kernel(fn=None, *, fast=False, parallel=False, inline=False, lean=False):
     times with arrays it read once (see forces.hoist), where every array passed to a helper
     would otherwise cost two atomic operations per call (measured 10 ns the pair here, 43% of
     a small prediction's time); such a helper takes arrays and numbers only, and allocates
-    nothing. A function that holds
+    nothing. A function compiled for a lean caller is itself lean unless it says otherwise
+    (numba's callees inherit the caller's reference counting): counted : compiled with
+    reference counting whoever calls it, for the functions a lean one may call that allocate
+    or hold numba's typed lists (the tree, user forces). A function that holds
     a prange, or calls one that does, is itself parallel: a cached serial kernel that calls a
     parallel one segfaults when loaded from the cache (numba issue #8578).
     """
@@ -80,11 +84,22 @@ def kernel(fn=None, *, fast=False, parallel=False, inline=False, lean=False):
         parallel = dict(PRANGE_ONLY)
     opts = dict(cache=True, nogil=True, error_model="numpy", parallel=parallel,
                 fastmath=set(FAST) if fast else False, inline="always" if inline else "never")
-    if lean:
-        opts["_nrt"] = False
+    if lean or counted:
+        opts["_nrt"] = not lean
     if fn is None:
         return lambda f: numba.njit(**opts)(f)
     return numba.njit(**opts)(fn)
+
+
+def twin(fn, name):
+    """A copy of the function fn named `name`: a second numba dispatcher of the same body
+    with other options, which caches apart (numba keys its cache by the function's name)."""
+    code = fn.__code__.replace(co_name=name, co_qualname=name)
+    copy = types_.FunctionType(code, fn.__globals__, name, fn.__defaults__, fn.__closure__)
+    copy.__qualname__ = name
+    copy.__doc__ = fn.__doc__
+    copy.__module__ = fn.__module__
+    return copy
 
 
 def _purge_stale_cache():

@@ -197,7 +197,8 @@ def main(argv=None):
     bench = sub.add_parser("bench", help="benchmark side by side with REBOUND")
     bench.add_argument("what", choices=["gravity", "integrators", "collisions", "fleet", "log",
                                         "tradeoff", "peers", "memory", "models", "overhead",
-                                        "predict", "tree", "queries", "sweep", "play"])
+                                        "predict", "tree", "queries", "sweep", "play",
+                                        "compile"])
     bench.add_argument("--out", default="tradeoff", metavar="DIR",
                        help="tradeoff, peers: where the CSV, JSON and plots go (default ./tradeoff)")
     bench.add_argument("--quick", action="store_true", help="fewer repeats, smaller cases")

@@ -2,9 +2,10 @@
 wind, held per-body forces and accelerations, and user forces (numba functions).
 
 It validates every setting, keeps them, and builds the kernels' force table
-(kernels/forces.Forces) that every integrator family reads. Adding a gravity model touches
-this file (its settings), kernels/forces.py (its accelerations) and kernels/diagnostics.py (its
-potential energy).
+(kernels/forces.Forces) that every integrator family reads: what the scene has, typed, and
+None for what it has not (kernels/forces.py). Adding a gravity model touches this file (its
+name and settings, `model`) and the kernel file of its table and functions
+(kernels/gravity.py, or a file of its own registered there, as kernels/tree.py).
 """
 import importlib
 
@@ -13,8 +14,14 @@ import numpy as np
 from numba.core.registry import CPUDispatcher
 
 from . import _validate as check
+from ._jit import PARALLEL_MIN_PAIRS
 from .kernels import forces as kforces
-from .kernels.forces import CENTRAL, DIRECT, GRAVITY_MODELS, TREE, UNIFORM
+from .kernels import gravity as kgravity
+from .kernels.pairs import PAIRS_FROM
+
+# the gravity models by name, each with a code (kernels/gravity.py has their tables and
+# functions)
+GRAVITY_MODELS = {"none": 0, "direct": 1, "uniform": 2, "central": 3, "tree": 4}
 
 # the models in which the bodies pull each other (the pulling ones: active, of mass > 0)
 MUTUAL = ("direct", "tree")
@@ -63,7 +70,6 @@ class ForceField:
         self.theta = self.checked_theta(0.5 if theta is None else theta)
         self.quadrupole = self.checked_quadrupole(True if quadrupole is None else quadrupole)
         self.gravity = gravity
-        self.model = GRAVITY_MODELS[gravity]
         self.field = field                    # (3,): g, or the central body's position
         self.field_mass = field_mass
         self.softening = check.scalar("softening", softening, minimum=0.0)
@@ -144,57 +150,76 @@ class ForceField:
         del self.user[self._index(k)]
         self._typed = None
 
-    def typed_user(self):
-        """(functions, params): the typed lists the kernels' table holds."""
+    def typed_user(self, n):
+        """The kernels' UserForces for n bodies, or None without user forces."""
+        if not self.user:
+            return None
         if self._typed is None:
             fns, params = kforces.no_user_forces()
             for fn, p in self.user:
                 fns.append(fn)
                 params.append(p)
             self._typed = (fns, params)
-        return self._typed
+        return kforces.UserForces(*self._typed, np.zeros((n, 3)))
 
     # ------------------------------------------------------------ the table
     def table(self, mass, ids, src, passive, still, held, threads):
         """The kernels' Forces for the bodies mass, ids (n,); src, passive, still: int64 rows;
-        held : (n, 6) or None; threads : (1,) int64 shared with World's ThreadChoice."""
-        fns, params = self.typed_user() if self.user else (None, None)
-        table = kforces.make(mass, ids, model=self.model, G=self.G,
-                             eps2=self.softening ** 2, field=self.field,
-                             field_mass=self.field_mass, src=src, passive=passive, still=still,
-                             drag=self.drag, held=held, user=fns, params=params,
-                             threads=threads, theta=self.theta, quadrupole=self.quadrupole)
-        if self.tape is not None:           # a prediction's copy (spacephys/tape.py)
-            self.tape.attach(table, src, ids[src])
-        return table
+        held : (n, 6) or None; threads : (1,) int64 shared with World's ThreadChoice, or None
+        (the scene's force loops never run on threads)."""
+        tape = self.tape.table_for(src, ids[src]) if self.tape is not None else None
+        return kforces.make(mass, ids, gravity_=self.model(src.size), src=src,
+                            passive=passive, still=still, held=held,
+                            user=self.typed_user(mass.shape[0]),
+                            drag=self.drag if self.drag[0] > 0.0 else None, tape=tape,
+                            threads=threads)
+
+    def model(self, ns, exact=False):
+        """The gravity model's table (kernels/gravity.py) for ns pulling bodies (None: no
+        gravity); exact: a tree's sum made directly."""
+        g, eps2 = self.G, self.softening ** 2
+        if self.gravity == "direct" or (exact and self.gravity == "tree"):
+            return kgravity.Direct(g, eps2, np.empty((4, ns)),
+                                   np.empty((3, ns)) if ns >= PAIRS_FROM else None)
+        if self.gravity == "tree":
+            from .kernels.tree import Tree
+            return Tree(g, eps2, self.theta, int(self.quadrupole), np.empty((4, ns)))
+        if self.gravity == "uniform":
+            return kgravity.Uniform(self.field)
+        if self.gravity == "central":
+            return kgravity.Central(g, eps2, self.field, self.field_mass, np.empty((4, 1)))
+        return None
 
     def gravity_table(self, mass, ids, src, passive, exact):
         """A Forces table of gravity alone (no drag, held or user forces, nobody held still);
         exact: the tree's sum made directly."""
-        model = DIRECT if exact and self.model == TREE else self.model
-        return kforces.make(mass, ids, model=model, G=self.G, eps2=self.softening ** 2,
-                            field=self.field, field_mass=self.field_mass, src=src,
-                            passive=passive, still=np.zeros(0, np.int64), drag=np.zeros(4),
-                            theta=self.theta, quadrupole=self.quadrupole)
+        return kforces.make(mass, ids, gravity_=self.model(src.size, exact), src=src,
+                            passive=passive, still=np.zeros(0, np.int64))
 
     def work(self, n, pulling):
         """Pair evaluations of the largest force loop for n bodies, `pulling` of them pulling:
         what decides whether threads can pay."""
-        if self.model == DIRECT:
+        if self.gravity == "direct":
             return n * pulling
-        if self.model == TREE:      # a walk's lists hold some hundreds of entries
+        if self.gravity == "tree":      # a walk's lists hold some hundreds of entries
             return n * min(pulling, 500)
-        return n if self.model == CENTRAL else 0
+        return n if self.gravity == "central" else 0
+
+    @staticmethod
+    def threaded(work):
+        """Whether a scene whose largest force loop makes `work` pair evaluations may run it
+        on threads at all (then its kernels compile the threaded loops)."""
+        return work >= PARALLEL_MIN_PAIRS and numba.config.NUMBA_NUM_THREADS >= 2
 
     def shift(self, delta):
         """The origin moved by delta (3,): a central body's position with it."""
-        if self.model == CENTRAL:
+        if self.gravity == "central":
             self.field -= delta
 
     @property
     def potential_has_zero(self):
         """False for a uniform field, whose potential has no natural zero."""
-        return self.model != UNIFORM
+        return self.gravity != "uniform"
 
     # ------------------------------------------------------------ state
     def state(self):
@@ -213,7 +238,6 @@ class ForceField:
         f.dim = dim
         f.G = float(s["G"])
         f.gravity = str(s["gravity"])
-        f.model = GRAVITY_MODELS[f.gravity]
         f.field = np.array(s["field"], np.float64)
         f.field_mass = float(s["field_mass"])
         f.softening = float(s["softening"])

@@ -16,7 +16,6 @@ part of World (predict.py's copy).
 import numpy as np
 
 from .forces import HELD
-from .kernels import forces as kforces
 from .kernels import tape as ktape
 
 # the most a tape holds: past it a prediction runs in full (10 000 steps of yoshida6 among 10
@@ -34,6 +33,7 @@ class Tape:
         self.at[ktape.PER_STEP] = per_step
         self.tape = np.zeros((0, 4, src.size))
         self.ends = np.zeros((0, src.size, 14))
+        self.table = ktape.make(self.tape, self.ends, self.at)     # the kernels' Tape
         self.origin = None          # (time, dt) of the tape's step 0
         self.start = None           # (ns, 7): the pulling bodies then (pos, vel, mass)
         self.moved = None           # what else sets how they move (_moved)
@@ -42,19 +42,20 @@ class Tape:
         self._bind(w, src)
 
     def _bind(self, w, src):
-        """Ride on w: its ForceField gives the tape to every table it builds (attach)."""
+        """Ride on w: its ForceField gives the tape to every table it builds (table_for)."""
         w._forces.tape = self
-        self.attach(w.tables().forces, src, w._b.ids[src])
+        w._plan = None
+        w.tables()
 
-    def attach(self, forces, src, src_ids):
-        """Give a Forces table just built for the copy (its pulling rows src, their ids) the
-        tape, if the same bodies pull in the same order (the copy's own run removed others);
-        else stop the tape (a pulling body left)."""
+    def table_for(self, src, src_ids):
+        """The kernels' Tape for a Forces table just built for the copy (its pulling rows src,
+        their ids), if the same bodies pull in the same order; else None, and the tape
+        stops (the copy's own run removed a pulling body)."""
         if np.array_equal(src_ids, self.src_ids):
-            self.forces, self.src = forces, src
-            kforces.set_tape(forces, self.tape, self.ends, self.at)
-        else:
-            self.at[ktape.ON] = 0
+            self.src = src
+            return self.table
+        self.at[ktape.ON] = 0
+        return None
 
     @staticmethod
     def make(w, old=None):
@@ -144,7 +145,7 @@ class Tape:
         tape[:valid * self.per_step] = self.tape[:valid * self.per_step]
         ends[:valid] = self.ends[:valid]
         self.tape, self.ends = tape, ends
-        kforces.set_tape(self.forces, tape, ends, self.at)
+        ktape.set_arrays(self.table, tape, ends)
         return True
 
     def covers(self, nsteps):
@@ -164,6 +165,7 @@ class Tape:
         other = Tape.__new__(Tape)
         other.__dict__.update(self.__dict__)
         other.at = self.at.copy()
+        other.table = ktape.make(other.tape, other.ends, other.at)
         other.parent = self
         other._bind(w, src)
         return other

@@ -22,16 +22,16 @@ from .actors import Actors
 from .collisions import CollisionRules
 from .errors import InstabilityError, PrecisionWarning
 from .events import EVENT_DTYPE
-from .forces import HELD, ForceField
+from .forces import GRAVITY_MODELS, HELD, ForceField
 from .integrators import get_integrator
 from . import journal, orbits
 from .journal import journaled_setter
 from .kernels import diagnostics
 from .kernels import forces as kforces
+from .kernels import gravity as kgravity
 from .kernels import state as kstate
 from .kernels.codes import BOUNDARIES, FAILED, NONFINITE, REMOVED, RESPONSES
 from .kernels.collide import SCRATCH
-from .kernels.forces import GRAVITY_MODELS
 from .state import Bodies
 from .steppers import Plan, stepper_for
 from .units import get_units
@@ -267,6 +267,7 @@ class World:
     @threads.setter
     def threads(self, mode):
         self._threads.set(mode)
+        self._plan = None               # "never": the tables hold no threaded loops
 
     @property
     def integrator(self):
@@ -379,6 +380,7 @@ class World:
     @journaled_setter("drag")
     def drag(self, value):
         self._forces.drag[0] = check.scalar("drag", value, minimum=0.0)
+        self._plan = None               # a table without drag has no drag code
 
     @property
     def wind(self):
@@ -1149,15 +1151,16 @@ class World:
         state = kstate.make(b.pos[:n], b.vel[:n], b.prev[:n], b.mass[:n], b.ids[:n], alive,
                             scratch["acc"], scratch["pos0"], scratch["vel0"], self._events,
                             self._event_count, self._dim)
+        work = self._forces.work(n, sources[0].size)
+        threads = self._threads.min_pairs if self._threads.mode != "never" and \
+            self._forces.threaded(work) else None
         forces = self._forces.table(b.mass[:n], b.ids[:n], *sources,
-                                    b.held[:n] if HELD in b.columns else None,
-                                    self._threads.min_pairs)
+                                    b.held[:n] if HELD in b.columns else None, threads)
         rules = self._collisions.table(b.kind[:n].astype(np.int64), b.radius[:n],
                                        b.category[:n], b.mask[:n], b.fixed[:n],
                                        self._actors.owners(), self._dim, b.index, scratch)
         plan = Plan(self, state, forces, rules, self._actors.table(actors),
-                    self._stepper.method(self, sources), alive,
-                    self._forces.work(n, sources[0].size))
+                    self._stepper.method(self, sources), alive, work)
         self._plan = plan
         self._check_precision(b.pos[:n, :self._dim])
         return plan
@@ -1396,8 +1399,9 @@ class World:
     def _body_energies(self):
         b = self._b
         out = np.empty(b.n)
-        kforces.body_energies(self._force_table(), b.pos[:b.n], b.vel[:b.n],
-                                  self._masses(True), out)
+        src = self._sources()[0]
+        kgravity.body_energies(self._forces.model(src.size), b.pos[:b.n], b.vel[:b.n],
+                               self._masses(True), src, out)
         return out
 
     def watch_energy(self, limit):
@@ -1455,15 +1459,6 @@ class World:
     def _masses(self, pulling_only):
         b = self._b
         return np.where(self.pulls, b.mass[:b.n], 0.0) if pulling_only else b.mass[:b.n]
-
-    def _force_table(self):
-        """The kernels' Forces for the bodies now (the diagnostics read its gravity)."""
-        plan = self._plan
-        if plan is not None:
-            return plan.forces
-        b = self._b
-        return self._forces.table(b.mass[:b.n], b.ids[:b.n], *self._sources(), None,
-                                  self._threads.min_pairs)
 
     # ---------------------------------------------------------------- spatial queries
     def _query_kinds(self, kinds):
@@ -1528,7 +1523,7 @@ class World:
         src, passive, _ = self._sources()
         f = self._forces.gravity_table(b.mass[:b.n], b.ids[:b.n], src, passive, exact)
         out = np.zeros((b.n, 3))
-        kforces.accelerations(f, self.t, b.pos[:b.n], b.vel[:b.n], out, rows, False)
+        kforces.accelerations_of(f, self.t, b.pos[:b.n], b.vel[:b.n], out, rows, False)
         return out[rows, :self._dim]
 
     def kinetic_energy(self, pulling_only=False):
@@ -1539,14 +1534,11 @@ class World:
         """Potential energy in the gravity model (passive bodies in the pulling ones' field).
         With gravity="tree", the tree's (what its forces conserve), or with exact=True the
         direct sum over pairs (O(n^2): for checks)."""
-        f = self._force_table()
         b = self._b
-        passive = self._sources()[1]
+        src, passive, _ = self._sources()
         passive = passive[:0] if pulling_only else passive
-        energy = kforces.potential_energy
-        if self.gravity == "tree" and not exact:
-            energy = kforces.tree_potential_energy
-        return energy(f, b.pos[:b.n], self._masses(pulling_only), passive)
+        return kgravity.potential(self._forces.model(src.size), b.pos[:b.n],
+                                  self._masses(pulling_only), src, passive, exact)
 
     def energy(self, pulling_only=False, exact=False):
         """Kinetic + potential energy [mass length^2 / time^2] (exact: see

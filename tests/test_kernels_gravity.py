@@ -7,8 +7,7 @@ import pytest
 from reference import direct_accelerations, direct_potential
 
 from spacephys._jit import PARALLEL_MIN_PAIRS
-from spacephys.kernels import diagnostics, forces, pairs
-from spacephys.kernels.forces import CENTRAL, DIRECT, NONE, UNIFORM
+from spacephys.kernels import diagnostics, forces, gravity, pairs
 
 
 def _scene(rng, n, frac_pulling):
@@ -20,18 +19,30 @@ def _scene(rng, n, frac_pulling):
     return pos, mass, pulls
 
 
+def _model(model, ns, G=1.7, eps2=0.0, field=np.zeros(3), field_mass=0.0):
+    """The gravity table of `model` (a name) for ns sources, as spacephys/forces.py builds it."""
+    if model == "direct":
+        return gravity.Direct(G, eps2, np.empty((4, ns)),
+                              np.empty((3, ns)) if ns >= pairs.PAIRS_FROM else None)
+    if model == "central":
+        return gravity.Central(G, eps2, field, field_mass, np.empty((4, 1)))
+    if model == "uniform":
+        return gravity.Uniform(field)
+    return None
+
+
 def _run(pos, mass, pulls, model, G=1.7, eps2=0.0, field=np.zeros(3), field_mass=0.0,
-         still=np.zeros(0, np.int64)):
+         still=np.zeros(0, np.int64), threads=None):
     src = np.flatnonzero(pulls).astype(np.int64)
     passive = np.flatnonzero(~pulls).astype(np.int64)
     n = len(mass)
     out = np.full((n, 3), np.nan)
-    f = forces.make(mass, np.arange(n, dtype=np.int64), model=model, G=G, eps2=eps2,
-                    field=field, field_mass=field_mass, src=src, passive=passive, still=still,
-                    drag=np.zeros(4))
-    forces.accelerations(f, 0.0, pos, np.zeros_like(pos), out, np.arange(n, dtype=np.int64),
-                         False)
-    energy = forces.potential_energy(f, pos, mass, passive)
+    table = _model(model, src.size, G, eps2, field, field_mass)
+    f = forces.make(mass, np.arange(n, dtype=np.int64), gravity_=table, src=src,
+                    passive=passive, still=still, threads=threads)
+    forces.accelerations_of(f, 0.0, pos, np.zeros_like(pos), out, np.arange(n, dtype=np.int64),
+                            False)
+    energy = gravity.potential(table, pos, mass, src, passive)
     return out, energy
 
 
@@ -42,7 +53,8 @@ def _run(pos, mass, pulls, model, G=1.7, eps2=0.0, field=np.zeros(3), field_mass
 def test_direct_matches_numpy(rng, n, eps):
     assert (40 * 40 < PARALLEL_MIN_PAIRS) and (400 * 200 > PARALLEL_MIN_PAIRS)
     pos, mass, pulls = _scene(rng, n, 0.6)
-    acc, energy = _run(pos, mass, pulls, DIRECT, eps2=eps * eps)
+    threads = np.array([PARALLEL_MIN_PAIRS], np.int64) if n > 40 else None
+    acc, energy = _run(pos, mass, pulls, "direct", eps2=eps * eps, threads=threads)
     ref = direct_accelerations(pos, mass, pulls, 1.7, eps * eps)
     assert np.max(np.abs(acc - ref)) <= 1e-12 * np.max(np.abs(ref))
     ref_energy = direct_potential(pos, mass, pulls, 1.7, eps * eps)
@@ -71,53 +83,47 @@ def test_the_rounds_of_block_pairs_take_each_pair_once(nb):
 def test_pairs_both_ways_match_the_one_sided_sums(rng, ns):
     """pairs.pull_pairs (each pair once, in blocks) against pull (every source on each body):
     the same accelerations to rounding; the threaded version bit for bit the serial one."""
-    s = np.zeros((7, ns))
+    s = np.zeros((4, ns))
     s[:3] = rng.normal(size=(3, ns))
     s[3] = rng.uniform(0.1, 2.0, ns)
     s[:3, -1] = s[:3, 0]                           # a coincident pair: no force between them
-    threaded = s.copy()
-    pairs.pull_pairs(s, ns, 0.0)
-    pairs.pull_pairs_threaded(threaded, ns, 0.0)
-    assert np.array_equal(s, threaded)
+    sums, threaded = np.zeros((3, ns)), np.zeros((3, ns))
+    pairs.pull_pairs(s, sums, ns, 0.0)
+    pairs.pull_pairs_threaded(s, threaded, ns, 0.0)
+    assert np.array_equal(sums, threaded)
     ref = np.array([pairs.pull(*s[:3, i], s, ns, 0.0) for i in range(ns)]).T
-    assert np.all(np.isfinite(s))
-    assert np.max(np.abs(s[4:] - ref)) <= 1e-13 * np.max(np.abs(ref))
+    assert np.all(np.isfinite(sums))
+    assert np.max(np.abs(sums - ref)) <= 1e-13 * np.max(np.abs(ref))
 
 
 def test_every_code_path_of_the_forces_gives_the_same_bits(rng):
-    """accelerations (threaded or not), accelerations_serial and lean_accelerations: one
-    result bit for bit, with pairs both ways among the sources and pull on the passive;
-    the same for the sources when they alone are the targets."""
+    """accelerations on threads, on the calling thread in a table that may thread, and in a
+    table without threads (its kernels compiled without the threaded loops): one result bit
+    for bit, with pairs both ways among the sources and pull on the passive; the same for the
+    sources when they alone are the targets."""
     pos, mass, pulls = _scene(rng, 700, 0.6)
     src = np.flatnonzero(pulls).astype(np.int64)
     n = len(mass)
     everyone = np.arange(n, dtype=np.int64)
     results = []
-    for min_pairs in (1, 2**62):                 # on threads / on the calling thread
-        f = forces.make(mass, everyone, model=DIRECT, G=1.3, eps2=1e-4, field=np.zeros(3),
-                        field_mass=0.0, src=src, passive=np.flatnonzero(~pulls),
-                        still=np.zeros(0, np.int64), drag=np.zeros(4),
-                        threads=np.array([min_pairs], np.int64))
-        for call in ("threaded", "serial", "lean"):
-            out = np.full((n, 3), np.nan)
-            if call == "threaded":
-                forces.accelerations(f, 0.0, pos, pos * 0, out, everyone, False)
-            elif call == "serial":
-                forces.accelerations_serial(f, 0.0, pos, pos * 0, out, everyone, False)
-            else:
-                forces.lean_accelerations(forces.hoist(f)[0], pos, pos * 0, out, everyone, False)
-            results.append(out)
+    for threads in (np.array([1], np.int64), np.array([2**62], np.int64), None):
+        f = forces.make(mass, everyone, gravity_=_model("direct", src.size, G=1.3, eps2=1e-4),
+                        src=src, passive=np.flatnonzero(~pulls), still=np.zeros(0, np.int64),
+                        threads=threads)
+        out = np.full((n, 3), np.nan)
+        forces.accelerations_of(f, 0.0, pos, pos * 0, out, everyone, False)
+        results.append(out)
     assert src.size > 2 * pairs.TILE                      # more than one block
     for out in results[1:]:
         assert np.array_equal(out, results[0])
     # the sources alone as targets (an integrator moving only them): the same bits
     out = np.full((n, 3), np.nan)
-    forces.accelerations(f, 0.0, pos, pos * 0, out, src, False)     # the table's own array
+    forces.accelerations_of(f, 0.0, pos, pos * 0, out, src, False)     # the table's own array
     assert np.array_equal(out[src], results[0][src])
     # and a subset of targets (one-sided sums) agrees to rounding (of each row's largest term)
     out = np.full((n, 3), np.nan)
     some = src[::2]
-    forces.accelerations(f, 0.0, pos, pos * 0, out, some, False)
+    forces.accelerations_of(f, 0.0, pos, pos * 0, out, some, False)
     scale = np.abs(results[0][some]).max(axis=1, keepdims=True)
     assert np.all(np.abs(out[some] - results[0][some]) <= 1e-13 * scale)
 
@@ -126,9 +132,9 @@ def test_passive_bodies_feel_but_do_not_pull(rng):
     pos, mass, _ = _scene(rng, 50, 1.0)
     pulls = np.zeros(50, bool)
     pulls[:10] = True
-    acc, _ = _run(pos, mass, pulls, DIRECT)
+    acc, _ = _run(pos, mass, pulls, "direct")
     # the pulling bodies' accelerations are those of a scene without the passive ones
-    alone, _ = _run(pos[:10], mass[:10], pulls[:10], DIRECT)
+    alone, _ = _run(pos[:10], mass[:10], pulls[:10], "direct")
     assert np.array_equal(acc[:10], alone)
     assert np.all(np.abs(acc[10:]) > 0)
 
@@ -136,7 +142,7 @@ def test_passive_bodies_feel_but_do_not_pull(rng):
 def test_coincident_bodies_exert_no_force_and_stay_finite():
     pos = np.array([[1.0, 2.0, 3.0], [1.0, 2.0, 3.0], [4.0, 2.0, 3.0]])
     mass = np.array([1.0, 2.0, 3.0])
-    acc, energy = _run(pos, mass, np.ones(3, bool), DIRECT, G=1.0)
+    acc, energy = _run(pos, mass, np.ones(3, bool), "direct", G=1.0)
     # bodies 0 and 1 feel only body 2 (distance 3): G m2 / 9 along +x
     np.testing.assert_allclose(acc[0], [3.0 / 9.0, 0, 0], rtol=1e-15)
     np.testing.assert_allclose(acc[1], [3.0 / 9.0, 0, 0], rtol=1e-15)
@@ -147,7 +153,7 @@ def test_coincident_bodies_exert_no_force_and_stay_finite():
 def test_softening_is_plummer():
     pos = np.array([[0.0, 0.0, 0.0], [0.3, 0.4, 0.0]])     # |d| = 0.5
     mass = np.array([2.0, 0.0])
-    acc, _ = _run(pos, mass, mass > 0, DIRECT, G=1.0, eps2=0.12 ** 2)
+    acc, _ = _run(pos, mass, mass > 0, "direct", G=1.0, eps2=0.12 ** 2)
     expected = -2.0 * pos[1] / (0.25 + 0.0144) ** 1.5
     np.testing.assert_allclose(acc[1], expected, rtol=1e-14)
 
@@ -156,7 +162,7 @@ def test_softening_is_plummer():
 def test_central_matches_numpy(rng, n):
     pos, mass, pulls = _scene(rng, n, 0.5)
     centre = np.array([0.3, -0.2, 0.1])
-    acc, energy = _run(pos, mass, pulls, CENTRAL, G=2.0, eps2=1e-4, field=centre, field_mass=5.0)
+    acc, energy = _run(pos, mass, pulls, "central", G=2.0, eps2=1e-4, field=centre, field_mass=5.0)
     # a fixed body: every body feels it the same way, whatever it pulls itself
     both = np.vstack([centre, pos])
     m = np.concatenate([[5.0], np.zeros(n)])
@@ -169,10 +175,10 @@ def test_central_matches_numpy(rng, n):
 def test_uniform_and_none(rng):
     pos, mass, pulls = _scene(rng, 20, 0.5)
     g = np.array([0.0, -9.81, 0.5])
-    acc, energy = _run(pos, mass, pulls, UNIFORM, field=g)
+    acc, energy = _run(pos, mass, pulls, "uniform", field=g)
     assert np.array_equal(acc, np.broadcast_to(g, acc.shape))
     assert energy == pytest.approx(-(mass * (pos @ g)).sum(), rel=1e-13)
-    acc, energy = _run(pos, mass, pulls, NONE)
+    acc, energy = _run(pos, mass, pulls, None)
     assert np.array_equal(acc, np.zeros_like(acc)) and energy == 0.0
 
 
@@ -197,7 +203,7 @@ def test_potential_energy_is_compensated():
     mass[:2] = 1.0
     pulls = np.zeros(n + 2, bool)
     pulls[:2] = True
-    _, energy = _run(pos, mass, pulls, DIRECT, G=1.0)
+    _, energy = _run(pos, mass, pulls, "direct", G=1.0)
     r = np.sqrt(((pos[2:3] - pos[:2]) ** 2).sum(axis=1))
     exact = math.fsum([-1.0] + [-5e-17 / r[0]] * n + [-5e-17 / r[1]] * n)
     assert energy != -1.0
@@ -207,8 +213,8 @@ def test_potential_energy_is_compensated():
 def test_immovable_bodies_have_no_acceleration(rng):
     pos, mass, pulls = _scene(rng, 30, 0.7)
     still = np.array([2, 7, 11], dtype=np.int64)
-    acc, _ = _run(pos, mass, pulls, DIRECT, still=still)
-    free, _ = _run(pos, mass, pulls, DIRECT)
+    acc, _ = _run(pos, mass, pulls, "direct", still=still)
+    free, _ = _run(pos, mass, pulls, "direct")
     assert np.all(acc[still] == 0)
     others = np.setdiff1d(np.arange(30), still)
     assert np.array_equal(acc[others], free[others])     # they still pull the others

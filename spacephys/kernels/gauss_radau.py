@@ -20,8 +20,7 @@ from .._jit import kernel
 from .arrays import copy_into, zeroed
 from .codes import FAILED
 from .control import add_thrust, next_stop, snap_stops
-from .forces import (accelerations, accelerations_serial, hoist, lean_accelerations,
-                     velocity_dependent)
+from .forces import accelerations, hoist, velocity_dependent
 from .step import begin, capture, end, hoist as hoist_step, status, undo
 
 _PC_TOLERANCE = 1e-16      # corrector converged: the sweep changed b7 by < this fraction of |a|
@@ -217,27 +216,27 @@ def _predict(b, e, q, have_predictor):
 
 
 @kernel(parallel=True, inline=True)
-def _sweep(rows, targets, first, f, fa, lean_below, t, pos, csx, vel, csv, a0, b, g, x, v, a,
-           b7, h, nodes, c_gb, thrust):
+def _sweep(rows, targets, first, fx, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7, h, nodes,
+           c_gb, thrust):
     """One predictor-corrector sweep over the seven nodes, updating the bodies in rows (whose
     accelerations are computed for `targets`, see forces.accelerations). first = -1 evaluates
-    a0, the acceleration at the step's start (of every body), before the nodes. f : Forces;
-    t : the time of the step's start. thrust = (actors, burn, t_off, rider, want): the burns
+    a0, the acceleration at the step's start (of every body), before the nodes. fx :
+    forces.hoist(Forces), read once per kernel call; t : the time of the step's start. thrust = (actors, burn, t_off, rider, want): the burns
     (control.begin_step) are added for the actors whose rider flag equals want (-1: all), the
     step starting t_off after the interval's. Returns the change of b7 in this sweep relative
-    to the largest |a| (over rows). fa, lean_below: forces.hoist(f), read once per kernel
-    call (lean_accelerations serves fewer targets than lean_below, bit for bit the same)."""
+    to the largest |a| (over rows)."""
     for q in range(rows.size):
         for c in range(3):
             b7[rows[q], c] = b[rows[q], 6, c]
-    moving = velocity_dependent(f)
+    moving = velocity_dependent(fx)
+    everyone = fx.everyone
     for node in range(first, 7):
         # the only call of the force code for the bodies setting the step: each call site of
         # an inlined parallel loop is compiled anew
         if node >= 0:
-            _position_at(f.everyone, pos, csx, vel, a0, b, nodes[node], h, x)
+            _position_at(everyone, pos, csx, vel, a0, b, nodes[node], h, x)
             if moving:
-                _velocity_at(f.everyone, vel, csv, a0, b, nodes[node], h, v)
+                _velocity_at(everyone, vel, csv, a0, b, nodes[node], h, v)
         else:
             # the start: no polynomial needed (and a0, not yet known, must not enter: 0 * an
             # uninitialised NaN is NaN)
@@ -247,11 +246,8 @@ def _sweep(rows, targets, first, f, fa, lean_below, t, pos, csx, vel, csv, a0, b
                     v[i, c] = vel[i, c] - csv[i, c]
         tau = nodes[node] * h if node >= 0 else 0.0
         out = a if node >= 0 else a0
-        who = targets if node >= 0 else f.everyone
-        if who.size < lean_below:
-            lean_accelerations(fa, x, v, out, who, True)
-        else:
-            accelerations(f, t + tau, x, v, out, who, True)
+        who = targets if node >= 0 else everyone
+        accelerations(fx, t + tau, x, v, out, who, True)
         actors, burn, t_off, rider, want = thrust
         if burn.shape[0]:
             add_thrust(actors, burn, a if node >= 0 else a0, t_off + tau, rider,
@@ -269,15 +265,15 @@ def _sweep(rows, targets, first, f, fa, lean_below, t, pos, csx, vel, csv, a0, b
 
 
 @kernel(parallel=True, inline=True)
-def _converge(rows, targets, with_a0, f, fa, lean_below, t, pos, csx, vel, csv, a0, b, g, x, v,
-              a, b7, h, nodes, c_gb, thrust):
+def _converge(rows, targets, with_a0, fx, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7, h,
+              nodes, c_gb, thrust):
     """Sweep until b7 stops changing: below _PC_TOLERANCE, or stalled at round-off. Returns
     (converged within _PC_MAX_SWEEPS, sweeps made). with_a0: evaluate a0 first."""
     last = np.inf
     for sweep in range(_PC_MAX_SWEEPS):
         first = -1 if with_a0 and sweep == 0 else 0
-        error = _sweep(rows, targets, first, f, fa, lean_below, t, pos, csx, vel, csv, a0, b,
-                       g, x, v, a, b7, h, nodes, c_gb, thrust)
+        error = _sweep(rows, targets, first, fx, t, pos, csx, vel, csv, a0, b, g, x, v, a, b7,
+                       h, nodes, c_gb, thrust)
         if error < _PC_TOLERANCE or (sweep > 1 and error >= last and error < _PC_ROUNDOFF):
             return True, sweep + 1
         last = error
@@ -295,15 +291,6 @@ def _unmasked(mask):
             rows[k] = i
             k += 1
     return rows
-
-
-@kernel(inline=True)
-def _riders_accelerations(f, fa, lean_below, t, x, v, out, needy):
-    """The needy riders' accelerations, on this thread (see _substep_riders)."""
-    if lean_below > 0:
-        lean_accelerations(fa, x, v, out, needy, True)
-    else:
-        accelerations_serial(f, t, x, v, out, needy, True)
 
 
 @kernel
@@ -325,10 +312,10 @@ def _needy_riders(riders, b, a0, h, dt_scale, mask, converged):
     return needy
 
 
-@kernel
-def _substep_riders(needy, h, dt_scale, reject_above, control, f, fa, lean_below, t, nodes,
-                    c_gb, d_bg, pos, csx, vel, csv, a0, b, g, x, v, a, b7, stats, actors, burn,
-                    t_off, needy_mask):
+@kernel(parallel=True)
+def _substep_riders(needy, h, dt_scale, reject_above, control, fx, t, nodes, c_gb, d_bg, pos,
+                    csx, vel, csv, a0, b, g, x, v, a, b7, stats, actors, burn, t_off,
+                    needy_mask):
     """Integrate the needy riders across the step [0, h] in adaptive substeps of their own.
 
     The control bodies have not moved yet: at any time of the step their positions (and
@@ -336,10 +323,10 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, f, fa, lean_below
     them where they are and never change them. Each substep is a Gauss-Radau step of the
     riders alone, iterated to convergence, its length from the riders' dynamical time, redone
     when its truncation error says it was too long; at most _MAX_RIDER_SUBSTEPS of them.
-    Forces come from forces.accelerations_serial for the needy riders only, on this thread
-    (f : Forces; t : the time of the step's start). Thrusting riders (in needy_mask) add their thrust, the step
+    Forces come from forces.accelerations for the needy riders only (fx : forces.hoist(Forces);
+    t : the time of the step's start). Thrusting riders (in needy_mask) add their thrust, the step
     starting t_off after the interval's."""
-    moving = velocity_dependent(f)
+    moving = velocity_dependent(fx)
     hs = np.inf
     for q in range(needy.size):
         hs = min(hs, dt_scale * _body_time(b, a0, h, needy[q]))
@@ -363,7 +350,7 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, f, fa, lean_below
             for c in range(3):
                 x[r, c] = pos[r, c] - csx[r, c]
                 v[r, c] = vel[r, c] - csv[r, c]
-        _riders_accelerations(f, fa, lean_below, t + elapsed, x, v, a0, needy)
+        accelerations(fx, t + elapsed, x, v, a0, needy, True)
         if burn.shape[0]:
             add_thrust(actors, burn, a0, t_off + elapsed, needy_mask, 1)
         for q in range(needy.size):
@@ -380,8 +367,7 @@ def _substep_riders(needy, h, dt_scale, reject_above, control, f, fa, lean_below
                 if moving:
                     _velocity_at(control, vel, csv, a0, b, at, h, v)
                     _velocity_at(needy, vel, csv, a0, b, nodes[node], hs, v)
-                _riders_accelerations(f, fa, lean_below, t + elapsed + nodes[node] * hs, x, v,
-                                      a, needy)
+                accelerations(fx, t + elapsed + nodes[node] * hs, x, v, a, needy, True)
                 if burn.shape[0]:
                     add_thrust(actors, burn, a, t_off + elapsed + nodes[node] * hs,
                                needy_mask, 1)
@@ -488,7 +474,8 @@ def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nste
     b7 = np.empty((n, 3))
     saved = np.empty((2, n, 3))                       # compensations at the interval's start
     everyone = control.size == n
-    all_rows = forces.everyone
+    fx = hoist(forces)                     # the force table read once (forces.hoist)
+    all_rows = fx.everyone
     needy_mask = zeroed(np.empty(n, np.bool_))
     dt_scale = (5040.0 * tolerance) ** (1.0 / 7.0)     # (7! tolerance)^(1/7)
     # the step was over 4x too long (b7 ~ dt^7); but never within the round-off of b7 / |a|,
@@ -508,7 +495,6 @@ def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nste
     done = 0
     removed = False
     ht = hoist_step(state, rules, actors)
-    fa, lean_below = hoist(forces)         # the force table read once (forces.hoist)
     for interval in range(nsteps):
         t_start = t0 + interval * dt_out
         begin(state, rules, actors, ht, t_start, dt_out, True, interval == nsteps - 1)
@@ -548,10 +534,9 @@ def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nste
                     break
                 rows = control if phase == 0 else riders
                 want = (-1 if everyone else 0) if phase == 0 else 1
-                converged, sweeps = _converge(rows, rows, phase == 0, forces, fa, lean_below,
-                                              t_start + elapsed, pos, csx, vel, csv, a0, b, g,
-                                              x, v, a, b7, h, nodes, c_gb,
-                                              (movers, burn, elapsed, rider, want))
+                converged, sweeps = _converge(rows, rows, phase == 0, fx, t_start + elapsed, pos,
+                                              csx, vel, csv, a0, b, g, x, v, a, b7, h, nodes,
+                                              c_gb, (movers, burn, elapsed, rider, want))
                 if phase == 1:
                     # riders that do not converge over the whole step take substeps below
                     riders_converged = converged
@@ -606,10 +591,10 @@ def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nste
             if not everyone and riders.size and tolerance > 0.0:
                 needy = _needy_riders(riders, b, a0, h, dt_scale, needy_mask, riders_converged)
                 if needy.size:
-                    _substep_riders(needy, h, dt_scale, reject_above, control, forces, fa,
-                                    lean_below, t_start + elapsed, nodes, c_gb, d_bg, pos,
-                                    csx, vel, csv, a0, b, g, x, v, a, b7, stats, movers, burn,
-                                    elapsed, needy_mask)
+                    _substep_riders(needy, h, dt_scale, reject_above, control, fx,
+                                    t_start + elapsed, nodes, c_gb, d_bg, pos, csx, vel, csv,
+                                    a0, b, g, x, v, a, b7, stats, movers, burn, elapsed,
+                                    needy_mask)
             _finish_step(all_rows if needy.size == 0 else _unmasked(needy_mask), pos, vel,
                          csx, csv, a0, b, h)
             needy_mask[needy] = False

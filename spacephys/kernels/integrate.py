@@ -15,8 +15,7 @@ from .._jit import kernel
 from .arrays import zeroed
 from .control import add_thrust, drift_thrust, rk_thrust_fix
 from . import tape
-from .forces import (FA_DRAG, FA_ENDS, FA_SRC, FA_TAPE, FA_TAPE_AT, FA_TAPED, accelerations,
-                     drag_kick, hoist, lean_accelerations)
+from .forces import accelerations, hoist, kick
 from .step import begin, capture, end, hoist as hoist_step, status
 
 
@@ -25,24 +24,20 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
     """Advance nsteps steps of dt with the drift/kick sequence method = (drift, kick), (S,)
     each: stage s drifts pos += drift[s] dt vel, then kicks vel += kick[s] dt a(pos) (skipped
     where kick[s] == 0). With drag each kick also relaxes the velocities toward the wind,
-    exactly (forces.drag_kick), so the splitting keeps its order. Returns (steps taken,
+    exactly (forces.kick), so the splitting keeps its order. Returns (steps taken,
     status): fewer than nsteps when a collision, a detonation or an expiry removed or merged
     bodies.
     """
-    drift, kick = method
+    drift, kicks = method
     pos, vel = state.pos, state.vel
     n = pos.shape[0]
     acc = state.acc
-    everyone = forces.everyone
-    # the force table read once (forces.hoist): a read of an array field, or an array handed
-    # to a helper, costs its reference counts on every call
-    fa, lean_below = hoist(forces)
-    wind = fa[FA_DRAG][1:]
-    taped, tape_, at, ends, src = (fa[FA_TAPED], fa[FA_TAPE], fa[FA_TAPE_AT], fa[FA_ENDS],
-                                   fa[FA_SRC])
+    # the force table read once: a read of an array field, or an array handed to a helper,
+    # costs its reference counts on every call
+    fx = hoist(forces)
+    everyone, passive, src = fx.everyone, fx.passive, fx.src
     frame = 0
     mass = state.mass
-    passive = forces.passive
     if actors is not None:
         movers, burn = actors.actors, actors.burn
     ht = hoist_step(state, rules, actors)
@@ -54,7 +49,7 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
     for step in range(nsteps):
         t = t0 + step * dt
         begin(state, rules, actors, ht, t, dt, False, step == nsteps - 1)
-        played = tape.playing(taped, at)               # a prediction's tape (kernels/tape.py)
+        played = tape.playing(fx.tape)                 # a prediction's tape (kernels/tape.py)
         if played != was:           # rebound only when it changes: a rebinding costs refcounts
             kicked, was = (passive if played else everyone), played
         tau = 0.0                                      # time into the step the drifts reached
@@ -75,17 +70,13 @@ def splitting_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0
                 if actors is not None:
                     drift_thrust(movers, burn, pos, vel, tau, tau + h)
                 tau += h
-            h = kick[s] * dt
+            h = kicks[s] * dt
             if h != 0.0:
-                if kicked.size < lean_below:
-                    lean_accelerations(fa, pos, vel, acc, kicked, False)
-                else:
-                    accelerations(forces, t + tau, pos, vel, acc, kicked, False)
-                drag_kick(fa, vel, acc, h, kicked, wind)
-        tape.integrated(taped, tape_, at, ends, src, pos, vel, mass, played)
+                accelerations(fx, t + tau, pos, vel, acc, kicked, False)
+                kick(fx.drag, fx.still, vel, acc, h, kicked)
+        tape.integrated(fx.tape, src, pos, vel, mass, played)
         stop = end(state, rules, actors, ht, t, dt)
-        tape.collided(taped, tape_, at, ends, src, pos, vel, mass, played,
-                      collisions)
+        tape.collided(fx.tape, src, pos, vel, mass, played, collisions)
         frame = capture(frames, frame, step + 1, ht)
         if stop:
             return step + 1, status(state, True)
@@ -109,12 +100,9 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
     # before the tape restores them
     kv = zeroed(np.empty((S, n, 3)))
     x = state.acc
-    everyone = forces.everyone
-    passive = forces.passive
     mass = state.mass
-    fa, lean_below = hoist(forces)          # as in splitting_steps
-    taped, tape_, at, ends, src = (fa[FA_TAPED], fa[FA_TAPE], fa[FA_TAPE_AT], fa[FA_ENDS],
-                                   fa[FA_SRC])
+    fx = hoist(forces)                      # as in splitting_steps
+    everyone, passive, src = fx.everyone, fx.passive, fx.src
     no_mask = np.empty(0, np.bool_)
     frame = 0
     ht = hoist_step(state, rules, actors)
@@ -123,7 +111,7 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
     for step in range(nsteps):
         t = t0 + step * dt
         begin(state, rules, actors, ht, t, dt, False, step == nsteps - 1)
-        played = tape.playing(taped, at)    # a prediction's tape: the pulling rows' stages
+        played = tape.playing(fx.tape)      # a prediction's tape: the pulling rows' stages
         if played != was:                   # go unused, the tape restores them
             kicked, was = (passive if played else everyone), played
         for s in range(S):
@@ -140,10 +128,7 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
             c_s = 0.0
             for j in range(s):
                 c_s += a[s, j]
-            if kicked.size < lean_below:
-                lean_accelerations(fa, x, kx[s], kv[s], kicked, True)
-            else:
-                accelerations(forces, t + c_s * dt, x, kx[s], kv[s], kicked, True)
+            accelerations(fx, t + c_s * dt, x, kx[s], kv[s], kicked, True)
             if actors is not None:
                 add_thrust(actors.actors, actors.burn, kv[s], c_s * dt, no_mask, -1)
         for i in range(n):
@@ -157,10 +142,9 @@ def rk_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
                 vel[i, c] += dt * dv
         if actors is not None:
             rk_thrust_fix(actors.actors, actors.burn, vel, a, b, dt)
-        tape.integrated(taped, tape_, at, ends, src, pos, vel, mass, played)
+        tape.integrated(fx.tape, src, pos, vel, mass, played)
         stop = end(state, rules, actors, ht, t, dt)
-        tape.collided(taped, tape_, at, ends, src, pos, vel, mass, played,
-                      collisions)
+        tape.collided(fx.tape, src, pos, vel, mass, played, collisions)
         frame = capture(frames, frame, step + 1, ht)
         if stop:
             return step + 1, status(state, True)

@@ -124,55 +124,55 @@ def _row_both_ways(x, y, z, mi, sx, sy, sz, sm, bx, by, bz, eps2):
 
 
 @kernel(fast=True, lean=True)
-def tile(s, I, J, B, ns, eps2):
-    """The pairs between blocks I <= J (within block I when I == J) of the sources s (7, >=
-    ns): rows 0-3 x, y, z, m; their pulls / G added into rows 4-6 for both bodies."""
+def tile(s, sums, I, J, B, ns, eps2):
+    """The pairs between blocks I <= J (within block I when I == J) of the sources s (4, >=
+    ns): rows x, y, z, m; their pulls / G added into sums (3, >= ns) for both bodies."""
     i1 = min(ns, (I + 1) * B)
     j0 = J * B
     j1 = min(ns, j0 + B)
     for i in range(I * B, i1):
         j = max(j0, i + 1)
         ax, ay, az = _row_both_ways(s[0, i], s[1, i], s[2, i], s[3, i], s[0, j:j1], s[1, j:j1],
-                                    s[2, j:j1], s[3, j:j1], s[4, j:j1], s[5, j:j1],
-                                    s[6, j:j1], eps2)
-        s[4, i] += ax
-        s[5, i] += ay
-        s[6, i] += az
+                                    s[2, j:j1], s[3, j:j1], sums[0, j:j1], sums[1, j:j1],
+                                    sums[2, j:j1], eps2)
+        sums[0, i] += ax
+        sums[1, i] += ay
+        sums[2, i] += az
 
 
 @kernel(lean=True)
-def _zero_sums(s, ns):
-    for r in range(4, 7):
+def _zero_sums(sums, ns):
+    for r in range(3):
         for a in range(ns):
-            s[r, a] = 0.0
+            sums[r, a] = 0.0
 
 
 @kernel(lean=True)
-def pull_pairs(s, ns, eps2):
-    """Rows 4-6 of s (7, >= ns) = the pull / G of the first ns sources on each other, every
-    pair evaluated once; on the calling thread, bit for bit as pull_pairs_threaded."""
-    _zero_sums(s, ns)
+def pull_pairs(s, sums, ns, eps2):
+    """sums (3, >= ns) = the pull / G of the first ns sources of s (4, >= ns) on each other,
+    every pair evaluated once; on the calling thread, bit for bit as pull_pairs_threaded."""
+    _zero_sums(sums, ns)
     nb, B = blocks(ns)
     R, T = rounds(nb)
     for b in range(nb):
-        tile(s, b, b, B, ns, eps2)
+        tile(s, sums, b, b, B, ns, eps2)
     for r in range(R):
         for k in range(T):
             I, J = round_pair(r, k, nb)
             if I >= 0:
-                tile(s, I, J, B, ns, eps2)
+                tile(s, sums, I, J, B, ns, eps2)
 
 
 @kernel(parallel=True)
-def pull_pairs_threaded(s, ns, eps2):
+def pull_pairs_threaded(s, sums, ns, eps2):
     """pull_pairs with each round's tiles on threads."""
-    _zero_sums(s, ns)
+    _zero_sums(sums, ns)
     nb, B = blocks(ns)
     R, T = rounds(nb)
     for b in numba.prange(nb):
-        tile(s, b, b, B, ns, eps2)
+        tile(s, sums, b, b, B, ns, eps2)
     for r in range(R):
         for k in numba.prange(T):
             I, J = round_pair(r, k, nb)
             if I >= 0:
-                tile(s, I, J, B, ns, eps2)
+                tile(s, sums, I, J, B, ns, eps2)

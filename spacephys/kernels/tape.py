@@ -1,87 +1,159 @@
 """The tape: the pulling bodies' future, recorded by one prediction and played back by the next
-(spacephys/tape.py decides when; a prediction's copy only, off everywhere else).
+(spacephys/tape.py decides when; a prediction's copy only: every other force table has none,
+and its kernels compile none of this).
 
 Recording, a step stores the pulling bodies' sources (x, y, z, m) at each of its force
-evaluations (forces._sources does) and their positions, velocities and masses after its
-integration and again after its collisions. Playing back, a step kicks only the passive
-bodies, from the recorded sources, and puts the pulling bodies where the tape has them before
-the collisions: the passive bodies' sums are the ones a full step makes from the same
-numbers, so the paths are the full run's, bit for bit, at the cost of the passive bodies
-alone. When the collisions leave a pulling body elsewhere than the recording's did (this
-prediction's bodies hit it, or missed it, otherwise) the tape stops for the rest of the call.
+evaluations (`sources`) and their positions, velocities and masses after its integration and
+again after its collisions. Playing back, a step kicks only the passive bodies, from the
+recorded sources, and puts the pulling bodies where the tape has them before the collisions:
+the passive bodies' sums are the ones a full step makes from the same numbers, so the paths
+are the full run's, bit for bit, at the cost of the passive bodies alone. When the collisions
+leave a pulling body elsewhere than the recording's did (this prediction's bodies hit it, or
+missed it, otherwise) the tape stops for the rest of the call.
 
-`tape_at` (5,) int64: [on, step (index into the tape), valid (steps recorded), evaluations per
-step, evaluation (the next one's index)]; `tape` (E, 4, ns); `ends` (T, ns, 14): pos, vel,
-mass after the integration, then after the collisions.
+`Tape` (a structref, shared by spacephys/tape.py and the copy's force table; its arrays are
+replaced when they grow): `tape` (E, 4, ns), `ends` (T, ns, 14): pos, vel, mass after the
+integration, then after the collisions; `at` (5,) int64: [on, step (index into the tape),
+valid (steps recorded), evaluations per step, evaluation (the next one's index)]. The step
+loops read it once per call (`arrays`: a TapeArrays tuple, or None without a tape) and hand
+that to the hooks, which return at once for None.
 """
-from .._jit import kernel
+from collections import namedtuple
+
+from numba.experimental import structref
+
+from .._jit import TableType, kernel
 
 ON, STEP, VALID, PER_STEP, EVAL = range(5)
 
 
+@structref.register
+class TapeType(TableType):
+    pass
+
+
+class Tape(structref.StructRefProxy):
+    """A prediction's tape (see the module); made by `make`."""
+
+
+FIELDS = ("tape", "ends", "at")
+structref.define_proxy(Tape, TapeType, list(FIELDS))
+
+TapeArrays = namedtuple("TapeArrays", FIELDS)
+
+
+@kernel
+def make(tape, ends, at):
+    """A Tape over tape (E, 4, ns), ends (T, ns, 14), at (5,) int64 (shared)."""
+    return Tape(tape, ends, at)
+
+
+@kernel
+def set_arrays(t, tape, ends):
+    """Give the Tape t grown arrays (spacephys/tape.py)."""
+    t.tape = tape
+    t.ends = ends
+
+
+@kernel
+def arrays(t):
+    """The Tape's arrays as a TapeArrays tuple, read once per kernel call; None for None."""
+    if t is None:
+        return None
+    return TapeArrays(t.tape, t.ends, t.at)
+
+
 @kernel(lean=True)
-def playing(taped, at):
+def playing(tape):
     """At a step's start: whether the tape plays this step back; points it at the step's first
-    evaluation. taped, at : the table's fields (forces.hoist)."""
-    if taped == 0:
+    evaluation."""
+    if tape is None:
         return False
+    at = tape.at
     if at[ON] == 0:
         return False
     at[EVAL] = at[STEP] * at[PER_STEP]
     return at[STEP] < at[VALID]
 
 
-@kernel(inline=True)
-def recorded(at):
-    """Whether the current step is on the tape (its evaluations' sources are tape[e])."""
-    return at[STEP] < at[VALID]
+@kernel(lean=True)
+def sources(tape, scratch, src, pos, mass):
+    """The pulling bodies' x, y, z, m for a force evaluation into scratch (4, ns): gathered
+    from pos, mass (rows src), or, on a played step, copied from the tape; a recorded step
+    writes the gathered ones onto the tape."""
+    if tape is not None:
+        at = tape.at
+        if at[ON] != 0:
+            e = at[EVAL]
+            at[EVAL] = e + 1
+            record = tape.tape
+            if at[STEP] < at[VALID]:
+                for r in range(4):
+                    for a in range(src.size):
+                        scratch[r, a] = record[e, r, a]
+                return
+            gather(src, pos, mass, scratch)
+            if at[STEP] == at[VALID] and e < record.shape[0]:
+                for r in range(4):
+                    for a in range(src.size):
+                        record[e, r, a] = scratch[r, a]
+            return
+    gather(src, pos, mass, scratch)
+
+
+@kernel(lean=True)
+def gather(src, pos, mass, scratch):
+    """The pulling bodies' x, y, z, m into scratch's rows 0-3 (separate contiguous rows, so
+    that the force loops load them unit-stride)."""
+    for a in range(src.size):
+        k = src[a]
+        scratch[0, a] = pos[k, 0]
+        scratch[1, a] = pos[k, 1]
+        scratch[2, a] = pos[k, 2]
+        scratch[3, a] = mass[k]
 
 
 @kernel(inline=True)
-def record(tape, at, e, scratch):
-    """Evaluation e's gathered sources onto the tape, while it records and has room."""
-    if at[STEP] == at[VALID] and e < tape.shape[0]:
-        for r in range(4):
-            for a in range(scratch.shape[1]):
-                tape[e, r, a] = scratch[r, a]
-
-
-@kernel(inline=True)
-def _recording(tape, at, ends, k):
+def _recording(tape, k):
     """Whether step k is being recorded: the next after the recorded ones, with room for it
     and for all its evaluations."""
-    return at[VALID] == k and k < ends.shape[0] and at[EVAL] <= tape.shape[0]
+    at = tape.at
+    return at[VALID] == k and k < tape.ends.shape[0] and at[EVAL] <= tape.tape.shape[0]
 
 
 @kernel(lean=True)
-def integrated(taped, tape, at, ends, src, pos, vel, mass, played):
+def integrated(tape, src, pos, vel, mass, played):
     """After a step's integration, before its collisions: a played step puts the pulling bodies
-    (drifted, never kicked) where the tape has them; a recorded one writes them down.
-    taped, tape, at, ends, src : the table's fields (forces.hoist)."""
-    if taped == 0 or at[ON] == 0:
+    (drifted, never kicked) where the tape has them; a recorded one writes them down."""
+    if tape is None:
         return
-    k = at[STEP]
+    if tape.at[ON] == 0:
+        return
+    k = tape.at[STEP]
     if played:
-        _read(ends, k, src, pos, vel)
-    elif _recording(tape, at, ends, k):
-        _write(ends, k, 0, src, pos, vel, mass)
+        _read(tape.ends, k, src, pos, vel)
+    elif _recording(tape, k):
+        _write(tape.ends, k, 0, src, pos, vel, mass)
 
 
 @kernel(lean=True)
-def collided(taped, tape, at, ends, src, pos, vel, mass, played, collisions):
+def collided(tape, src, pos, vel, mass, played, collisions):
     """After the step's collisions (and a periodic box's wrap): a recorded step writes the
     pulling bodies down again; a played one stops the tape if they are not where the
     recording's collisions left them (this prediction's bodies acted otherwise; without
     collisions nothing moves them there). Counts the step."""
-    if taped == 0 or at[ON] == 0:
+    if tape is None:
+        return
+    at = tape.at
+    if at[ON] == 0:
         return
     k = at[STEP]
     if played:
-        if collisions and not _same(ends, k, 7, src, pos, vel, mass):
+        if collisions and not _same(tape.ends, k, 7, src, pos, vel, mass):
             at[ON] = 0
             return
-    elif _recording(tape, at, ends, k):
-        _write(ends, k, 7, src, pos, vel, mass)
+    elif _recording(tape, k):
+        _write(tape.ends, k, 7, src, pos, vel, mass)
         at[VALID] = k + 1
     at[STEP] = k + 1
 

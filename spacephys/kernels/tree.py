@@ -6,7 +6,7 @@ angle; the linear (Morton-ordered) tree of Warren & Salmon (1993); the group wal
 interaction lists of Barnes (1990); the quadrupole of the softened potential as its Taylor
 expansion about the centre of mass (as GADGET-2, Springel 2005, does for the monopole).
 
-Build (`build`), from the sources s (4, ns): x, y, z, m (forces._sources), every evaluation:
+Build (`build`), from the sources s (4, ns): x, y, z, m (tape.gather), every evaluation:
   1. Morton keys of the sources in their bounding cube: 63 bits shared by the axes along which
      the sources spread (21 each in 3D, 31 in a plane), on threads;
   2. a stable radix sort of the keys (arrays.radix_order) (equal keys keep their order: deterministic);
@@ -26,7 +26,7 @@ planet among its ring, a galaxy's core) stay out of the tree and are summed dire
 target: a tree's relative error on the pull of a dominant mass would be as large as a light
 ring's whole self-gravity.
 
-Walk (`walk`, for `accelerations` and forces.tree_potential_energy): the targets are cut into
+Walk (`walk`, for `accelerations` and `tree_potential`): the targets are cut into
 groups of at most GROUP (the tree's own nodes when the targets are its sources, otherwise runs
 in Morton order); each group walks the tree once and keeps two lists, accepted nodes and leaf
 sources, in single precision relative to the group's centre (eight lanes, not four; rounding
@@ -39,11 +39,19 @@ potential -G m / s about the centre of mass):
   a = -G M r / s^3 + G [3 Q r / s^5 - 15/2 (r.Q r) r / s^7 + 3/2 tr(Q) r / s^5]
   phi = -G M / s - G/2 [3 (r.Q r) / s^5 - tr(Q) / s^3]
 """
+from collections import namedtuple
+
 import numba
 import numpy as np
 
 from .._jit import kernel
-from . import arrays, pairs
+from . import arrays, gravity, pairs
+from .diagnostics import add
+from .tape import gather
+
+# the model's table (kernels/gravity.py): G, eps2 as Direct's; theta the opening angle;
+# quadrupole 1 for quadrupole moments, 0 for monopoles only; sources (4, ns) scratch
+Tree = namedtuple("Tree", ("G", "eps2", "theta", "quadrupole", "sources"))
 
 LEAF = 16            # sources in a leaf, at most (unless they share one Morton cell)
 GROUP = 128          # targets that share one walk
@@ -650,9 +658,8 @@ def split(s):
 
 @kernel(parallel=True)
 def accelerations(s, src, targets, pos, G, eps2, theta, quadrupole, out, threaded):
-    """out[k] = G * the pull of the sources s (4, ns) (the rows src of pos, or a tape's) on
-    pos[k] for k in targets: the heavy ones directly, the others through a tree built for
-    it."""
+    """out[k] = G * the pull of the sources s (4, ns) (the rows src of pos) on pos[k] for k in
+    targets: the heavy ones directly, the others through a tree built for it."""
     heavy, light, _ = split(s)
     tree = build(light, theta)
     # the targets are the tree's sources in order: its nodes make the groups
@@ -663,3 +670,68 @@ def accelerations(s, src, targets, pos, G, eps2, theta, quadrupole, out, threade
                 same = False
                 break
     walk(tree, heavy, pos, targets, same, G, eps2, quadrupole, out, np.empty(0), threaded)
+
+
+@kernel(parallel=True, counted=True)
+def _tree_pull(model, tape, src, passive, pos, mass, out, targets, threads):
+    """The model's pull (kernels/gravity.pull): a tree of the sources built and walked; a
+    prediction's tape never runs with the tree."""
+    s = model.sources
+    gather(src, pos, mass, s)
+    accelerations(s, src, targets, pos, model.G, model.eps2, model.theta, model.quadrupole,
+                  out, gravity.threaded(threads, targets.size * s.shape[1]))
+
+
+@kernel(parallel=True)
+def tree_potential(model, pos, mass, src, passive):
+    """The potential energy as the tree's forces see it: the light sources' pairs from the
+    tree's potential (1/2 m_i phi_i), every pair with a heavy source (split) summed directly,
+    and the rows `passive` of mass > 0 in the sources' field."""
+    s = np.empty((4, src.size))
+    gather(src, pos, mass, s)
+    heavy, light, is_heavy = split(s)
+    k = 0
+    for a in range(src.size):
+        k += 0 if is_heavy[a] else 1
+    for a in range(passive.size):
+        k += 1 if mass[passive[a]] != 0.0 else 0
+    rows = np.empty(k, np.int64)          # the light sources, then the passive rows
+    k = 0
+    for a in range(src.size):
+        if not is_heavy[a]:
+            rows[k] = src[a]
+            k += 1
+    nlight = k
+    for a in range(passive.size):
+        if mass[passive[a]] != 0.0:
+            rows[k] = passive[a]
+            k += 1
+    phi = np.empty(mass.size)
+    t = build(light, model.theta)
+    walk(t, np.empty((4, 0)), pos, rows, False, 1.0, model.eps2, model.quadrupole,
+         np.empty((0, 3)), phi, True)
+    total = 0.0
+    c = 0.0
+    nh = heavy.shape[1]
+    for a in range(rows.size):
+        i = rows[a]
+        near = pairs.potential(pos[i, 0], pos[i, 1], pos[i, 2], heavy, nh, model.eps2)
+        total, c = add(total, c, mass[i] * ((0.5 if a < nlight else 1.0) * phi[i] + near))
+    for a in range(src.size):
+        if is_heavy[a]:
+            i = src[a]
+            near = pairs.potential(pos[i, 0], pos[i, 1], pos[i, 2], heavy, nh, model.eps2)
+            total, c = add(total, c, 0.5 * mass[i] * near)
+    return model.G * (total + c)
+
+
+def _tree_potential_exact(model, pos, mass, src, passive):
+    return gravity.mutual_potential(model.G, model.eps2, pos, mass, src, passive)
+
+
+def _tree_energies(model, pos, vel, mass, src, out):
+    gravity.mutual_body_energies(model.G, model.eps2, pos, vel, mass, src, out)
+
+
+gravity.register(Tree, gravity.Model("tree", _tree_pull, _tree_potential_exact, _tree_energies,
+                                     tree_potential))

@@ -23,7 +23,7 @@ from .._jit import kernel
 from .arrays import zeroed
 from .codes import FAILED
 from .control import F, thrust_dv
-from .forces import accelerations
+from .forces import accelerations, hoist
 from .step import begin, capture, end, hoist as hoist_step, next_frame, status, undo
 
 # 1/n! for n = 0..25, for the Stumpff series
@@ -276,21 +276,21 @@ def _drift_all(xj, vj, M, G, dt):
 
 
 @kernel(parallel=True, inline=True)
-def _kick(xj, vj, order, m, M, f, t, pos, vel, acc, dt, actors, thrust, dissipate):
+def _kick(xj, vj, order, m, M, fx, t, pos, vel, acc, dt, actors, thrust, dissipate):
     """v'_k += dt (J(a) + G M_k x'_k / r'^3): the interaction part of the acceleration of
-    every body (forces.accelerations, drag aside), plus the thrust accelerations (A, 3) of the
+    every body (forces.accelerations from fx, drag aside), plus the thrust accelerations (A, 3) of the
     actors (rows `actors`). dissipate: the kick also relaxes the velocities toward the wind
-    (forces.drag_kick in Jacobi coordinates, where every relative velocity relaxes toward 0
+    (forces.kick in Jacobi coordinates, where every relative velocity relaxes toward 0
     and the centre of mass toward the wind, the Jacobi transformation being linear with
     weights summing to one)."""
     _from_jacobi(xj, vj, order, m, M, pos, vel)
-    accelerations(f, t, pos, vel, acc, f.everyone, False)
+    accelerations(fx, t, pos, vel, acc, fx.everyone, False)
     for q in range(actors.size):
         for c in range(3):
             acc[actors[q], c] += thrust[q, c]
     # Jacobi transform of the accelerations: a'_k = a_k - (mass-weighted mean of a over 0..k-1),
     # written into acc's rows in Jacobi order (acc[order[k]] is not read again once done)
-    G = f.G
+    G = fx.gravity.G
     Mprev = m[0]
     A0 = acc[order[0], 0]
     A1 = acc[order[0], 1]
@@ -315,35 +315,51 @@ def _kick(xj, vj, order, m, M, f, t, pos, vel, acc, dt, actors, thrust, dissipat
     # the centre of mass moves with the mass-weighted mean acceleration A: zero under mutual
     # gravity alone (kept exactly 0, not rounding noise); held and user forces can push it.
     # Nothing pulls: the first body is its own "centre of mass", kicked by its own acceleration
-    free = Mprev == 0.0 or f.held.shape[0] > 0 or len(f.user) > 0
+    free = Mprev == 0.0 or _pushed(fx.held, fx.user)
     j = order[0]
     acc[j, 0] = A0
     acc[j, 1] = A1
     acc[j, 2] = A2
-    _jacobi_kick(vj, acc, order, f, dt, dissipate, 0 if free else 1)
+    _jacobi_kick(vj, acc, order, fx.drag, dt, dissipate, 0 if free else 1)
 
 
 @kernel
-def _jacobi_kick(vj, acc, order, f, dt, dissipate, first):
+def _pushed(held, user):
+    """Whether held or user forces may push the centre of mass."""
+    return held is not None or user is not None
+
+
+@kernel
+def _jacobi_kick(vj, acc, order, drag, dt, dissipate, first):
     """vj[k] += dt acc[order[k]] for k >= first, or with drag (dissipate) the exact relaxation
-    of forces.drag_kick: toward the wind for the centre of mass (k = 0), toward rest for the
+    of forces.kick: toward the wind for the centre of mass (k = 0), toward rest for the
     relative velocities."""
-    k_drag = f.drag[0] if dissipate else 0.0
-    if k_drag > 0.0:
-        E = math.exp(-k_drag * dt)
-        for k in range(order.size):
-            i = order[k]
-            for c in range(3):
-                # the centre's own acceleration only where it has one (see _kick)
-                a = acc[i, c] if k >= first else 0.0
-                vt = (f.drag[1 + c] if k == 0 else 0.0) + a / k_drag
-                vj[k, c] = vt + (vj[k, c] - vt) * E
+    if dissipate and _drag_kick(vj, acc, order, drag, dt, first):
         return
     for k in range(first, order.size):
         i = order[k]
         vj[k, 0] += dt * acc[i, 0]
         vj[k, 1] += dt * acc[i, 1]
         vj[k, 2] += dt * acc[i, 2]
+
+
+@kernel
+def _drag_kick(vj, acc, order, drag, dt, first):
+    """_jacobi_kick's relaxation with drag; False (nothing done) without drag."""
+    if drag is None:
+        return False
+    k_drag = drag[0]
+    if not k_drag > 0.0:
+        return False
+    E = math.exp(-k_drag * dt)
+    for k in range(order.size):
+        i = order[k]
+        for c in range(3):
+            # the centre's own acceleration only where it has one (see _kick)
+            a = acc[i, c] if k >= first else 0.0
+            vt = (drag[1 + c] if k == 0 else 0.0) + a / k_drag
+            vj[k, c] = vt + (vj[k, c] - vt) * E
+    return True
 
 
 # Third-order corrector (Wisdom, Holman & Touma 1996): C = X(a, b) X(-a, -b) with
@@ -407,7 +423,8 @@ def wisdom_holman_steps(state, forces, rules, actors, frames, method, dt, nsteps
     vj = np.empty((n, 3))
     acc = state.acc
     M = np.cumsum(m)
-    G = forces.G
+    fx = hoist(forces)
+    G = fx.gravity.G
     movers = np.empty(0, np.int64) if actors is None else actors.actors
     burn = np.empty((0, 8)) if actors is None else actors.burn
     thrust = zeroed(np.empty((movers.size, 3)))
@@ -442,7 +459,7 @@ def wisdom_holman_steps(state, forces, rules, actors, frames, method, dt, nsteps
                 tau += d
                 # the step's own kick carries the thrust and the drag, the corrector's do not
                 main = not corrector or 2 <= q < steps + 2
-                _kick(xj, vj, order, m, M, forces, t + tau, pos, vel, acc, k, movers,
+                _kick(xj, vj, order, m, M, fx, t + tau, pos, vel, acc, k, movers,
                       thrust if main else none, main)
             ok = _drift_all(xj, vj, M, G, _CORRECTOR_A * dt if corrector else 0.5 * dt) & ok
             _from_jacobi(xj, vj, order, m, M, pos, vel)

@@ -560,6 +560,9 @@ def _heavy_lines(title, cases):
 
 
 def format_table(results):
+    if results["benchmark"] == "compile":
+        from .compilebench import format_compile
+        return format_compile(results)
     if results["benchmark"] == "overhead":
         from .overhead import format_overhead
         return format_overhead(results)
@@ -732,6 +735,11 @@ def _sweep(quick=False):
     return sweep_bench(quick)
 
 
+def _compile(quick=False):
+    from .compilebench import compile_bench
+    return compile_bench(quick)
+
+
 def _play(quick=False):
     from .playbench import play_bench
     return play_bench(quick)
@@ -740,4 +748,4 @@ def _play(quick=False):
 BENCHMARKS = {"gravity": gravity, "integrators": integrators, "collisions": collisions,
               "fleet": fleet, "log": log, "memory": memory, "models": models,
               "overhead": _overhead, "predict": _predict, "tree": _tree, "queries": _queries,
-              "sweep": _sweep, "play": _play}
+              "sweep": _sweep, "play": _play, "compile": _compile}

@@ -144,7 +144,7 @@ def split(w, repeats=3):
         out["guidance_ms"] = best(guide)
     else:
         out["guidance_ms"] = 0.0
-    out["gravity_ms"] = best(timed(lambda: forces.accelerations(plan.forces, w.t, pos, vel, acc,
+    out["gravity_ms"] = best(timed(lambda: forces.accelerations_of(plan.forces, w.t, pos, vel, acc,
                                                                 everyone, False)))
     return out
 

@@ -1,0 +1,339 @@
+"""The gravity models. Each is a namedtuple type (its settings and scratch) with its
+accelerations, its potential energy and each body's share of it, `register`ed here:
+
+  None      no gravity
+  Direct    direct summation F = G m1 m2 / D^2: the bodies `src` (active, massive) pull every
+            body; the `passive` ones (test particles, ships, debris) feel but never pull
+  Uniform   a constant field g (Basic Game Physics' `y += gravity` near a planet's surface)
+  Central   a fixed body of mass M at a point pulls every body; bodies ignore each other
+  Tree      as Direct, the sum approximated by a Barnes-Hut tree (kernels/tree.py)
+
+Softening is Plummer's: a = G m d / (|d|^2 + eps2)^(3/2). Two bodies at exactly the same point
+(|d|^2 + eps2 == 0) exert no force on each other: the direction is undefined, and a zero keeps
+the state finite instead of NaN.
+
+The kernels call `pull(model, ...)`; numba picks the model's own function by the model's
+type when it compiles, so a scene compiles its model's code and no other. The diagnostics
+(potential energy, each body's energy) are called from Python through `MODELS`.
+"""
+from collections import namedtuple
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numba import types
+from numba.extending import overload
+
+from .._jit import kernel
+from . import pairs
+from . import tape as ktape
+from .diagnostics import add
+
+# G [length^3 / (mass time^2)]; eps2: softening squared [length^2]; sources (4, ns): the
+# pulling bodies' x, y, z, m, gathered per evaluation; sums None, or (3, ns) for their pulls on
+# each other with each pair evaluated once (pairs.pull_pairs: from pairs.PAIRS_FROM sources)
+Direct = namedtuple("Direct", ("G", "eps2", "sources", "sums"))
+# g (3,) [length / time^2]
+Uniform = namedtuple("Uniform", ("g",))
+# the fixed body: at (3,) [length], shared with the World (shift_origin moves it), mass
+# [mass]; sources (4, 1) its x, y, z, m
+Central = namedtuple("Central", ("G", "eps2", "at", "mass", "sources"))
+
+
+@dataclass(frozen=True)
+class Model:
+    """A gravity model's functions. pull(model, tape, src, passive, pos, mass, out, targets,
+    threads) -> None: out[k] = the acceleration of body k for every k in targets (the
+    kernels' contract, see `pull`); potential(model, pos, mass, src, passive) -> float and
+    body_energies(model, pos, vel, mass, src, out) -> None: the diagnostics, exact (a tree's
+    by direct summation); own_potential: the potential as the model's forces see it (a
+    tree's own), default potential."""
+    name: str
+    pull: object
+    potential: object
+    body_energies: object
+    own_potential: object = None
+
+
+MODELS = {}          # the namedtuple type -> Model
+
+
+def register(table, model):
+    MODELS[table] = model
+
+
+def pull(model, tape, src, passive, pos, mass, out, targets, threads):
+    """out[k] = the acceleration by gravity of body k [length / time^2], for every k in
+    targets (int64 rows; other rows untouched). model : a registered namedtuple, or None (no
+    gravity: zeros); tape : a prediction's tape (kernels/tape.TapeArrays) or None; src,
+    passive : the rows that pull and the others; pos (n, 3), mass (n,); threads : None (the
+    scene's loops never run on threads: none is compiled) or (1,) int64, the fewest pair
+    evaluations a loop runs on threads from. Each target's sum runs in a fixed order, so the
+    result does not depend on the thread count."""
+
+
+@overload(pull)
+def _pull(model, tape, src, passive, pos, mass, out, targets, threads):
+    if isinstance(model, types.NoneType):
+        return _no_gravity
+    own = MODELS[model.instance_class].pull
+
+    def by_model(model, tape, src, passive, pos, mass, out, targets, threads):
+        own(model, tape, src, passive, pos, mass, out, targets, threads)
+    return by_model
+
+
+def _no_gravity(model, tape, src, passive, pos, mass, out, targets, threads):
+    _fill(out, targets, 0.0, 0.0, 0.0)
+
+
+@kernel(lean=True)
+def _fill(out, targets, gx, gy, gz):
+    for a in range(targets.size):
+        k = targets[a]
+        out[k, 0] = gx
+        out[k, 1] = gy
+        out[k, 2] = gz
+
+
+@kernel(inline=True)
+def threaded(threads, work):
+    """Whether a loop of `work` pair evaluations runs on threads (threads: see pull)."""
+    if threads is None:
+        return False
+    return work >= threads[0]
+
+
+# ----------------------------------------------------------------------------- direct
+
+@kernel(fast=True, parallel=True, lean=True)
+def _direct_pull(model, tape, src, passive, pos, mass, out, targets, threads):
+    s = model.sources
+    ktape.sources(tape, s, src, pos, mass)
+    left = _pairs_first(model.sums, s, src, pos, out, targets, model.G, model.eps2, threads)
+    if left == _NONE_LEFT:
+        return
+    rest = passive if left == _PASSIVE_LEFT else targets
+    if threaded(threads, rest.size * s.shape[1]):
+        _pull_threaded(rest, pos, s, model.G, model.eps2, out)
+    else:
+        _pull_each(rest, pos, s, model.G, model.eps2, out)
+
+
+# what _pairs_first leaves to the one-sided sums
+_ALL_LEFT, _PASSIVE_LEFT, _NONE_LEFT = 0, 1, 2
+
+
+@kernel(parallel=True, lean=True)
+def _pairs_first(sums, s, src, pos, out, targets, G, eps2, threads):
+    """With sums (the scene has pairs.PAIRS_FROM sources or more) and the targets every body
+    or exactly the sources: the sources' pulls on each other, each pair once, into out.
+    Returns which targets are left: the passive ones, none, or (no pairs) all of them."""
+    if sums is None:
+        return _ALL_LEFT
+    if targets.size == pos.shape[0]:
+        left = _PASSIVE_LEFT
+    elif targets.size == src.size and targets.ctypes.data == src.ctypes.data:
+        left = _NONE_LEFT
+    else:
+        return _ALL_LEFT
+    ns = s.shape[1]
+    if threaded(threads, ns * (ns - 1) // 2):
+        pairs.pull_pairs_threaded(s, sums, ns, eps2)
+    else:
+        pairs.pull_pairs(s, sums, ns, eps2)
+    for a in range(src.size):
+        k = src[a]
+        out[k, 0] = G * sums[0, a]
+        out[k, 1] = G * sums[1, a]
+        out[k, 2] = G * sums[2, a]
+    return left
+
+
+@kernel(fast=True, parallel=True)
+def _pull_threaded(targets, pos, s, G, eps2, out):
+    """out[k] = G * the pull of the sources s on pos[k], the targets on threads."""
+    for a in numba.prange(targets.size):
+        k = targets[a]
+        ax, ay, az = pairs.pull(pos[k, 0], pos[k, 1], pos[k, 2], s, s.shape[1], eps2)
+        out[k, 0] = G * ax
+        out[k, 1] = G * ay
+        out[k, 2] = G * az
+
+
+@kernel(fast=True, lean=True)
+def _pull_each(targets, pos, s, G, eps2, out):
+    """_pull_threaded on the calling thread, bit for bit the same."""
+    for a in range(targets.size):
+        k = targets[a]
+        ax, ay, az = pairs.pull(pos[k, 0], pos[k, 1], pos[k, 2], s, s.shape[1], eps2)
+        out[k, 0] = G * ax
+        out[k, 1] = G * ay
+        out[k, 2] = G * az
+
+
+@kernel
+def _pair_potential(xi, yi, zi, mi, xj, yj, zj, mj, eps2):
+    dx = xj - xi
+    dy = yj - yi
+    dz = zj - zi
+    r2 = dx * dx + dy * dy + dz * dz + eps2
+    # coincident points exert no force, so they hold no pair energy either
+    return -mi * mj / np.sqrt(r2) if r2 > 0.0 else 0.0
+
+
+@kernel
+def mutual_potential(G, eps2, pos, mass, src, passive):
+    """-G m_i m_j / sqrt(r^2 + eps2) over pairs of sources (src), and over (passive, source)
+    pairs for the rows `passive` (a passive body sits in the sources' field), compensated."""
+    s = 0.0
+    c = 0.0
+    for a in range(src.size):
+        i = src[a]
+        for b in range(a + 1, src.size):
+            j = src[b]
+            s, c = add(s, c, _pair_potential(pos[i, 0], pos[i, 1], pos[i, 2], mass[i],
+                                              pos[j, 0], pos[j, 1], pos[j, 2], mass[j], eps2))
+    for a in range(passive.size):
+        i = passive[a]
+        if mass[i] == 0.0:
+            continue
+        for b in range(src.size):
+            j = src[b]
+            s, c = add(s, c, _pair_potential(pos[i, 0], pos[i, 1], pos[i, 2], mass[i],
+                                              pos[j, 0], pos[j, 1], pos[j, 2], mass[j], eps2))
+    return G * (s + c)
+
+
+@kernel
+def mutual_body_energies(G, eps2, pos, vel, mass, src, out):
+    """Each body's kinetic energy into out (n,), plus half of each pair potential among the
+    sources src (other bodies get their kinetic energy only)."""
+    kinetic_into(vel, mass, out)
+    for a in range(src.size):
+        i = src[a]
+        for b in range(a + 1, src.size):
+            j = src[b]
+            half = 0.5 * G * _pair_potential(pos[i, 0], pos[i, 1], pos[i, 2], mass[i],
+                                             pos[j, 0], pos[j, 1], pos[j, 2], mass[j], eps2)
+            out[i] += half
+            out[j] += half
+
+
+@kernel
+def kinetic_into(vel, mass, out):
+    """out (n,) = 1/2 m |v|^2 of each body."""
+    for i in range(mass.size):
+        v2 = vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1] + vel[i, 2] * vel[i, 2]
+        out[i] = 0.5 * mass[i] * v2
+
+
+def _direct_potential(model, pos, mass, src, passive):
+    return mutual_potential(model.G, model.eps2, pos, mass, src, passive)
+
+
+def _direct_energies(model, pos, vel, mass, src, out):
+    mutual_body_energies(model.G, model.eps2, pos, vel, mass, src, out)
+
+
+register(Direct, Model("direct", _direct_pull, _direct_potential, _direct_energies))
+
+
+# ----------------------------------------------------------------------------- uniform
+
+@kernel(lean=True)
+def _uniform_pull(model, tape, src, passive, pos, mass, out, targets, threads):
+    g = model.g
+    _fill(out, targets, g[0], g[1], g[2])
+
+
+@kernel
+def _uniform_potential(model, pos, mass, src, passive):
+    """-sum m g.x: the field's potential, zero at the origin (it has no natural zero)."""
+    g = model.g
+    s = 0.0
+    c = 0.0
+    for i in range(mass.size):
+        s, c = add(s, c, -mass[i] * (g[0] * pos[i, 0] + g[1] * pos[i, 1] + g[2] * pos[i, 2]))
+    return s + c
+
+
+@kernel
+def _uniform_energies(model, pos, vel, mass, src, out):
+    g = model.g
+    kinetic_into(vel, mass, out)
+    for i in range(mass.size):
+        out[i] -= mass[i] * (g[0] * pos[i, 0] + g[1] * pos[i, 1] + g[2] * pos[i, 2])
+
+
+register(Uniform, Model("uniform", _uniform_pull, _uniform_potential, _uniform_energies))
+
+
+# ----------------------------------------------------------------------------- central
+
+@kernel(fast=True, lean=True)
+def _central_pull(model, tape, src, passive, pos, mass, out, targets, threads):
+    s = model.sources
+    at = model.at
+    s[0, 0] = at[0]
+    s[1, 0] = at[1]
+    s[2, 0] = at[2]
+    s[3, 0] = model.mass
+    _pull_each(targets, pos, s, model.G, model.eps2, out)
+
+
+@kernel
+def _central_potential(model, pos, mass, src, passive):
+    """Each body in the fixed body's field."""
+    at = model.at
+    s = 0.0
+    c = 0.0
+    for i in range(mass.size):
+        s, c = add(s, c, _pair_potential(pos[i, 0], pos[i, 1], pos[i, 2], mass[i], at[0], at[1],
+                                          at[2], model.mass, model.eps2))
+    return model.G * (s + c)
+
+
+@kernel
+def _central_energies(model, pos, vel, mass, src, out):
+    at = model.at
+    kinetic_into(vel, mass, out)
+    for i in range(mass.size):
+        out[i] += model.G * _pair_potential(pos[i, 0], pos[i, 1], pos[i, 2], mass[i], at[0],
+                                            at[1], at[2], model.mass, model.eps2)
+
+
+register(Central, Model("central", _central_pull, _central_potential, _central_energies))
+
+
+def _no_potential(model, pos, mass, src, passive):
+    return 0.0
+
+
+def _no_energies(model, pos, vel, mass, src, out):
+    kinetic_into(vel, mass, out)
+
+
+NONE = Model("none", None, _no_potential, _no_energies)
+
+
+def model_of(model):
+    """The Model of a gravity table (None: NONE)."""
+    return NONE if model is None else MODELS[type(model)]
+
+
+def potential(model, pos, mass, src, passive, exact=False):
+    """The potential energy of pos (n, 3), mass (n,) under `model`, the rows `passive` of mass
+    > 0 in the sources' field [mass length^2 / time^2]; exact: by direct summation, whatever
+    the model's own sum (a tree's)."""
+    m = model_of(model)
+    own = m.potential if exact or m.own_potential is None else m.own_potential
+    return own(model, pos, mass, src, passive)
+
+
+def body_energies(model, pos, vel, mass, src, out):
+    """Each body's share of the energy into out (n,): 1/2 m |v|^2 plus half of each pair
+    potential among the sources (direct, tree: exact), or its potential in the field
+    (uniform, central). Sums to the total energy, to rounding: World names the bodies whose
+    energy changed when the total went wrong."""
+    model_of(model).body_energies(model, pos, vel, mass, src, out)

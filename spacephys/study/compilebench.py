@@ -1,0 +1,191 @@
+"""`spacephys bench compile`: what a scene waits for before its first step, and what it compiles.
+
+Every scenario of scenarios/ runs in a fresh process with an empty numba cache
+(NUMBA_CACHE_DIR pointed at a new folder): the seconds to import spacephys, to build the
+scenario's World, and to its first step (what `spacephys run` does before it: the energy and
+momentum it reports, the timeline's entries at t = 0, then step(1)), and the kernels numba
+compiled on the way, each with its own seconds (numba's "numba:compile" events, the time of
+the callees it compiled on the way taken out). Then "every kernel": every integrator on a
+gravity-only scene, then again with collisions and ships, in one cold process; and the warm
+start: the default scene's import and first step with the cache filled.
+"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from . import header
+
+SCENARIOS = Path(__file__).resolve().parent.parent.parent / "scenarios"
+DEFAULT = "star_system"
+
+# numba's compile events, per dispatcher: (compilations, own seconds); printed as JSON last
+_LISTENER = """
+import json, time
+from numba.core import event
+
+class _Compiles(event.Listener):
+    def __init__(self):
+        self.stack, self.kernels = [], {}
+
+    def on_start(self, ev):
+        self.stack.append([time.perf_counter(), 0.0])
+
+    def on_end(self, ev):
+        start, inner = self.stack.pop()
+        took = time.perf_counter() - start
+        if self.stack:
+            self.stack[-1][1] += took
+        fn = getattr(ev.data["dispatcher"], "py_func", None)
+        name = (f"{getattr(fn, '__module__', None) or '?'}.{fn.__qualname__}" if fn is not None
+                else str(ev.data["dispatcher"]))
+        k = self.kernels.setdefault(name.replace("spacephys.", ""), [0, 0.0])
+        k[0] += 1
+        k[1] += took - inner
+
+_compiles = _Compiles()
+event.register("numba:compile", _compiles)
+"""
+
+_SCENARIO_PROBE = """
+import sys, time
+start = time.perf_counter()
+""" + _LISTENER + """
+import numpy as np
+import spacephys as sp
+imported = time.perf_counter()
+from spacephys.scenario import apply, load_scenario
+sc = load_scenario(sys.argv[1])
+w, ids = sc.build()
+built = time.perf_counter()
+w.energy(True), w.momentum(True), w.angular_momentum(True)
+for t, action, value, path in sc.timeline:
+    if t <= 0.0:
+        apply(w, ids, sc.data["missiles"], action, value, path)
+w.step(1)
+first = time.perf_counter()
+print(json.dumps({"import_s": imported - start, "build_s": built - imported,
+                  "first_step_s": first - start, "kernels": _compiles.kernels}))
+"""
+
+_EVERY_PROBE = """
+import time
+start = time.perf_counter()
+""" + _LISTENER + """
+import spacephys as sp
+from spacephys.scenes import uniform_sphere
+for name in sp.INTEGRATORS:
+    w = uniform_sphere(64, dt=1e-3)
+    w.integrator = name
+    w.step(1)
+w.energy()
+gravity = time.perf_counter()
+for name in sp.INTEGRATORS:
+    w = uniform_sphere(16, dt=1e-3, softening=0.05)
+    w.integrator = name
+    w.set_collision("*", "*", "merge")
+    w.add_ship(sp.ShipSpec(fuel_mass=1.0, max_thrust=1.0, exhaust_speed=10.0), (5.0, 0.0, 0.0))
+    w.step(1)
+print(json.dumps({"gravity_s": gravity - start, "all_s": time.perf_counter() - start,
+                  "kernels": _compiles.kernels}))
+"""
+
+# the floor: any numba program's start, importing numpy and numba and calling one cached kernel
+_FLOOR_MODULE = "import numba\n\n@numba.njit(cache=True)\ndef total(a):\n    return a.sum()\n"
+_FLOOR_PROBE = """
+import time
+start = time.perf_counter()
+import numpy as np
+import floor_probe
+floor_probe.total(np.ones(3))
+print(time.perf_counter() - start)
+"""
+
+
+def scenarios():
+    """The shipped scenarios' names, sorted."""
+    return sorted(p.stem for p in SCENARIOS.glob("*.toml"))
+
+
+def _probe(code, cache, *args):
+    """Run `code` in a fresh Python with numba's cache in `cache`; its last line, parsed."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache),
+               PYTHONPATH=os.pathsep.join([str(cache), os.environ.get("PYTHONPATH", "")]))
+    out = subprocess.run([sys.executable, "-c", code, *args], env=env, check=True,
+                         capture_output=True, text=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def _kernels(raw):
+    """[{kernel, compilations, seconds}], the slowest first."""
+    rows = [{"kernel": k, "compilations": n, "seconds": s} for k, (n, s) in raw.items()]
+    return sorted(rows, key=lambda r: -r["seconds"])
+
+
+def cold_scenario(name):
+    """A scenario of scenarios/ in a fresh process with an empty cache: its start's seconds
+    and the kernels it compiled."""
+    with tempfile.TemporaryDirectory() as cache:
+        r = _probe(_SCENARIO_PROBE, cache, str(SCENARIOS / f"{name}.toml"))
+    return {"scenario": name, "import_s": r["import_s"], "build_s": r["build_s"],
+            "first_step_s": r["first_step_s"], "compile_s": sum(s for _, s in r["kernels"].values()),
+            "kernels": _kernels(r["kernels"])}
+
+
+def every_kernel():
+    """Every integrator, gravity only then with collisions and ships, in one cold process."""
+    with tempfile.TemporaryDirectory() as cache:
+        r = _probe(_EVERY_PROBE, cache)
+    return {"gravity_s": r["gravity_s"], "all_s": r["all_s"], "kernels": _kernels(r["kernels"])}
+
+
+def warm_start(repeats=3):
+    """The default scene's import and first step with the cache filled (the least of
+    `repeats` fresh processes), and the floor: importing numpy and numba and calling one
+    cached numba function."""
+    with tempfile.TemporaryDirectory() as cache:
+        Path(cache, "floor_probe.py").write_text(_FLOOR_MODULE)
+        path = str(SCENARIOS / f"{DEFAULT}.toml")
+        _probe(_SCENARIO_PROBE, cache, path)                    # fills the cache
+        warm = [_probe(_SCENARIO_PROBE, cache, path) for _ in range(repeats)]
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=cache)
+        floor = [float(subprocess.run([sys.executable, "-c", _FLOOR_PROBE], env=env, check=True,
+                                      capture_output=True, text=True).stdout)
+                 for _ in range(repeats + 1)][1:]               # the first one compiles
+    return {"import_s": min(w["import_s"] for w in warm),
+            "first_step_s": min(w["first_step_s"] for w in warm),
+            "kernels_compiled": max(len(w["kernels"]) for w in warm),
+            "floor_s": min(floor)}
+
+
+def compile_bench(quick=False):
+    """The benchmark (see the module); quick: the default scene and two_body only, no
+    'every kernel'."""
+    names = [DEFAULT, "two_body"] if quick else scenarios()
+    rows = [cold_scenario(name) for name in names]
+    return {**header("compile", quick), "scenarios": rows, "warm": warm_start(),
+            "every_kernel": None if quick else every_kernel()}
+
+
+def format_compile(r, top=3):
+    lines = [f"compile benchmark on {r['machine']} ({r['versions']}): fresh processes, each "
+             f"with an empty numba cache", "",
+             "| scenario | import | first step (import and compile included) | compiled "
+             "| kernels | slowest kernels (own seconds) |", "|---|---|---|---|---|---|"]
+    for s in r["scenarios"]:
+        slow = ", ".join(f"{k['kernel']} {k['seconds']:.1f}" for k in s["kernels"][:top])
+        lines.append(f"| {s['scenario']} | {s['import_s']:.2f} s | {s['first_step_s']:.1f} s | "
+                     f"{s['compile_s']:.1f} s | {len(s['kernels'])} | {slow} |")
+    w = r["warm"]
+    lines += ["", f"warm cache, {DEFAULT}: import {w['import_s']:.2f} s, import + first step "
+              f"{w['first_step_s']:.2f} s ({w['kernels_compiled']} kernels compiled); the floor "
+              f"(import numpy and numba, call one cached numba function) {w['floor_s']:.2f} s"]
+    e = r["every_kernel"]
+    if e is not None:
+        slow = ", ".join(f"{k['kernel']} {k['seconds']:.1f}" for k in e["kernels"][:6])
+        lines += [f"every kernel, cold: every integrator gravity only {e['gravity_s']:.1f} s, "
+                  f"then with collisions and ships {e['all_s']:.1f} s in all "
+                  f"({len(e['kernels'])} kernels; slowest: {slow})"]
+    return "\n".join(lines)
