@@ -545,6 +545,14 @@ class Actors:
             rows[:, 9:9 + len(delta)] -= delta
 
     # ------------------------------------------------------------ state
+    def motion(self):
+        """What moves with the tables kept (worldstate.Motion): the launches waiting for the
+        next step."""
+        return list(self.queued)
+
+    def set_motion(self, queued):
+        self.queued = list(queued)
+
     def state(self):
         live = [rows for ship, rows in sorted(self.plans.items()) if ship in self.w]
         return {"seed": self.seed, "explosions": list(self.specs),

@@ -53,6 +53,21 @@ class CollisionRules:
         self.ntouch[0] = len(pairs)
         return True
 
+    def motion(self, plan):
+        """What moves with the tables kept (worldstate.Motion): the pairs in touch, and the
+        launchers the tables' unarmed missiles still ignore (None without a collision
+        table)."""
+        rules = None if plan is None else plan.rules
+        return self.touching(), None if rules is None else collide.owners_of(rules).copy()
+
+    def set_motion(self, motion, plan):
+        """motion()'s into these rules and plan's table; False when the pairs in touch
+        outgrew the table's array (the tables must be built again)."""
+        touching, owners = motion
+        if owners is not None:
+            collide.owners_of(plan.rules)[:] = owners
+        return self.set_touching(touching)
+
     def caught_up(self, rules):
         """After a kernel call: the touch array the kernel grew, if it did."""
         if self.ntouch[1] != self.touch.shape[0]:

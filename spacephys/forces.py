@@ -222,6 +222,13 @@ class ForceField:
         return self.gravity != "uniform"
 
     # ------------------------------------------------------------ state
+    def motion(self):
+        """What moves with the tables kept (worldstate.Motion): drag and wind."""
+        return self.drag.copy()
+
+    def set_motion(self, drag):
+        self.drag[:] = drag
+
     def state(self):
         """The named fields a checkpoint keeps (see docs/runlog.md)."""
         return {"gravity": self.gravity, "G": self.G, "softening": self.softening,

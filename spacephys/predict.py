@@ -24,10 +24,11 @@ from .events import EVENT_DTYPE, EVENT_KINDS
 from .forces import MUTUAL
 from .integrators import get_integrator
 from .kernels import markers
-from .kernels.collide import owners_of
+from .driver import FRAME_BYTES_PER_BODY
 from .kernels.codes import (EV_BOUNCE, EV_DESTROY, EV_DETONATION, EV_EXPIRY, EV_MERGE,
-                            EV_WALL, NONFINITE)
+                            EV_WALL)
 from .tape import Tape
+from .worldstate import Motion
 
 # events that end a predicted path: a contact by the collision rules, a detonation, an expiry
 _ENDING = (EV_BOUNCE, EV_MERGE, EV_DESTROY, EV_WALL, EV_DETONATION, EV_EXPIRY)
@@ -109,65 +110,87 @@ class Prediction:
 
 
 class _Sampler:
-    """Takes the frames World's step loop captures (the RunLog's interface): the rows of the
-    watched ids, sample by sample, into pos, vel (P, m, 3); NaN for a body gone. When the
-    watched bodies are every row in order (a ship among its candidates, as a HUD asks) the
-    kernel captures straight into them: no copy. The buffers are the shadow's, kept from one
-    prediction to the next (fresh pages cost a fault each)."""
+    """The frames a prediction's steps take (a sink of the World's step driver, driver.py):
+    the rows of the watched ids, sample by sample, into pos, vel (P, m, 3); NaN for a body
+    gone. Sample j is taken counts[j] steps after the start (sample 0: the state then). When
+    the watched bodies are every row in order (a ship among its candidates, as a HUD asks)
+    the kernel captures straight into them: no copy. The buffers are the shadow's, kept from
+    one prediction to the next (fresh pages cost a fault each)."""
 
-    def __init__(self, world, ids, P, buffers):
-        self.world, self.ids = world, ids
-        shape = (P, ids.size, 3)
+    def __init__(self, world, ids, counts, buffers):
+        self.world, self.ids, self.counts = world, ids, counts
+        shape = (counts.size, ids.size, 3)
         if buffers.get("shape") != shape:
             buffers.clear()
             buffers.update(shape=shape, pos=np.empty(shape), vel=np.empty(shape))
-        self.pos, self.vel, self._buffers = buffers["pos"], buffers["vel"], buffers
+        self.pos, self.vel, self.buffers = buffers["pos"], buffers["vel"], buffers
         self.next = 1                      # sample 0 is the state now
-        self._rows = None                  # the watched rows for this kernel call
-        self._direct = False
+        self.taken = 0                     # steps since the start
+        self.rows = None                   # the watched rows for this kernel call
+        self.direct = False
+        self.tables = None
 
     def take(self, world, j):
-        rows = world._b.lookup(self.ids)
+        rows = world.driver.rows(self.ids)
         ok = rows >= 0
+        pos, vel = world.driver.view("pos", "vel")
         self.pos[j], self.vel[j] = np.nan, np.nan
-        self.pos[j, ok] = world._b.pos[rows[ok]]
-        self.vel[j, ok] = world._b.vel[rows[ok]]
+        self.pos[j, ok] = pos[rows[ok]]
+        self.vel[j, ok] = vel[rows[ok]]
 
-    def skip(self, k):
-        """k samples with every body gone."""
-        self.pos[self.next:self.next + k] = np.nan
-        self.vel[self.next:self.next + k] = np.nan
-        self.next += k
+    # ------------------------------------------------------------ the sink
+    def frame_room(self, capacity):
+        """Samples one kernel call may capture: buffers of at most _FRAME_BYTES."""
+        return max(1, _FRAME_BYTES // (FRAME_BYTES_PER_BODY * max(capacity, 1)))
+
+    def frame_offsets(self, world, n, limit):
+        due = self.counts[self.next:self.next + limit] - self.taken
+        return due[due <= n]
+
+    def until_frame(self, world):
+        return int(self.counts[self.next] - self.taken)
+
+    def stepped(self, world, k):
+        """k steps taken with every body gone: the samples they reach are NaN."""
+        self.taken += k
+        while self.next < self.counts.size and self.counts[self.next] <= self.taken:
+            self.pos[self.next] = np.nan
+            self.vel[self.next] = np.nan
+            self.next += 1
+
+    def record_events(self, events):
+        pass                               # the prediction reads the copy's events
 
     def frame_buffers(self, F, n):
         # rows do not change within a kernel call
-        self._tables = self.world._plan       # replaced when bodies are removed or added
-        self._rows = rows = self.world._b.lookup(self.ids)
+        self.tables = self.world.driver.plan       # replaced when bodies are removed or added
+        self.rows = rows = self.world.driver.rows(self.ids)
         j = self.next
-        self._direct = rows.size == n and bool(np.all(rows == np.arange(n)))
+        self.direct = rows.size == n and bool(np.all(rows == np.arange(n)))
         key = ("frames", n)
-        b = self._buffers.get(key)
+        b = self.buffers.get(key)
         if b is None or b[2].shape[0] < F:
-            b = self._buffers[key] = (np.empty((F, n, 3)), np.empty((F, n, 3)),
-                                      np.empty((F, n)))
-        if self._direct:
+            b = self.buffers[key] = (np.empty((F, n, 3)), np.empty((F, n, 3)),
+                                     np.empty((F, n)))
+        if self.direct:
             return self.pos[j:j + F], self.vel[j:j + F], b[2][:F]
         return b[0][:F], b[1][:F], b[2][:F]
 
     def captured(self, world, at, fpos, fvel, fmass, done):
         k = int(np.searchsorted(at, done))     # the one at the last step: captured_last
-        if k and not self._direct:
-            rows, j = self._rows, self.next
+        if k and not self.direct:
+            rows, j = self.rows, self.next
             self.pos[j:j + k] = np.nan
             self.vel[j:j + k] = np.nan
             ok = np.flatnonzero(rows >= 0)
             self.pos[j:j + k, ok] = fpos[:k, rows[ok]]
             self.vel[j:j + k, ok] = fvel[:k, rows[ok]]
         self.next += k
+        self.taken += done
 
     def captured_last(self, world, at, done):
         if done <= at[-1] and at[np.searchsorted(at, done)] == done:
-            if not (self._direct and world._plan is self._tables):   # else: the kernel's
+            if not (self.direct and world.driver.plan is self.tables):   # else: the kernel's
                 self.take(world, self.next)
             self.next += 1
 
@@ -248,8 +271,8 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
     if about is not None and world.mass[world.index_of(about, "about")] <= 0.0:
         raise ValueError(f"about = {about}: a massless body has no orbit about it")
     name, step, counts = _schedule(world, duration, points, integrator, dt)
-    world._actors.check_step(step, "dt" if dt is not None or not get_integrator(name).adaptive
-                             else "the step duration / (points - 1)")
+    world.driver.check_step(step, "dt" if dt is not None or not get_integrator(name).adaptive
+                            else "the step duration / (points - 1)")
     if tolerance is not None:
         tolerance = check.scalar("tolerance", tolerance, positive=True)
         if not get_integrator(name).adaptive:
@@ -265,7 +288,7 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
         try:
             _yield(background)
             w = shadow.ready()
-            sampler = _Sampler(w, watched, counts.size, shadow.buffers)
+            sampler = _Sampler(w, watched, counts, shadow.buffers)
             sampler.take(w, 0)
             t = w.time_after(counts.astype(np.float64))     # as World.t computes the time
             if shadow.tape is not None:
@@ -273,7 +296,7 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
             halves = None if background else _Halves.ready(shadow, w, ids, rows, watched,
                                                            counts)
             if halves is None:
-                events = _run(w, counts, sampler)
+                events = _run(w, sampler)
             else:
                 sampler, events = halves.run(counts, watched)
             _yield(background)
@@ -297,9 +320,9 @@ class _Shadow:
     rebuilds them) and its own run removed nobody; busy while a prediction runs on it."""
 
     def __init__(self, world, key, name, step, tolerance, background, tape=None):
-        self.world_plan = world._plan     # the World's tables it was made beside
+        self.world_plan = world.driver.plan   # the World's tables it was made beside
         w = world.copy()
-        w._watch = None
+        w.watch_energy(None)
         if name != w.integrator:
             w.integrator = name           # refuses, here, a scene it cannot run
         if step != w.dt:
@@ -312,29 +335,21 @@ class _Shadow:
         self.tape = Tape.make(w, tape)    # the pulling bodies' recorded future (tape.py)
         self.w, self.key, self.step, self.tolerance = w, key, step, tolerance
         self.same_integrator = name == world.integrator
-        self.plan = w._plan
+        self.plan = w.driver.plan
         self.snap = None
         self.buffers = {}                 # the samplers' (_Sampler)
         self.busy = True
 
     def usable(self, world, key):
-        return (not self.busy and self.key == key and world._plan is self.world_plan
-                and self.w._plan is self.plan)
+        return (not self.busy and self.key == key and world.driver.plan is self.world_plan
+                and self.w.driver.plan is self.plan)
 
     def take(self, world, background):
-        """The World's state now, in the caller's thread, for ready() to load: copies for a
-        prediction in the background (the World moves on meanwhile), views for one made
-        now (ready() runs before the caller gets the World back: one copy, not two)."""
-        b = world._b
-        n = b.n
-        rules = world._plan.rules
-        keep = (lambda a: a.copy()) if background else (lambda a: a)
-        self.snap = (n, {name: keep(getattr(b, name)[:n]) for name in b.columns},
-                     world._forces.drag.copy(), world._t_base, world._steps, world._dt,
-                     world._stepper.state() if self.same_integrator else None,
-                     world._adaptive.copy(), list(world._actors.queued),
-                     None if rules is None else owners_of(rules).copy(), world._origin.copy(),
-                     world._collisions.touching())
+        """The World's moving state now, in the caller's thread, for ready() to put into the
+        copy (worldstate.Motion): copies for a prediction in the background (the World moves
+        on meanwhile), views for one made now (ready() runs before the caller gets the World
+        back: one copy, not two)."""
+        self.snap = Motion.take(world, copy=background, carried=self.same_integrator)
         self.busy = True
 
     def ready(self):
@@ -342,30 +357,12 @@ class _Shadow:
         w = self.w
         if self.snap is None:
             return w                      # just made: the copy is the state
-        n, cols, drag, t_base, steps, dt, carried, adaptive, queued, owner, origin, touching = \
-            self.snap
+        self.snap.put(w)
         self.snap = None
-        b = w._b
-        for name in b.columns:
-            col = getattr(b, name)
-            col[:n] = cols[name] if name in cols else b.defaults.get(name, 0)
-        w._forces.drag[:] = drag
-        w._t_base, w._steps, w._dt = t_base, steps, dt
-        if self.step != dt:
+        if self.step != w.dt:
             w.dt = self.step              # rebased as the fresh copy's was
-        if carried is not None:
-            w._stepper.load(carried)
-        else:
-            w._stepper.reset(w)
-        w._adaptive[:] = adaptive
         if self.tolerance is not None:
             w.tolerance = self.tolerance
-        w._actors.queued = queued
-        if owner is not None:
-            owners_of(w._plan.rules)[:] = owner
-        if not w._collisions.set_touching(touching):
-            w._plan = None
-        w._origin[:] = origin
         return w
 
     def release(self):
@@ -387,7 +384,7 @@ class _Halves:
         self.copies = []
         for keep in groups:
             c = w.copy()
-            c._watch = None
+            c.watch_energy(None)
             c.threads = "never"           # two Python threads: no numba pool between them
             gone = np.setdiff1d(c.ids, keep)
             if gone.size:
@@ -402,13 +399,13 @@ class _Halves:
         the run cannot be split (see the class); rows: the ids' rows (w's are the World's)."""
         tape, n = shadow.tape, int(counts[-1])
         if tape is None or not tape.covers(n) or ids.size < _SPLIT_PATHS \
-                or (os.cpu_count() or 1) < 2 or w._plan.rules is not None or w._actors.queued:
+                or (os.cpu_count() or 1) < 2 or w.driver.plan.rules is not None \
+                or w.driver.queued:
             return None
-        b = w._b
-        src = w._sources()[0]
+        src = w.driver.pulling()
         if np.isin(rows, src).any() or not _independent(w, src):
             return None
-        src_ids = b.ids[src]
+        src_ids = w.ids[src]
         order = np.sort(ids)              # rows follow ids: the first half's events first
         mid = order.size // 2
         others = np.setdiff1d(watched, np.concatenate([ids, src_ids]))   # a passive target
@@ -417,26 +414,17 @@ class _Halves:
         halves = shadow.__dict__.get("halves")
         if halves is None or not all(map(np.array_equal, halves.groups, groups)):
             halves = shadow.halves = _Halves(w, groups)
-        if not halves.load(w, n):
+        if not halves.load(w, n, tape):
             return None
         return halves
 
-    def load(self, w, n):
-        """Each copy in w's state (the rows of its bodies), its tape cursor at w's: False
-        when a cursor would not play the whole run."""
-        b = w._b
+    def load(self, w, n, tape):
+        """Each copy in w's state (the rows of its bodies), its cursor on w's tape at w's:
+        False when a cursor would not play the whole run."""
         self.tapes = []
         for c in self.copies:
-            rows = w.index_of(c.ids)
-            cb = c._b
-            for name in cb.columns:
-                getattr(cb, name)[:rows.size] = getattr(b, name)[rows]
-            c._forces.drag[:] = w._forces.drag
-            c._t_base, c._steps, c._dt = w._t_base, w._steps, w._dt
-            c._stepper.reset(c)
-            c._adaptive[:] = w._adaptive
-            c._origin[:] = w._origin
-            fork = w._forces.tape.fork(c)
+            Motion.take(w, rows=w.index_of(c.ids), carried=False).put(c)
+            fork = tape.fork(c)
             if fork is None:
                 return False
             fork.start_run(c, n)
@@ -454,12 +442,12 @@ class _Halves:
         parts = []
         for c in self.copies:
             own = watched[np.isin(watched, c.ids)]
-            s = _Sampler(c, own, counts.size, c.__dict__.setdefault("_sampler_buffers", {}))
+            s = _Sampler(c, own, counts, c.__dict__.setdefault("_sampler_buffers", {}))
             s.take(c, 0)
             parts.append((c, s))
         try:
-            later = _pool("markers").submit(_run, parts[1][0], counts, parts[1][1])
-            events = [_run(parts[0][0], counts, parts[0][1]), later.result()]
+            later = _pool("markers").submit(_run, parts[1][0], parts[1][1])
+            events = [_run(parts[0][0], parts[0][1]), later.result()]
         finally:
             for fork in self.tapes:
                 fork.end_run()
@@ -471,17 +459,18 @@ class _Halves:
 def _independent(w, src):
     """Whether no ship or missile reads another body but the pulling ones (src rows): no
     proximity fuse, no guidance target elsewhere."""
-    b = w._b
-    if "actor" not in b.columns:
+    e = w.driver
+    if not e.has("actor"):
         return True
-    actors = np.flatnonzero(b.actor[:b.n])
+    actor, fuse, target, guidance, ids = e.view("actor", "fuse", "target", "guidance", "ids")
+    actors = np.flatnonzero(actor)
     if not actors.size:
         return True
-    if np.any(b.fuse[actors] > 0.0):
+    if np.any(fuse[actors] > 0.0):
         return False
-    targets = b.target[actors]
-    aimed = targets[(targets >= 0) & (b.guidance[actors] != 0)]
-    return bool(np.isin(aimed, b.ids[src]).all())
+    targets = target[actors]
+    aimed = targets[(targets >= 0) & (guidance[actors] != 0)]
+    return bool(np.isin(aimed, ids[src]).all())
 
 
 def _shadow(world, name, step, tolerance, background):
@@ -510,30 +499,12 @@ def _yield(background):
         time.sleep(0)
 
 
-def _run(w, counts, sampler):
-    """Step the copy to the last count, sampling at the others; returns its events."""
-    w._event_count[0] = 0
-    if w._actors.queued:
-        w._begin_events()
-    room = max(1, _FRAME_BYTES // (56 * max(w._b.capacity, 1)))
-    done = 0
-    at = counts[1:]
-    t0 = w.t
-    status = 0
-    while done < counts[-1]:
-        chunk = at[:room]
-        at = at[room:]
-        n = int(chunk[-1]) - done
-        if w._b.n:
-            status = w._run(n, chunk - done, sampler)
-        else:
-            w._steps += n
-            sampler.skip(chunk.size)
-        done += n
-    if status & NONFINITE:
-        w._check_health(t0, status)
-    events = w._events[:w._event_count[0]]
-    return events[np.argsort(events["time"], kind="stable")]      # in time order (a copy)
+def _run(w, sampler):
+    """Step the copy to the sampler's last count, sampling at the others (the World's own
+    step driver); returns its events in time order."""
+    w.driver.run(int(sampler.counts[-1]), sampler)
+    events = w.events
+    return events[np.argsort(events["time"], kind="stable")]
 
 
 def _picks(shadow, world, ids, about, target):

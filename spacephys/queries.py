@@ -75,8 +75,7 @@ def _box(world):
 def _state(world):
     """(pos (n, 3), radius (n,), ids (n,)): the World's own columns (z = 0 in 2D), not
     copies (read only here)."""
-    b = world._b
-    return b.pos[:b.n], b.radius[:b.n], b.ids[:b.n]
+    return world.driver.view("pos", "radius", "ids")
 
 
 def query_radius(world, centers, r, kinds=None, mask=None):

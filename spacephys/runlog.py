@@ -44,6 +44,7 @@ import h5py
 import numpy as np
 
 from . import checksums, h5writer, statefile
+from .driver import FRAME_BYTES_PER_BODY
 from .events import EVENT_DTYPE, EVENT_KINDS
 from .journal import encode
 
@@ -115,6 +116,12 @@ class _Schedule:
     multiple of `every_time`), shared by the writer and the replayer; subclasses take the
     frame in _add_frame(step, t, ids, pos, vel, mass, radius, kind)."""
 
+    @staticmethod
+    def frame_room(capacity):
+        """Frames one kernel call may capture (World's step driver, driver.py): buffers of at
+        most 8 MB, 256 frames."""
+        return max(1, min(256, (8 << 20) // (FRAME_BYTES_PER_BODY * capacity)))
+
     def until_frame(self, world):
         """Steps from now to the next frame."""
         if self.every:
@@ -157,7 +164,7 @@ class _Schedule:
         due = self.steps % self.every == 0 if self.every else \
             world.t >= self._next_time - 1e-9 * world.dt
         if due:
-            self._world_frame(world)
+            self.take_frame(world)
         self._after_steps()
 
     def captured(self, world, at, fpos, fvel, fmass, done):
@@ -184,10 +191,10 @@ class _Schedule:
     def captured_last(self, world, at, done):
         """After captured: World has booked the steps and settled removals and debris."""
         if np.any(at == done):
-            self._world_frame(world)
+            self.take_frame(world)
         self._after_steps()
 
-    def _world_frame(self, world):
+    def take_frame(self, world):
         self._add_frame(self.steps, world.t, world.ids, world.pos, world.vel, world.mass,
                         world.radius, world.kind)
         if self.every_time:
@@ -253,7 +260,7 @@ class RunLog(_Schedule):
                              flush_seconds, scenario)
             meta.update(compression=compression or "none", compress_state=compress_state)
             self._create(world, meta, compress_state)
-            self._world_frame(world)
+            self.take_frame(world)
             self._checkpoint(world)
             self._file["writer"][:] = h5writer.writer_id()   # named before it is in place
             self._file.close()
@@ -605,7 +612,7 @@ class RunLog(_Schedule):
             if not self._broken:
                 extra = self._frames_at() != self.steps
                 if extra:
-                    self._world_frame(world)    # the end state, off the frame schedule
+                    self.take_frame(world)    # the end state, off the frame schedule
                 self._checkpoint(world, extra_frame=extra)
                 self._guarded(self._commit, True)
         finally:

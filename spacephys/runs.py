@@ -344,7 +344,7 @@ def replay(path, each=None):
         world, attrs = _world(run._f, run.path, 0)
         # checkpoint 0 is taken just after frame 0, at the same step
         rep = _Replayer(run, int(attrs["step"]), world.t)
-        rep._world_frame(world)
+        rep.take_frame(world)
         world.recording = rep
         for entry in run.inputs():
             method = getattr(world, entry["call"]) if entry["call"] != "setattr" else None
@@ -362,7 +362,7 @@ def replay(path, each=None):
                 each(world, entry["call"], result)
         closed = bool(run.meta.get("closed"))
         if closed and len(run) > rep.frame_index:
-            rep._world_frame(world)                          # close()'s last frame
+            rep.take_frame(world)                          # close()'s last frame
         frames = rep.frame_index
         world.recording = None
         if rep.diverged is not None:

@@ -149,6 +149,23 @@ class Bodies:
         self.index[self.ids[holes] & _SLOT_MASK] = holes
 
     # ------------------------------------------------------------ state
+    def motion(self, rows=None, copy=True):
+        """The columns of the live rows (or of `rows`), for set_motion: copies, or with
+        copy=False the columns' own views where it can."""
+        if rows is not None:
+            return {name: getattr(self, name)[rows] for name in self.columns}
+        n = self.n
+        keep = np.copy if copy else (lambda a: a)
+        return {name: keep(getattr(self, name)[:n]) for name in self.columns}
+
+    def set_motion(self, columns):
+        """The first rows' columns from motion()'s (as many rows as it holds); a column it
+        lacks takes its default (one only these Bodies have: an integrator's of its own)."""
+        k = len(columns["ids"])
+        for name in self.columns:
+            getattr(self, name)[:k] = columns[name] if name in columns else \
+                self.defaults.get(name, 0)
+
     def state(self):
         """The named fields a checkpoint keeps (docs/runlog.md): every column's live rows,
         the columns' dtypes, shapes and defaults, the id slots and counters."""

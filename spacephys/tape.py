@@ -27,7 +27,7 @@ class Tape:
     """The tape of one prediction copy `w` (made beside its tables, see `make`)."""
 
     def __init__(self, w, per_step, src):
-        self.src_ids = w._b.ids[src].copy()
+        self.src_ids = w.ids[src]
         self.per_step = per_step
         self.at = np.zeros(5, np.int64)
         self.at[ktape.PER_STEP] = per_step
@@ -42,10 +42,8 @@ class Tape:
         self._bind(w, src)
 
     def _bind(self, w, src):
-        """Ride on w: its ForceField gives the tape to every table it builds (table_for)."""
-        w._forces.tape = self
-        w._plan = None
-        w.tables()
+        """Ride on w: every force table it builds gets the tape (table_for)."""
+        w.driver.attach_tape(self)
 
     def table_for(self, src, src_ids):
         """The kernels' Tape for a Forces table just built for the copy (its pulling rows src,
@@ -61,27 +59,27 @@ class Tape:
     def make(w, old=None):
         """A Tape for the copy w (the old copy's, when the same bodies pull in the same
         rows), or None when its scene cannot have one."""
-        per_step = w._stepper.tape_evaluations()
-        if per_step is None or w.gravity != "direct" or w._forces.user:
+        per_step = w.stepper.tape_evaluations()
+        if per_step is None or w.gravity != "direct" or w.forces:
             return None
-        src = w._sources()[0]
+        src = w.driver.pulling()
         if old is not None and old.per_step == per_step \
-                and np.array_equal(old.src_ids, w._b.ids[src]):
+                and np.array_equal(old.src_ids, w.ids[src]):
             old._bind(w, src)
             return old
         return Tape(w, per_step, src)
 
     def _state(self, w):
-        b, src = w._b, self.src
-        return np.concatenate([b.pos[src], b.vel[src], b.mass[src][:, None]], axis=1)
+        pos, vel, mass = w.driver.view("pos", "vel", "mass")
+        src = self.src
+        return np.concatenate([pos[src], vel[src], mass[src][:, None]], axis=1)
 
     def _moved(self, w):
         """What else sets how the pulling bodies move: their held forces, whether they are
         fixed, drag and softening (comparable with ==)."""
-        b, src = w._b, self.src
-        held = tuple(b.held[src].ravel()) if HELD in b.columns else None
-        return (held, tuple(b.fixed[src]), tuple(w._forces.drag), w._forces.softening,
-                w._forces.G)
+        e, src = w.driver, self.src
+        held = tuple(e.view(HELD)[src].ravel()) if e.has(HELD) else None
+        return (held, tuple(e.view("fixed")[src]), w.drag, tuple(w.wind), w.softening, w.G)
 
     def start_run(self, w, nsteps):
         """Point the tape at the copy's state now, before a run of nsteps steps: play from
@@ -89,12 +87,12 @@ class Tape:
         at = self.at
         at[ktape.ON] = 0
         self._run = None
-        if w._actors.any_of(self.src):                    # a pulling ship: its controls
+        if w.driver.actors_among(self.src):               # a pulling ship: its controls
             return                                        # move the pulling bodies
         moved = self._moved(w)
         k = self._matching_step(w, moved)
         if k is None:
-            self.origin = (w.t, w._dt)
+            self.origin = (w.t, w.dt)
             self.start, self.moved = self._state(w), moved
             at[ktape.VALID] = 0
             k = 0
@@ -121,7 +119,7 @@ class Tape:
             return None
         t0, dt = self.origin
         k = round((w.t - t0) / dt)
-        if w._dt != dt or not 0 <= k <= self.at[ktape.VALID]:
+        if w.dt != dt or not 0 <= k <= self.at[ktape.VALID]:
             return None
         if moved != self.moved:
             return None
@@ -159,8 +157,8 @@ class Tape:
         same (a prediction split between threads, predict._Halves): it shares the recording
         and plays it back where this tape would, never records, and books what it played
         here. None when w's pulling bodies differ."""
-        src = w._sources()[0]
-        if not np.array_equal(self.src_ids, w._b.ids[src]):
+        src = w.driver.pulling()
+        if not np.array_equal(self.src_ids, w.ids[src]):
             return None
         other = Tape.__new__(Tape)
         other.__dict__.update(self.__dict__)

@@ -9,8 +9,6 @@ World's own; nothing else reads its private attributes (docs/architecture.md).
 """
 import copy
 import math
-import os
-import sys
 import warnings
 from collections import namedtuple
 
@@ -20,17 +18,18 @@ from . import _validate as check
 from ._jit import ThreadChoice, announced
 from .actors import Actors
 from .collisions import CollisionRules
-from .errors import InstabilityError, PrecisionWarning
+from .driver import Driver
+from .errors import InstabilityError, PrecisionWarning, caller_level
 from .events import EVENT_DTYPE
 from .forces import GRAVITY_MODELS, HELD, ForceField
 from .integrators import get_integrator
-from . import journal, orbits
+from . import journal, orbits, worldstate
 from .journal import journaled_setter
 from .kernels import diagnostics
 from .kernels import forces as kforces
 from .kernels import gravity as kgravity
 from .kernels import state as kstate
-from .kernels.codes import BOUNDARIES, FAILED, NONFINITE, REMOVED, RESPONSES
+from .kernels.codes import BOUNDARIES, NONFINITE, RESPONSES
 from .kernels.collide import SCRATCH
 from .state import Bodies
 from .steppers import Plan, stepper_for
@@ -41,7 +40,6 @@ STEP_CONTROLS = ("auto", "pulling", "all")
 # for thrust and collisions, and their pull on planets would only cost time
 PASSIVE_KINDS = ("ship", "missile", "debris")
 DEFAULT_KINDS = ("body", "star", "planet", "moon", "asteroid", "ship", "missile", "debris")
-STATE_VERSION = 2          # the version of World.state(), and of the files that hold it
 _first_tables = True       # no World has built its kernel tables in this process yet
 
 __all__ = ["World", "Body", "InstabilityError", "GRAVITY_MODELS", "RESPONSES", "BOUNDARIES",
@@ -159,8 +157,7 @@ class World:
         adaptive = self._adaptive_settings(tolerance, max_step, min_step)
         step_control = self._checked_step_control(step_control)
 
-        self._precision_warned = False     # PrecisionWarning given (once)
-        self._log = None                   # the RunLog recording this World, if one is
+        self._transient()
         self._dim = dim
         self._units = unit_system
         self._forces = forces
@@ -182,9 +179,6 @@ class World:
         self._event_count = np.zeros(1, dtype=np.int64)
         self._origin = np.zeros(3)      # where the coordinates are measured from
         self._watch = None              # watch_energy's (limit, E0, body energies, ids)
-        self._plan = None               # the kernels' tables for the bodies now (Plan)
-        self._scratch = None            # per-body scratch kept at the capacity
-        self._warning = None            # a warning to give once a call is booked
         self._threads = ThreadChoice()  # whether the force loops run on threads
 
     # ---------------------------------------------------------------- settings
@@ -832,69 +826,29 @@ class World:
     def state(self):
         """The whole state as named fields (dicts of arrays and numbers): everything a
         bit-exact restart needs, nothing derived. docs/runlog.md documents every field;
-        World.from_state(state) is the World again. Version STATE_VERSION."""
-        return {
-            "version": STATE_VERSION,
-            "world": {"dim": self._dim, "units": self._units.name, "kinds": list(self._kinds),
-                      "integrator": self._spec.name, "dt": self._dt, "t_base": self._t_base,
-                      "steps": self._steps, "accumulator": self._accumulator,
-                      "dropped_time": self._dropped, "max_substeps": self._max_substeps,
-                      "origin": self._origin.copy(), "adaptive": self._adaptive.copy(),
-                      "step_control": self._step_control, "threads": self._threads.mode,
-                      "events": self._events[:self._event_count[0]].copy()},
-            "bodies": self._b.state(),
-            "forces": self._forces.state(),
-            "collisions": self._collisions.state(),
-            "actors": self._actors.state(),
-            "stepper": self._stepper.state(),
-            "watch": {} if self._watch is None else dict(zip(
-                ("limit", "E0", "energies", "ids"), self._watch)),
-        }
+        World.from_state(state) is the World again. Version STATE_VERSION (worldstate.py
+        defines it)."""
+        return worldstate.state(self)
 
     @classmethod
     def from_state(cls, s):
         """The World a state() describes, continuing bit for bit."""
-        version = int(s.get("version", 1))
-        if version != STATE_VERSION:
-            raise ValueError(f"state version {version}: this spacephys reads version "
-                             f"{STATE_VERSION}")
         w = cls.__new__(cls)
-        ws = s["world"]
-        w._log = None
-        w._precision_warned = False
-        w._dim = int(ws["dim"])
-        w._units = get_units(str(ws["units"]))
-        w._forces = ForceField.from_state(w._dim, s["forces"])
-        w._b = Bodies.from_state(s["bodies"])
-        w._kinds = [str(k) for k in ws["kinds"]]
-        w._collisions = CollisionRules.from_state(s["collisions"])
+        w._transient()
         w._actors = Actors(w, 0)
-        w._actors.load(s["actors"])
-        w._spec = get_integrator(str(ws["integrator"]))
-        w._stepper = stepper_for(w._spec)
-        w._stepper.load(s["stepper"])
-        w._adaptive = np.array(ws["adaptive"], np.float64)
-        w._step_control = str(ws["step_control"])
-        w._max_substeps = int(ws["max_substeps"])
-        w._dt = float(ws["dt"])
-        w._t_base = float(ws["t_base"])
-        w._steps = int(ws["steps"])
-        w._accumulator = float(ws["accumulator"])
-        w._dropped = float(ws["dropped_time"])
-        events = np.array(ws["events"], EVENT_DTYPE).reshape(-1)
-        w._events = np.zeros(max(256, 2 * events.size), EVENT_DTYPE)
-        w._events[:events.size] = events
-        w._event_count = np.array([events.size], np.int64)
-        w._origin = np.array(ws["origin"], np.float64)
-        watch = s["watch"]
-        w._watch = None if not watch else (float(watch["limit"]), float(watch["E0"]),
-                                           np.asarray(watch["energies"], np.float64),
-                                           np.asarray(watch["ids"], np.int64))
-        w._plan = None
-        w._scratch = None
-        w._warning = None
-        w._threads = ThreadChoice(str(ws["threads"]))
+        w._threads = ThreadChoice()
+        worldstate.load(w, s)
         return w
+
+    def _transient(self):
+        """What a World holds besides its state: derived or per-session (its tables, its
+        scratch, its run log), set afresh."""
+        self._log = None                   # the RunLog recording this World, if one is
+        self._precision_warned = False     # PrecisionWarning given (once)
+        self._plan = None                  # the kernels' tables for the bodies now (Plan)
+        self._scratch = None               # per-body scratch kept at the capacity
+        self._warning = None               # a warning to give once a call is booked
+        self._driver = Driver(self)        # its step driver, and its extensions' interface
 
     # ---------------------------------------------------------------- collisions
     def _kind_list(self, kind, field):
@@ -1182,7 +1136,7 @@ class World:
                 f"positions keep about {digits:.0f} significant digits within the scene (16 "
                 f"at the origin), and the integration's errors grow with that. Move the "
                 f"origin to the scene: w.shift_origin(w.center_of_mass()) (journaled; "
-                f"velocities and the motion are unchanged)"), stacklevel=_caller_level())
+                f"velocities and the motion are unchanged)"), stacklevel=caller_level())
 
     # ---------------------------------------------------------------- stepping
     def step(self, n=1):
@@ -1190,114 +1144,19 @@ class World:
         holds what happened during these steps."""
         if type(n) is not int or n < 0:
             n = check.count("n", n)
-        t0 = self._t_base + self._steps * self._dt
-        self._event_count[0] = 0
-        if self._actors.queued:
-            self._begin_events()
-        log = self._log
-        status = 0
-        if n:
-            status = self._run(n) if log is None and self._b.n else self._run_framed(n)
-        if log is not None:
-            log.record_events(self.events)
-        if n and (status & NONFINITE or self._watch is not None):
-            self._check_health(t0, status)
+        self._driver.run(n, self._log)
         return self._t_base + self._steps * self._dt
 
-    def _begin_events(self):
-        """This step's events open with the launches made since the last one."""
-        if not self._actors.write_queued(self._events, self._event_count):
-            self._events = np.zeros(2 * len(self._actors.queued), dtype=EVENT_DTYPE)
-            self._plan = None
-            self._actors.write_queued(self._events, self._event_count)
-
-    def _run_framed(self, n):
-        """_run, with the frames a recording takes (captured inside the kernels, at most
-        _frame_room() per call). Returns the status of the last kernel call."""
-        log = self._log
-        status = 0
-        while n:
-            if log is not None and self._b.n:
-                room = self._frame_room()
-                at = log.frame_offsets(self, n, room)
-                k = int(at[-1]) if at.size == room else n
-                status = self._run(k, at, log)
-            else:
-                k = n if log is None else min(n, log.until_frame(self))
-                if self._b.n:
-                    status = self._run(k)
-                else:
-                    self._steps += k
-                if log is not None:
-                    log.stepped(self, k)
-            n -= k
-        return status
-
-    def _run(self, nsteps, frame_at=None, sink=None):
-        """Take nsteps steps; a kernel call ends early after a collision removed or merged
-        bodies (or a detonation, an expiry), and is resumed once World has caught up.
-        frame_at : sorted step counts (from now) after which `sink` (the recording, or a
-        prediction) takes a frame: it gives the buffers (frame_buffers) and takes what the
-        kernel captured (captured, captured_last). Returns the last call's status."""
-        consumed = 0
-        status = 0
-        while nsteps:
-            plan = self._plan or self.tables()
-            first = self._event_count[0]
-            frames = None if frame_at is None else self._frame_buffers(frame_at, consumed, sink)
-            timing = self._threads.begin(plan.work, nsteps)
-            if plan.actors is not None:        # a plan's clock (element-wise: a slice
-                clock = self._actors.clock     # assignment from a tuple costs a microsecond)
-                clock[0] = self._t_base
-                clock[1] = self._steps
-            done, status = self._stepper.run(plan, frames, self._dt, nsteps,
-                                             self._t_base + self._steps * self._dt)
-            if timing is not None:
-                self._threads.end(timing, done)
-            if self._event_count[0] > self._events.shape[0]:
-                self._events = kstate.events_of(plan.state)        # the kernel grew it
-                self._plan = None
-            if plan.rules is not None:
-                self._collisions.caught_up(plan.rules)
-            if frames is not None:
-                sink.captured(self, *frames, done)
-            self._steps += done
-            if status & REMOVED:
-                # bodies destroyed or merged away leave, at the end of the step they died in;
-                # the destroyed ones with an explosion throw out their debris, born then
-                events = self._events[first:self._event_count[0]]
-                self._actors.merged(events)
-                dead = np.flatnonzero(~plan.alive)
-                blasts = self._actors.explode_dead(dead, events)
-                self._b.remove(dead)
-                self._invalidate()
-                self._actors.spawn_debris(blasts)
-            if frames is not None:
-                sink.captured_last(self, frames[0], done)
-            if status & FAILED:
-                self._b.prev[:self._b.n] = self._b.pos[:self._b.n]   # nothing to interpolate
-                self._stepper.failed(self, done)
-            nsteps -= done
-            consumed += done
-            if self._warning:
-                message, self._warning = self._warning, None
-                warnings.warn(message, RuntimeWarning, stacklevel=4)
-        return status
+    @property
+    def driver(self):
+        """What runs this World's steps, and the interface spacephys's own extensions
+        (predictions, their tape, queries) read it through: see spacephys/driver.py."""
+        return self._driver
 
     def warn_later(self, message):
         """A RuntimeWarning given once the current call has booked its steps (a warning
         turned into an error must find the World consistent)."""
         self._warning = message
-
-    def _frame_room(self):
-        """Frames one kernel call may capture: buffers of at most 8 MB."""
-        return max(1, min(256, (8 << 20) // (56 * self._b.capacity)))
-
-    def _frame_buffers(self, frame_at, consumed, sink):
-        """(at, fpos, fvel, fmass) for a kernel call starting `consumed` steps into the run:
-        the frame step counts relative to it, and the sink's buffers to capture into."""
-        at = frame_at[frame_at > consumed] - consumed
-        return (at,) + sink.frame_buffers(at.size, self._b.n)
 
     def advance(self, frame_time):
         """Fixed-step accumulator for variable frame time; returns alpha in [0, 1).
@@ -1630,16 +1489,6 @@ class World:
         return (f"World(dim={self._dim}, n={self.n}, gravity={self.gravity!r}, "
                 f"integrator={self.integrator!r}, dt={self._dt!r}, t={self.t!r})")
 
-
-def _caller_level():
-    """warnings.warn's stacklevel for the first frame outside spacephys (the user's call)."""
-    frame, level = sys._getframe(1), 1
-    while frame is not None and frame.f_code.co_filename.startswith(_PACKAGE):
-        frame, level = frame.f_back, level + 1
-    return level
-
-
-_PACKAGE = os.path.dirname(os.path.abspath(__file__))
 
 # the calls a run log records (journal.py): every public method that changes the World
 JOURNALED = ("step", "advance", "watch_energy", "shift_origin", "move_to_center_of_mass",

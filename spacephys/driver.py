@@ -1,0 +1,185 @@
+"""What runs a World's steps, and what its extensions reach it through.
+
+The step driver (`Engine.run`): n steps in as few kernel calls as it can, the frames a sink
+takes captured inside the kernels (a run log's, a prediction's samples), bodies that died
+removed (their debris spawned) and the call resumed, failures and NaN reported. World.step
+calls it with its run log; a prediction with its sampler: one driver for both.
+
+A sink takes frames at step counts it chooses (`frame_offsets`, `until_frame`), at most
+`frame_room(capacity)` in one kernel call, in buffers of its own (`frame_buffers`: frames of
+FRAME_BYTES_PER_BODY bytes a body), is told what the kernel captured (`captured`, then
+`captured_last` once the steps are booked) and of steps taken with no body to capture
+(`stepped`), and gets each call's events (`record_events`).
+
+Predictions (predict.py), their tape (tape.py) and the spatial queries (queries.py) read the
+World through the rest of this interface (`view`, `rows`, `plan`, `pulling`, ...), never its
+private attributes. A part of World: it holds the World and reads its parts.
+"""
+import warnings
+
+import numpy as np
+
+from .errors import caller_level
+from .events import EVENT_DTYPE
+from .kernels import state as kstate
+from .kernels.codes import FAILED, NONFINITE, REMOVED
+
+# bytes a frame holds per body: pos, vel (3 float64 each) and mass
+FRAME_BYTES_PER_BODY = 56
+
+
+class Driver:
+    """World w's step driver and its extensions' interface (see the module)."""
+
+    def __init__(self, world):
+        self.w = world
+
+    # ---------------------------------------------------------------- the interface
+    def view(self, *names):
+        """The live bodies' columns `names` (n rows; positions and velocities with 3
+        components, z = 0 in 2D): the World's own arrays, not copies; one array for one
+        name, else a tuple. For code that hands them to kernels; read, never write."""
+        b = self.w._b
+        got = tuple(getattr(b, name)[:b.n] for name in names)
+        return got[0] if len(got) == 1 else got
+
+    def has(self, column):
+        """Whether the bodies have the column (ships' columns come with the first ship)."""
+        return column in self.w._b.columns
+
+    def rows(self, ids):
+        """(k,) int64 rows of the ids, -1 where an id names no live body."""
+        return self.w._b.lookup(ids)
+
+    @property
+    def plan(self):
+        """The kernels' tables now (a steppers.Plan), or None when they will be built anew
+        (bodies or a setting they hold changed): World.tables() builds them."""
+        return self.w._plan
+
+    def pulling(self):
+        """(k,) int64 rows of the bodies that pull (active, of mass > 0)."""
+        return self.w._sources()[0]
+
+    @property
+    def capacity(self):
+        """The rows the bodies' columns hold, used or not."""
+        return self.w._b.capacity
+
+    def actors_among(self, rows):
+        """Whether any of these rows is a ship or missile."""
+        return self.w._actors.any_of(rows)
+
+    def check_step(self, step, what):
+        """ValueError naming `what` when ships and missiles cannot be stepped by `step`."""
+        self.w._actors.check_step(step, what)
+
+    @property
+    def queued(self):
+        """Whether launches wait for the next step (their events open it)."""
+        return bool(self.w._actors.queued)
+
+    def attach_tape(self, tape):
+        """Give every force table built from now on a prediction's tape (tape.py), and
+        build the tables with it now."""
+        self.w._forces.tape = tape
+        self.w._plan = None
+        self.w.tables()
+
+    # ---------------------------------------------------------------- the driver
+    def run(self, n, sink=None):
+        """Take n steps (>= 0), frames into `sink` (or None): the call World.step makes.
+        Returns the status bits of the last kernel call (kernels/codes.py)."""
+        w = self.w
+        t0 = w._t_base + w._steps * w._dt
+        w._event_count[0] = 0
+        if w._actors.queued:
+            self._begin_events()
+        b = w._b
+        status = 0
+        if sink is None and b.n:
+            status = self._calls(n) if n else 0
+        else:
+            left = n
+            while left:
+                if sink is not None and b.n:
+                    room = sink.frame_room(b.capacity)
+                    at = sink.frame_offsets(w, left, room)
+                    k = int(at[-1]) if at.size == room else left
+                    status = self._calls(k, at, sink)
+                else:
+                    k = left if sink is None else min(left, sink.until_frame(w))
+                    if b.n:
+                        status = self._calls(k)
+                    else:
+                        w._steps += k          # no body to move: time still passes
+                    if sink is not None:
+                        sink.stepped(w, k)
+                left -= k
+        if sink is not None:
+            sink.record_events(w.events)
+        if n and (status & NONFINITE or w._watch is not None):
+            w._check_health(t0, status)
+        return status
+
+    def _begin_events(self):
+        """This step's events open with the launches made since the last one."""
+        w = self.w
+        if not w._actors.write_queued(w._events, w._event_count):
+            w._events = np.zeros(2 * len(w._actors.queued), dtype=EVENT_DTYPE)
+            w._plan = None
+            w._actors.write_queued(w._events, w._event_count)
+
+    def _calls(self, nsteps, frame_at=None, sink=None):
+        """Take nsteps steps; a kernel call ends early after a collision removed or merged
+        bodies (or a detonation, an expiry), and is resumed once the World has caught up.
+        frame_at : sorted step counts (from now) after which `sink` takes a frame. Returns
+        the last call's status."""
+        w = self.w
+        consumed = 0
+        status = 0
+        while nsteps:
+            plan = w._plan or w.tables()
+            first = w._event_count[0]
+            frames = None
+            if frame_at is not None:
+                at = frame_at[frame_at > consumed] - consumed
+                frames = (at,) + sink.frame_buffers(at.size, w._b.n)
+            timing = w._threads.begin(plan.work, nsteps)
+            if plan.actors is not None:        # a plan's clock (element-wise: a slice
+                clock = w._actors.clock        # assignment from a tuple costs a microsecond)
+                clock[0] = w._t_base
+                clock[1] = w._steps
+            done, status = w._stepper.run(plan, frames, w._dt, nsteps,
+                                          w._t_base + w._steps * w._dt)
+            if timing is not None:
+                w._threads.end(timing, done)
+            if w._event_count[0] > w._events.shape[0]:
+                w._events = kstate.events_of(plan.state)        # the kernel grew it
+                w._plan = None
+            if plan.rules is not None:
+                w._collisions.caught_up(plan.rules)
+            if frames is not None:
+                sink.captured(w, *frames, done)
+            w._steps += done
+            if status & REMOVED:
+                # bodies destroyed or merged away leave, at the end of the step they died in;
+                # the destroyed ones with an explosion throw out their debris, born then
+                events = w._events[first:w._event_count[0]]
+                w._actors.merged(events)
+                dead = np.flatnonzero(~plan.alive)
+                blasts = w._actors.explode_dead(dead, events)
+                w._b.remove(dead)
+                w._invalidate()
+                w._actors.spawn_debris(blasts)
+            if frames is not None:
+                sink.captured_last(w, frames[0], done)
+            if status & FAILED:
+                w._b.prev[:w._b.n] = w._b.pos[:w._b.n]   # nothing to interpolate
+                w._stepper.failed(w, done)
+            nsteps -= done
+            consumed += done
+            if w._warning:
+                message, w._warning = w._warning, None
+                warnings.warn(message, RuntimeWarning, stacklevel=caller_level())
+        return status
