@@ -5,7 +5,6 @@ import os
 import sys
 import threading
 import time
-import types as types_
 import warnings
 from pathlib import Path
 
@@ -22,6 +21,8 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 from numba import types
 from numba.core.errors import NumbaPerformanceWarning
+from numba.core.registry import CPUDispatcher
+from numba.extending import overload
 
 # With prange-only parallelism (PRANGE_ONLY) numba's check for "a parallel transformation"
 # misses the prange loops of inlined helpers and warns on kernels that do run threaded (the
@@ -76,6 +77,34 @@ def kernel(fn=None, *, fast=False, parallel=False, inline=False, lean=False, cou
     a prange, or calls one that does, is itself parallel: a cached serial kernel that calls a
     parallel one segfaults when loaded from the cache (numba issue #8578).
     """
+    opts = _options(fast, parallel, inline, lean, counted)
+    if fn is None:
+        return lambda f: _compiled(f, opts)
+    return _compiled(fn, opts)
+
+
+class _Dispatcher(CPUDispatcher):
+    """numba's dispatcher, but a call from another kernel compiles it for its arguments'
+    plain types: numba would compile a function again for every constant an argument is
+    given (walk(..., False) and walk(..., same) twice; a prange index, uint64, once more),
+    and each copy re-optimises everything it calls. Branches on None stay pruned (None is a
+    type of its own)."""
+
+    def get_call_template(self, args, kws):
+        return super().get_call_template(tuple(types.unliteral(a) for a in args),
+                                         {k: types.unliteral(v) for k, v in kws.items()})
+
+
+def _compiled(fn, opts):
+    opts = dict(opts, nopython=True)
+    cache = opts.pop("cache")
+    disp = _Dispatcher(py_func=fn, locals={}, targetoptions=opts)
+    if cache:
+        disp.enable_caching()
+    return disp
+
+
+def _options(fast=False, parallel=False, inline=False, lean=False, counted=False):
     # only explicit prange loops become threaded: numba would also turn array expressions and
     # numpy calls (np.zeros, np.cumsum) into parallel regions, which wake the thread pool on
     # every call however small the scene, and stall for milliseconds when another process or
@@ -86,20 +115,23 @@ def kernel(fn=None, *, fast=False, parallel=False, inline=False, lean=False, cou
                 fastmath=set(FAST) if fast else False, inline="always" if inline else "never")
     if lean or counted:
         opts["_nrt"] = not lean
-    if fn is None:
-        return lambda f: numba.njit(**opts)(f)
-    return numba.njit(**opts)(fn)
+    return opts
 
 
-def twin(fn, name):
-    """A copy of the function fn named `name`: a second numba dispatcher of the same body
-    with other options, which caches apart (numba keys its cache by the function's name)."""
-    code = fn.__code__.replace(co_name=name, co_qualname=name)
-    copy = types_.FunctionType(code, fn.__globals__, name, fn.__defaults__, fn.__closure__)
-    copy.__qualname__ = name
-    copy.__doc__ = fn.__doc__
-    copy.__module__ = fn.__module__
-    return copy
+def implements(stub, fn, when, **options):
+    """Make the plain function fn what kernels calling `stub` run when `when(the numba type of
+    the first argument)` holds, compiled with `kernel`'s options: numba chooses as it compiles
+    the caller, and calls fn itself (no function in between, whose compilation would
+    re-optimise everything fn calls once more). Kernels that call `stub` are cached as any
+    other; fn is compiled into them."""
+    opts = _options(**options)
+    del opts["cache"], opts["inline"]
+
+    @overload(stub, jit_options=opts, strict=False)
+    def choose(first, *rest):
+        if when(first):
+            return fn
+    return choose
 
 
 def _purge_stale_cache():

@@ -108,6 +108,57 @@ def contact_order(t, i, j, k):
 
 
 @kernel
+def stable_order(keys, k):
+    """(k,) int64: the stable order sorting keys[:k] ascending (a merge sort; numbers, no
+    NaN): np.argsort(keys[:k], kind="mergesort"), which compiles 2.5 s slower."""
+    buf = np.empty((2, k), np.int64)                   # two halves, in turn source and result
+    for q in range(k):
+        buf[0, q] = q
+    src = 0
+    width = 1
+    while width < k:
+        dst = 1 - src
+        for lo in range(0, k, 2 * width):
+            mid = min(lo + width, k)
+            hi = min(lo + 2 * width, k)
+            a, b, out = lo, mid, lo
+            while a < mid and b < hi:
+                x, y = buf[src, a], buf[src, b]
+                if keys[y] < keys[x]:
+                    buf[dst, out] = y
+                    b += 1
+                else:
+                    buf[dst, out] = x
+                    a += 1
+                out += 1
+            while a < mid:
+                buf[dst, out] = buf[src, a]
+                a += 1
+                out += 1
+            while b < hi:
+                buf[dst, out] = buf[src, b]
+                b += 1
+                out += 1
+        src = dst
+        width *= 2
+    order = np.empty(k, np.int64)
+    for q in range(k):
+        order[q] = buf[src, q]
+    return order
+
+
+@kernel
+def sort_in_place(a, k):
+    """a[:k] sorted ascending, in place (int64)."""
+    order = stable_order(a, k)
+    tmp = np.empty(k, np.int64)
+    for q in range(k):
+        tmp[q] = a[order[q]]
+    for q in range(k):
+        a[q] = tmp[q]
+
+
+@kernel
 def radix_order(keys):
     """(k,) int64: the stable order sorting the non-negative keys ascending (LSD radix sort,
     11-bit digits; digits on which all keys agree are skipped)."""

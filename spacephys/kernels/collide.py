@@ -31,7 +31,7 @@ import numpy as np
 from numba.experimental import structref
 
 from .._jit import TableType, kernel
-from .arrays import contact_order, grown_pairs
+from .arrays import contact_order, grown_pairs, sort_in_place, stable_order
 from .codes import (BOUNCE, BREAK_A, DESTROY_A, DESTROY_B, DESTROY_BOTH, ELASTIC, EV_BOUNCE,
                     EV_CONTACT_BEGIN, EV_CONTACT_END, EV_DESTROY, EV_MERGE, EV_SENSOR_BEGIN,
                     EV_SENSOR_END, EV_WALL, IGNORE, MERGE, PERIODIC, PLANE, REFLECT, REFLECTING,
@@ -489,7 +489,7 @@ def _lead_cells(lo, hi, alive, gridded, origin, cell, ncell):
             break
     if not follows:
         return nothing
-    leaders = np.nonzero(alive & (gridded == 1))[0]
+    leaders = _entered(alive, gridded)
     # the map: a byte read where the set took a hash and a probe (5e4 debris following
     # 2e3 ships and missiles: _fill 1.55 -> 0.86 ms)
     occupied, low = _cell_map(leaders, lo, hi, origin, cell, ncell, max(4096.0, 4.0 * n))
@@ -516,6 +516,21 @@ def _lead_cells(lo, hi, alive, gridded, origin, cell, ncell):
                     lead[h, 0] = key
                     lead[h, 1] = 1
     return lead, occupied, low
+
+
+@kernel
+def _entered(alive, gridded):
+    """The rows of the live bodies entered in every cell their box covers (gridded 1)."""
+    count = 0
+    for i in range(alive.size):
+        count += 1 if alive[i] and gridded[i] == 1 else 0
+    rows = np.empty(count, np.int64)
+    k = 0
+    for i in range(alive.size):
+        if alive[i] and gridded[i] == 1:
+            rows[k] = i
+            k += 1
+    return rows
 
 
 @kernel(inline=True)
@@ -762,7 +777,7 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
             # (the grid's bodies but followers, not all: 64 planets over 5e4 debris that
             # meet only them, and so no grid, took 3.5 ms a step)
             if not listed:
-                entered = np.nonzero(alive & (gridded == 1))[0]
+                entered = _entered(alive, gridded)
                 listed = True
             count = 0
             for e in range(entered.size):
@@ -775,7 +790,7 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
             if alive[j] and _boxes_meet(lo, hi, g, j, L):
                 near[count] = j
                 count += 1
-        near[:count].sort()
+        sort_in_place(near, count)
         m, pairs = _append(g, near, count, rules, kind, pairs, m)
     reach = np.zeros(rules.response.shape[0], np.bool_)    # kinds a live giant meets
     for q in range(giants.size):
@@ -786,7 +801,8 @@ def _grid_pairs(A, B, tb, alive, rules, lo, hi):
     loose = np.zeros(n, np.bool_)                      # live bodies outside the grid or
     for j in range(n):                                 # following in it, that may meet a
         loose[j] = alive[j] and gridded[j] != 1 and reach[kind[j]]     # giant...
-    loose[giants] = False                              # ...and are no giants
+    for q in range(giants.size):                       # ...and are no giants
+        loose[giants[q]] = False
     if giants.size == 0 or not loose.any():
         return pairs[:m], grid                         # (a duel's star and ships: no grid)
     m, pairs = _loose_pairs(loose, giants, alive, lo, hi, rules, L, near, work, pairs, m)
@@ -799,7 +815,9 @@ def _append(i, near, count, rules, kind, pairs, m):
     to pairs[:m]: (m, pairs), pairs grown when full."""
     if m + count > pairs.shape[0]:
         more = np.empty((2 * (m + count), 2), np.int64)
-        more[:m] = pairs[:m]
+        for q in range(m):
+            more[q, 0] = pairs[q, 0]
+            more[q, 1] = pairs[q, 1]
         pairs = more
     for p in range(count):
         a, b = min(i, near[p]), max(i, near[p])
@@ -906,8 +924,13 @@ def _giants_grid(giants, alive, lo, hi, rules, L):
         if sweep == 0:
             keys = np.empty(total, np.int64)
             bodies = np.empty(total, np.int64)
-    order = np.argsort(keys, kind="mergesort")
-    return (keys[order], bodies[order], origin, cell, ncell, np.int64(-1),
+    order = stable_order(keys, keys.size)
+    sorted_keys = np.empty(total, np.int64)
+    sorted_bodies = np.empty(total, np.int64)
+    for q in range(total):
+        sorted_keys[q] = keys[order[q]]
+        sorted_bodies[q] = bodies[order[q]]
+    return (sorted_keys, sorted_bodies, origin, cell, ncell, np.int64(-1),
             (np.empty((0, 2), np.int64), np.zeros((0, 0, 0), np.bool_), np.zeros(3, np.int64)))
 
 
@@ -1004,7 +1027,7 @@ def focused_pairs(A, B, tb, alive, rules, lo, hi, focus, in_focus, stale, change
                  near)
     if m < 0:                                          # a box swept far: a new grid
         return np.empty((0, 2), np.int64), False
-    found = np.sort(found[:m])
+    sort_in_place(found, m)
     pairs = np.empty((m, 2), np.int64)
     for q in range(m):
         i, j = found[q] // n, found[q] % n
@@ -1492,7 +1515,8 @@ def collide_step(state, rules, dt, t0):
             # bodies look the others up in the grid (10^5 bodies: a new grid took 21 ms)
             for q in range(focus.size):
                 in_focus[focus[q]] = False
-            focus = np.sort(moved[:nm])
+            focus = moved[:nm].copy()
+            sort_in_place(focus, nm)
             for q in range(focus.size):
                 i = focus[q]
                 in_focus[i] = True
@@ -1737,7 +1761,7 @@ def _touches(state, rules, dt, t0, L):
         ct[k] = rules.found_t[f]
         keys[k] = ci[k] * n + cj[k]
         k += 1
-    order = np.argsort(keys[:k], kind="mergesort")
+    order = stable_order(keys, k)
     nt = 0
     q = 0
     while q < k:
@@ -1770,7 +1794,9 @@ def _touches(state, rules, dt, t0, L):
         if now:
             if nt >= rules.touch.shape[0]:
                 grown = np.empty((2 * nt + 16, 3), np.int64)
-                grown[:nt] = rules.touch[:nt]
+                for r in range(nt):
+                    for c in range(3):
+                        grown[r, c] = rules.touch[r, c]
                 rules.touch = grown
             a, b = ids[i], ids[j]
             rules.touch[nt, 0] = min(a, b)
@@ -1794,7 +1820,7 @@ def _touches(state, rules, dt, t0, L):
             ne += 1
     rules.ntouch[0] = nt
     rules.ntouch[1] = rules.touch.shape[0]
-    rank = np.argsort(ev_t[:ne], kind="mergesort")
+    rank = stable_order(ev_t, ne)
     for r in range(ne):
         e = rank[r]
         _touch_event(state, rules, ev_kind[e], ev_i[e], ev_j[e], ev_t[e], dt, t0, L)

@@ -24,9 +24,8 @@ from collections import namedtuple
 import numpy as np
 from numba import typed, types
 from numba.experimental import structref
-from numba.extending import overload
 
-from .._jit import TableType, kernel, twin
+from .._jit import TableType, implements, kernel
 from . import gravity
 from . import tape as ktape
 
@@ -117,8 +116,11 @@ def accelerations(fx, t, pos, vel, out, targets, with_drag):
     splittings and Wisdom-Holman apply drag in their kicks instead, see kick). The force
     loops run on threads from fx.threads[0] pair evaluations on (never with threads None):
     the same bits either way. Gravity, held forces, user forces, drag, in that order; zero
-    for immovable bodies.
+    for immovable bodies. Kernels call it (numba runs _accelerations, see below).
     """
+
+
+def _accelerations(fx, t, pos, vel, out, targets, with_drag):
     gravity.pull(fx.gravity, fx.tape, fx.src, fx.passive, pos, fx.mass, out, targets,
                  fx.threads)
     _add_held(fx.held, fx.mass, out, targets)
@@ -128,23 +130,20 @@ def accelerations(fx, t, pos, vel, out, targets, with_drag):
     _hold_still(fx.still, out)
 
 
-# A step loop evaluates forces thousands of times a call, so `accelerations` is compiled
+# A step loop evaluates forces thousands of times a call, so accelerations is compiled
 # without reference counts (lean: every array of fx and every argument would otherwise cost
 # two atomic updates a call). numba cannot compile a function without them that touches a
-# typed List ("NRT required but not enabled"), so a table with user forces takes a counted
-# twin of the same body; the step loops call `accelerations` and numba picks by fx's type.
-_lean = kernel(parallel=True, lean=True)(accelerations)
-_counted = kernel(parallel=True, counted=True)(twin(accelerations, "accelerations_counted"))
+# typed List ("NRT required but not enabled"), so a table with user forces takes the same
+# body compiled with reference counts.
+def _user_forces(fx):
+    return fx.types[fx.fields.index("user")]
 
 
-@overload(accelerations)
-def _by_user_forces(fx, t, pos, vel, out, targets, with_drag):
-    user = fx.types[fx.fields.index("user")]
-    own = _lean if isinstance(user, types.NoneType) else _counted
-
-    def call(fx, t, pos, vel, out, targets, with_drag):
-        own(fx, t, pos, vel, out, targets, with_drag)
-    return call
+implements(accelerations, _accelerations, lambda fx: isinstance(_user_forces(fx), types.NoneType),
+           parallel=True, lean=True)
+implements(accelerations, _accelerations,
+           lambda fx: not isinstance(_user_forces(fx), types.NoneType), parallel=True,
+           counted=True)
 
 
 @kernel

@@ -22,9 +22,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 from numba import types
-from numba.extending import overload
-
-from .._jit import kernel
+from .._jit import implements, kernel
 from . import pairs
 from . import tape as ktape
 from .diagnostics import add
@@ -42,24 +40,17 @@ Central = namedtuple("Central", ("G", "eps2", "at", "mass", "sources"))
 
 @dataclass(frozen=True)
 class Model:
-    """A gravity model's functions. pull(model, tape, src, passive, pos, mass, out, targets,
-    threads) -> None: out[k] = the acceleration of body k for every k in targets (the
-    kernels' contract, see `pull`); potential(model, pos, mass, src, passive) -> float and
-    body_energies(model, pos, vel, mass, src, out) -> None: the diagnostics, exact (a tree's
-    by direct summation); own_potential: the potential as the model's forces see it (a
-    tree's own), default potential."""
+    """A gravity model's diagnostics, called from Python: potential(model, pos, mass, src,
+    passive) -> float and body_energies(model, pos, vel, mass, src, out) -> None, exact (a
+    tree's by direct summation); own_potential: the potential as the model's forces see it
+    (a tree's own), default potential."""
     name: str
-    pull: object
     potential: object
     body_energies: object
     own_potential: object = None
 
 
 MODELS = {}          # the namedtuple type -> Model
-
-
-def register(table, model):
-    MODELS[table] = model
 
 
 def pull(model, tape, src, passive, pos, mass, out, targets, threads):
@@ -69,22 +60,25 @@ def pull(model, tape, src, passive, pos, mass, out, targets, threads):
     passive : the rows that pull and the others; pos (n, 3), mass (n,); threads : None (the
     scene's loops never run on threads: none is compiled) or (1,) int64, the fewest pair
     evaluations a loop runs on threads from. Each target's sum runs in a fixed order, so the
-    result does not depend on the thread count."""
+    result does not depend on the thread count. Kernels call it; numba runs the model's own
+    pull, chosen by the model's type (register)."""
 
 
-@overload(pull)
-def _pull(model, tape, src, passive, pos, mass, out, targets, threads):
-    if isinstance(model, types.NoneType):
-        return _no_gravity
-    own = MODELS[model.instance_class].pull
-
-    def by_model(model, tape, src, passive, pos, mass, out, targets, threads):
-        own(model, tape, src, passive, pos, mass, out, targets, threads)
-    return by_model
+def register(table, model, own_pull, **options):
+    """A gravity model: its table (a namedtuple type), its diagnostics (Model), and its pull
+    (a plain function with pull's arguments), compiled with _jit.kernel's options into the
+    kernels that call `pull` with a table of that type."""
+    MODELS[table] = model
+    implements(pull, own_pull,
+               lambda t: isinstance(t, types.BaseNamedTuple) and t.instance_class is table,
+               **options)
 
 
 def _no_gravity(model, tape, src, passive, pos, mass, out, targets, threads):
     _fill(out, targets, 0.0, 0.0, 0.0)
+
+
+implements(pull, _no_gravity, lambda t: isinstance(t, types.NoneType), lean=True)
 
 
 @kernel(lean=True)
@@ -106,7 +100,6 @@ def threaded(threads, work):
 
 # ----------------------------------------------------------------------------- direct
 
-@kernel(fast=True, parallel=True, lean=True)
 def _direct_pull(model, tape, src, passive, pos, mass, out, targets, threads):
     s = model.sources
     ktape.sources(tape, s, src, pos, mass)
@@ -236,12 +229,12 @@ def _direct_energies(model, pos, vel, mass, src, out):
     mutual_body_energies(model.G, model.eps2, pos, vel, mass, src, out)
 
 
-register(Direct, Model("direct", _direct_pull, _direct_potential, _direct_energies))
+register(Direct, Model("direct", _direct_potential, _direct_energies), _direct_pull, fast=True,
+         parallel=True, lean=True)
 
 
 # ----------------------------------------------------------------------------- uniform
 
-@kernel(lean=True)
 def _uniform_pull(model, tape, src, passive, pos, mass, out, targets, threads):
     g = model.g
     _fill(out, targets, g[0], g[1], g[2])
@@ -266,12 +259,12 @@ def _uniform_energies(model, pos, vel, mass, src, out):
         out[i] -= mass[i] * (g[0] * pos[i, 0] + g[1] * pos[i, 1] + g[2] * pos[i, 2])
 
 
-register(Uniform, Model("uniform", _uniform_pull, _uniform_potential, _uniform_energies))
+register(Uniform, Model("uniform", _uniform_potential, _uniform_energies), _uniform_pull,
+         lean=True)
 
 
 # ----------------------------------------------------------------------------- central
 
-@kernel(fast=True, lean=True)
 def _central_pull(model, tape, src, passive, pos, mass, out, targets, threads):
     s = model.sources
     at = model.at
@@ -303,7 +296,8 @@ def _central_energies(model, pos, vel, mass, src, out):
                                             at[1], at[2], model.mass, model.eps2)
 
 
-register(Central, Model("central", _central_pull, _central_potential, _central_energies))
+register(Central, Model("central", _central_potential, _central_energies), _central_pull,
+         fast=True, lean=True)
 
 
 def _no_potential(model, pos, mass, src, passive):
@@ -314,7 +308,7 @@ def _no_energies(model, pos, vel, mass, src, out):
     kinetic_into(vel, mass, out)
 
 
-NONE = Model("none", None, _no_potential, _no_energies)
+NONE = Model("none", _no_potential, _no_energies)
 
 
 def model_of(model):

@@ -170,7 +170,8 @@ def pull_pairs_threaded(s, sums, ns, eps2):
     nb, B = blocks(ns)
     R, T = rounds(nb)
     for b in numba.prange(nb):
-        tile(s, sums, b, b, B, ns, eps2)
+        # (a prange index is unsigned: as int64, tile is compiled once for both loops)
+        tile(s, sums, np.int64(b), np.int64(b), B, ns, eps2)
     for r in range(R):
         for k in numba.prange(T):
             I, J = round_pair(r, k, nb)

@@ -135,7 +135,7 @@ def grid(pos, radius, rows, lo, period, hint):
     grad = np.empty(items.size)
     if items.size >= MIN_PARALLEL_BODIES:
         for e in numba.prange(items.size):
-            _copy_body(pos, radius, lo, period, items, gpos, grad, e)
+            _copy_body(pos, radius, lo, period, items, gpos, grad, np.int64(e))
     else:
         for e in range(items.size):
             _copy_body(pos, radius, lo, period, items, gpos, grad, e)
@@ -772,8 +772,8 @@ def raycasts(pos, radius, ident, rows, lo, period, origins, dirs, tmax, extra, s
         marks = none if rnd == 0 else offsets
         if lanes > 1:
             for lane in numba.prange(lanes):
-                _lane(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, lane,
-                      lanes, first, counts, marks, hits, ts)
+                _lane(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip,
+                      np.int64(lane), lanes, first, counts, marks, hits, ts)
         else:
             _lane(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, 0, 1, first,
                   counts, marks, hits, ts)

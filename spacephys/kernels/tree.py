@@ -620,8 +620,9 @@ def walk(tree, heavy, pos, targets, same, G, eps2, quadrupole, out, phi, threade
     if threaded and targets.size >= MIN_PARALLEL:
         nl = min(LANES, ng)
         for lane in numba.prange(nl):
-            _lane(lane, nl, sx, links, nodes, heavy, torder, starts, boxes, pos, G, eps2,
-                  quadrupole, out, phi)
+            # (a prange index is unsigned: as int64, _lane is compiled once)
+            _lane(np.int64(lane), nl, sx, links, nodes, heavy, torder, starts, boxes, pos, G,
+                  eps2, quadrupole, out, phi)
     else:
         _lane(0, 1, sx, links, nodes, heavy, torder, starts, boxes, pos, G, eps2, quadrupole,
               out, phi)
@@ -672,7 +673,6 @@ def accelerations(s, src, targets, pos, G, eps2, theta, quadrupole, out, threade
     walk(tree, heavy, pos, targets, same, G, eps2, quadrupole, out, np.empty(0), threaded)
 
 
-@kernel(parallel=True, counted=True)
 def _tree_pull(model, tape, src, passive, pos, mass, out, targets, threads):
     """The model's pull (kernels/gravity.pull): a tree of the sources built and walked; a
     prediction's tape never runs with the tree."""
@@ -733,5 +733,5 @@ def _tree_energies(model, pos, vel, mass, src, out):
     gravity.mutual_body_energies(model.G, model.eps2, pos, vel, mass, src, out)
 
 
-gravity.register(Tree, gravity.Model("tree", _tree_pull, _tree_potential_exact, _tree_energies,
-                                     tree_potential))
+gravity.register(Tree, gravity.Model("tree", _tree_potential_exact, _tree_energies,
+                                     tree_potential), _tree_pull, parallel=True, counted=True)
