@@ -119,8 +119,8 @@ def _options(fast=False, parallel=False, inline=False, lean=False, counted=False
 
 
 def implements(stub, fn, when, **options):
-    """Make the plain function fn what kernels calling `stub` run when `when(the numba type of
-    the first argument)` holds, compiled with `kernel`'s options: numba chooses as it compiles
+    """Make the plain function fn what kernels calling `stub` run when `when(the numba types
+    of the arguments)` holds, compiled with `kernel`'s options: numba chooses as it compiles
     the caller, and calls fn itself (no function in between, whose compilation would
     re-optimise everything fn calls once more). Kernels that call `stub` are cached as any
     other; fn is compiled into them."""
@@ -128,10 +128,20 @@ def implements(stub, fn, when, **options):
     del opts["cache"], opts["inline"]
 
     @overload(stub, jit_options=opts, strict=False)
-    def choose(first, *rest):
-        if when(first):
+    def choose(*args):
+        if when(*args):
             return fn
     return choose
+
+
+def field_type(t, name):
+    """The numba type of field `name` of the namedtuple type t."""
+    return t.types[t.fields.index(name)]
+
+
+def is_table(t, table):
+    """Whether the numba type t is that of the namedtuple class `table`."""
+    return isinstance(t, types.BaseNamedTuple) and t.instance_class is table
 
 
 def _purge_stale_cache():

@@ -2,12 +2,13 @@
 call, what it can do, and how its kernel is called. World holds one and never asks which
 family it is.
 
-Every step kernel has the same arguments, (state, forces, rules, actors, frames, method, dt,
-nsteps, t0) -> (steps done, status) (kernels/step.py); a stepper supplies `method`, the
-family's own tables and carried state, checks that it can run the scene, and turns a failed
-call into an error that says why. Adding an integrator family: a kernel with those arguments
-and a Stepper subclass registered in STEPPERS (a method of an existing family is only a table
-in integrators.py).
+One step kernel runs every family, kernels/step.run(state, forces, rules, actors, frames,
+method, dt, nsteps, t0) -> (steps done, status); a stepper supplies `method`, the family's
+table (a namedtuple whose type names the family's integration, kernels/step.register) with
+its carried state, checks that it can run the scene, and turns a failed call into an error
+that says why. Adding an integrator family: its table and integration registered with
+kernels/step.py (a kernel file of its own) and a Stepper subclass registered in STEPPERS (a
+method of an existing family is only a table in integrators.py).
 """
 from dataclasses import dataclass
 
@@ -18,7 +19,8 @@ from .errors import InstabilityError
 from .integrators import get_integrator
 from .kernels import gauss_radau as kgr
 from .kernels import integrate
-from .kernels.wisdom_holman import wisdom_holman_steps
+from .kernels import step as kstep
+from .kernels.wisdom_holman import WisdomHolman as WisdomHolmanTable
 
 
 # World.integrator_stats: name -> index in the adaptive kernel's stats array
@@ -46,7 +48,7 @@ class Capabilities:
 class Stepper:
     """The base: a fixed-step family with nothing carried between calls."""
     family = None
-    kernel = None
+    kernel = staticmethod(kstep.run)
     capabilities = Capabilities()
 
     def __init__(self, spec):
@@ -114,10 +116,9 @@ class Stepper:
 class Splitting(Stepper):
     """Drift/kick compositions (symplectic Euler, leapfrog, Yoshida 4/6/8)."""
     family = "splitting"
-    kernel = staticmethod(integrate.splitting_steps)
 
     def method(self, world, sources):
-        return (self.spec.drift, self.spec.kick)
+        return integrate.Splitting(self.spec.drift, self.spec.kick)
 
     def tape_evaluations(self):
         return int(np.count_nonzero(self.spec.kick))
@@ -126,10 +127,9 @@ class Splitting(Stepper):
 class RungeKutta(Stepper):
     """Explicit Runge-Kutta tableaux (Euler, RK4)."""
     family = "rk"
-    kernel = staticmethod(integrate.rk_steps)
 
     def method(self, world, sources):
-        return (self.spec.a, self.spec.b)
+        return integrate.RungeKutta(self.spec.a, self.spec.b)
 
     def tape_evaluations(self):
         return int(self.spec.b.size)
@@ -145,7 +145,6 @@ class GaussRadau(Stepper):
     (columns of World's bodies, so they move with them) the Kahan compensations and the
     polynomials."""
     family = "gauss_radau"
-    kernel = staticmethod(kgr.gauss_radau_steps)
     capabilities = Capabilities(models=("none", "direct", "uniform", "central"))
 
     def __init__(self, spec):
@@ -166,8 +165,8 @@ class GaussRadau(Stepper):
         else:
             control, riders = np.arange(n, dtype=np.int64), passive[:0]
         spec = self.spec
-        return (*cols, control, riders, spec.nodes, spec.c_gb, spec.d_bg, self.params,
-                self.stats)
+        return kgr.GaussRadau(*cols, control, riders, spec.nodes, spec.c_gb, spec.d_bg,
+                              self.params, self.stats)
 
     def run(self, plan, frames, dt, nsteps, t0):
         world = plan.world
@@ -224,7 +223,6 @@ class WisdomHolman(Stepper):
     """Wisdom-Holman in Jacobi coordinates about the heaviest pulling body; carries nothing
     but the Jacobi order, derived from the bodies."""
     family = "wisdom_holman"
-    kernel = staticmethod(wisdom_holman_steps)
     capabilities = Capabilities(models=("direct",), fixed_bodies=False, pulling_actors=False,
                                 split_invariant=False, dominant_mass=True)
 
@@ -252,7 +250,7 @@ class WisdomHolman(Stepper):
             order = np.concatenate([[central], src[src != central], passive]).astype(np.int64)
         m = np.zeros(b.n)
         m[:src.size] = b.mass[order[:src.size]]
-        return (order, m, self.spec.corrector > 0)
+        return WisdomHolmanTable(order, m, self.spec.corrector > 0)
 
     def failed(self, world, done):
         raise FloatingPointError(
@@ -283,8 +281,9 @@ class Plan:
         entry = self.entries.get(key)
         if entry is None:
             # the tables' types say which machine code takes them (the method's arrays are
-            # of one type per family): a plan rebuilt for new bodies finds it here
-            kinds = (kernel, frames is None) + tuple(
+            # of one type per family, whose table type names it): a plan rebuilt for new
+            # bodies finds it here
+            kinds = (kernel, frames is None, type(self.method)) + tuple(
                 getattr(a, "_numba_type_", None) for a in args[:4])
             entry = _ENTRIES.get(kinds)
             if entry is None:                  # new in this process: compile or load once

@@ -325,7 +325,7 @@ def test_burn_time_and_lifetime_end_with_events():
 
 
 def test_thousands_of_missiles_launch_and_die_without_recompiling():
-    from spacephys.kernels import integrate
+    from spacephys.kernels import step
     w = _ship_world(dt=0.01, gravity="direct")
     w.add_body(1e3, (0.0, 0.0), radius=1.0, kind="planet")
     w.set_collision("missile", "planet", "destroy_a")
@@ -334,14 +334,14 @@ def test_thousands_of_missiles_launch_and_die_without_recompiling():
     spec = sp.MissileSpec(fuel_mass=1.0, thrust=5.0, exhaust_speed=50.0, guidance="pn",
                           launch_speed=5.0, lifetime=0.5)
     w.step(1)
-    compiled = len(integrate.splitting_steps.signatures)
+    compiled = len(step.run.signatures)
     for k in range(2000):
         w.launch(ship, spec, target=target, heading=2 * math.pi * k / 2000)
     w.step(10)
     assert w.n == 2003
     w.step(50)
     assert w.n == 3                                  # every missile expired
-    assert len(integrate.splitting_steps.signatures) == compiled
+    assert len(step.run.signatures) == compiled
 
 
 # ----------------------------------------------------------------------------- explosions

@@ -25,7 +25,7 @@ import numpy as np
 from numba import typed, types
 from numba.experimental import structref
 
-from .._jit import TableType, implements, kernel
+from .._jit import TableType, field_type, implements, kernel
 from . import gravity
 from . import tape as ktape
 
@@ -134,16 +134,20 @@ def _accelerations(fx, t, pos, vel, out, targets, with_drag):
 # without reference counts (lean: every array of fx and every argument would otherwise cost
 # two atomic updates a call). numba cannot compile a function without them that touches a
 # typed List ("NRT required but not enabled"), so a table with user forces takes the same
-# body compiled with reference counts.
-def _user_forces(fx):
-    return fx.types[fx.fields.index("user")]
+# body compiled with reference counts (implements_by_users).
+def implements_by_users(stub, fn, when, fx_at, **options):
+    """implements(stub, fn, ...) twice: compiled lean (options) for a hoisted force table (the
+    argument at fx_at) without user forces, with reference counts for one with them; when
+    (the argument types) picks the caller's case, as for implements."""
+    def user(args):
+        return isinstance(field_type(args[fx_at], "user"), types.NoneType)
+    lean = dict(options, lean=True)
+    counted = dict(options, lean=False, counted=True)
+    implements(stub, fn, lambda *args: when(*args) and user(args), **lean)
+    implements(stub, fn, lambda *args: when(*args) and not user(args), **counted)
 
 
-implements(accelerations, _accelerations, lambda fx: isinstance(_user_forces(fx), types.NoneType),
-           parallel=True, lean=True)
-implements(accelerations, _accelerations,
-           lambda fx: not isinstance(_user_forces(fx), types.NoneType), parallel=True,
-           counted=True)
+implements_by_users(accelerations, _accelerations, lambda *args: True, 0, parallel=True)
 
 
 @kernel

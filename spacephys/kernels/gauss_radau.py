@@ -13,15 +13,15 @@ velocity at any tau. Compiled without fastmath: the compensated sums and the con
 depend on exact rounding.
 """
 import math
+from collections import namedtuple
 
 import numpy as np
 
 from .._jit import kernel
+from . import step
 from .arrays import copy_into, zeroed
-from .codes import FAILED
 from .control import add_thrust, next_stop, snap_stops
-from .forces import accelerations, hoist, velocity_dependent
-from .step import begin, capture, end, hoist as hoist_step, status, undo
+from .forces import accelerations, velocity_dependent
 
 _PC_TOLERANCE = 1e-16      # corrector converged: the sweep changed b7 by < this fraction of |a|
 _PC_ROUNDOFF = 1e-10       # below this, an error that stops shrinking is round-off: also converged
@@ -221,10 +221,11 @@ def _sweep(rows, targets, first, fx, t, pos, csx, vel, csv, a0, b, g, x, v, a, b
     """One predictor-corrector sweep over the seven nodes, updating the bodies in rows (whose
     accelerations are computed for `targets`, see forces.accelerations). first = -1 evaluates
     a0, the acceleration at the step's start (of every body), before the nodes. fx :
-    forces.hoist(Forces), read once per kernel call; t : the time of the step's start. thrust = (actors, burn, t_off, rider, want): the burns
-    (control.begin_step) are added for the actors whose rider flag equals want (-1: all), the
-    step starting t_off after the interval's. Returns the change of b7 in this sweep relative
-    to the largest |a| (over rows)."""
+    forces.hoist(Forces), read once per kernel call; t : the time of the step's start.
+    thrust = (actors, burn, t_off, rider, want): the burns (control.begin_step) are added for
+    the actors whose rider flag equals want (-1: all), the step starting t_off after the
+    interval's. Returns the change of b7 in this sweep relative to the largest |a| (over
+    rows)."""
     for q in range(rows.size):
         for c in range(3):
             b7[rows[q], c] = b[rows[q], 6, c]
@@ -434,49 +435,61 @@ def _predict_rows(rows, b, q):
                 b[i, k, c] = new[k]
 
 
-@kernel(parallel=True)
-def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nsteps, t0):
-    """Advance nsteps intervals of dt_out, landing exactly on the end of each.
+# The family's table (steppers.GaussRadau.method):
+# csx, csv : (n, 3), the Kahan compensations of pos and vel;
+# b, e : (n, 7, 3), the polynomial coefficients and their last prediction, carried over;
+# control : int64 rows of the bodies that set the step and whose convergence is required for
+#   it; riders : the passive bodies outside control (empty, or exactly forces.passive),
+#   iterated to convergence afterwards against the control bodies' final polynomials, so that
+#   they never change them;
+# nodes : (7,) Gauss-Radau spacings; c_gb : (7, 7), b_k = sum_j c_gb[j, k] g_j; d_bg : (7, 7),
+#   g_j = sum_k d_bg[k, j] b_k;
+# params : float64 [tolerance, max_step, min_step, dt_proposal, dt_of_b, have_predictor]; the
+#   last three are updated. tolerance 0: fixed steps of min(dt_proposal, max_step);
+# stats : int64 [steps, rejected, at_min_step, not_converged, rider_substeps, sweeps],
+#   incremented.
+GaussRadau = namedtuple("GaussRadau", ("csx", "csv", "b", "e", "control", "riders", "nodes",
+                                       "c_gb", "d_bg", "params", "stats"))
 
-    The arguments of every step kernel (kernels/step.py); method = (csx, csv, b, e, control,
-    riders, nodes, c_gb, d_bg, params, stats):
-    csx, csv : (n, 3), the Kahan compensations of pos and vel;
-    b, e : (n, 7, 3), the polynomial coefficients and their last prediction, carried over;
-    control : int64 rows of the bodies that set the step and whose convergence is required
-    for it; riders : the passive bodies outside control (empty, or exactly forces.passive),
-    iterated to convergence afterwards against the control bodies' final polynomials, so that
-    they never change them; nodes : (7,) Gauss-Radau spacings; c_gb : (7, 7),
-    b_k = sum_j c_gb[j, k] g_j; d_bg : (7, 7), g_j = sum_k d_bg[k, j] b_k.
-    params : float64 [tolerance, max_step, min_step, dt_proposal, dt_of_b, have_predictor];
-             the last three are updated. tolerance 0: fixed steps of min(dt_proposal, max_step).
-    stats : int64 [steps, rejected, at_min_step, not_converged, rider_substeps, sweeps],
-            incremented.
-    The collision pass runs at the end of each interval (so dt_out caps the collision step);
-    controls are held over each interval, thrust is sampled at the nodes, and steps end where
-    a burn stops (fuel or burn time), so none straddles the jump. Drag and user forces are
-    evaluated at each node's velocity, read off the velocity polynomial.
-    Returns (intervals completed, status): FAILED when a step underflowed the clock or turned
-    NaN (the state is then that at the start of the failed interval), REMOVED when a
-    collision removed or merged bodies.
-    """
+
+def _scratch(method, state, fx, actors):
+    """The call's scratch: accelerations at the step's start and at a node, positions and
+    velocities at a node, the divided differences, b7 before a sweep, the compensations at
+    the interval's start, which riders substep, which are riders; the actors' rows and
+    burns."""
+    n = state.pos.shape[0]
+    params = method.params
+    if params[0] == 0.0:
+        # tolerance 0: steps of min(dt_out, max_step), whatever was proposed before
+        params[3] = np.inf
+    rider = zeroed(np.empty(n, np.bool_))
+    for q in range(method.riders.size):
+        rider[method.riders[q]] = True
+    movers = np.empty(0, np.int64) if actors is None else actors.actors
+    burn = np.empty((0, 8)) if actors is None else actors.burn
+    return (np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)),
+            np.empty((n, 7, 3)), np.empty((n, 3)), np.empty((2, n, 3)),
+            zeroed(np.empty(n, np.bool_)), rider, movers, burn)
+
+
+def _interval(method, carry, sa, aa, fx, t_start, dt_out, k, kicked, played):
+    """One output interval of dt_out from t_start, landing exactly on its end, in adaptive
+    steps. The collision pass runs at the end of each interval (so dt_out caps the collision
+    step); controls are held over it, thrust is sampled at the nodes, and steps end where a
+    burn stops (fuel or burn time), so none straddles the jump. Drag and user forces are
+    evaluated at each node's velocity, read off the velocity polynomial. False when a step
+    underflowed the clock or turned NaN: the compensations are then as the interval found
+    them (the step kernel takes the rest back)."""
     csx, csv, b, e, control, riders, nodes, c_gb, d_bg, params, stats = method
-    pos, vel = state.pos, state.vel
+    a0, a, x, v, g, b7, saved, needy_mask, rider, movers, burn = carry
+    pos, vel = sa.pos, sa.vel
     n = pos.shape[0]
     tolerance, max_step, min_step = params[0], params[1], params[2]
     dt = params[3]
     dt_b = params[4]
     have_predictor = params[5] != 0.0
-    a0 = np.empty((n, 3))
-    a = np.empty((n, 3))
-    x = np.empty((n, 3))
-    v = np.empty((n, 3))
-    g = np.empty((n, 7, 3))
-    b7 = np.empty((n, 3))
-    saved = np.empty((2, n, 3))                       # compensations at the interval's start
     everyone = control.size == n
-    fx = hoist(forces)                     # the force table read once (forces.hoist)
     all_rows = fx.everyone
-    needy_mask = zeroed(np.empty(n, np.bool_))
     dt_scale = (5040.0 * tolerance) ** (1.0 / 7.0)     # (7! tolerance)^(1/7)
     # the step was over 4x too long (b7 ~ dt^7); but never within the round-off of b7 / |a|,
     # or tiny tolerances would reject every step
@@ -484,155 +497,138 @@ def gauss_radau_steps(state, forces, rules, actors, frames, method, dt_out, nste
     # tolerance 0: steps of min(dt_out, max_step), whatever was proposed before; a step whose
     # corrector does not converge is retried shorter, and the next one is full again
     fixed_h = min(dt_out, max_step)
-    if tolerance == 0.0:
-        dt = fixed_h
-    movers = np.empty(0, np.int64) if actors is None else actors.actors
-    burn = np.empty((0, 8)) if actors is None else actors.burn
-    rider = zeroed(np.empty(n, np.bool_))
-    for q in range(riders.size):
-        rider[riders[q]] = True
-    frame = 0
-    done = 0
-    removed = False
-    ht = hoist_step(state, rules, actors)
-    for interval in range(nsteps):
-        t_start = t0 + interval * dt_out
-        begin(state, rules, actors, ht, t_start, dt_out, True, interval == nsteps - 1)
-        copy_into(saved[0], csx)
-        copy_into(saved[1], csv)
-        elapsed = 0.0
-        while True:
-            h = min(dt, max_step)
-            # land when the step covers what is left, bar a sliver that rounding would leave
-            landing = h >= (dt_out - elapsed) * (1.0 - 1e-12)
-            if landing:
-                h = dt_out - elapsed
-            # end the step where a burn stops: thrust jumps there
-            stop = np.inf
-            if burn.shape[0]:
-                snap_stops(movers, burn, elapsed, 1e-12 * dt_out)
-                stop = next_stop(movers, burn, elapsed)
-            clipped = stop < elapsed + h and stop < dt_out * (1.0 - 1e-12)
-            if clipped:
-                h = stop - elapsed
-                landing = False
-            if not (h > 0.0) or (not landing and elapsed + h == elapsed):
-                landing = False                      # NaN, or a step below the clock's resolution
+    if tolerance == 0.0 and dt == np.inf:
+        dt = fixed_h                                 # (the call's first interval)
+    copy_into(saved[0], csx)
+    copy_into(saved[1], csv)
+    elapsed = 0.0
+    while True:
+        h = min(dt, max_step)
+        # land when the step covers what is left, bar a sliver that rounding would leave
+        landing = h >= (dt_out - elapsed) * (1.0 - 1e-12)
+        if landing:
+            h = dt_out - elapsed
+        # end the step where a burn stops: thrust jumps there
+        stop = np.inf
+        if burn.shape[0]:
+            snap_stops(movers, burn, elapsed, 1e-12 * dt_out)
+            stop = next_stop(movers, burn, elapsed)
+        clipped = stop < elapsed + h and stop < dt_out * (1.0 - 1e-12)
+        if clipped:
+            h = stop - elapsed
+            landing = False
+        if not (h > 0.0) or (not landing and elapsed + h == elapsed):
+            landing = False                      # NaN, or a step below the clock's resolution
+            break
+        if h != dt_b:
+            _rescale(b, e, h / dt_b)
+            dt_b = h
+        _newton_form(b, d_bg, g)
+        # phase 0: the bodies that set the step; phase 1: the riders, against the control
+        # bodies' final polynomials (so they never change them)
+        redo = False
+        failed = False
+        riders_converged = True
+        dt_new = fixed_h if tolerance == 0.0 else dt
+        for phase in range(2):
+            if phase == 1 and (everyone or riders.size == 0):
                 break
-            if h != dt_b:
-                _rescale(b, e, h / dt_b)
-                dt_b = h
-            _newton_form(b, d_bg, g)
-            # phase 0: the bodies that set the step; phase 1: the riders, against the control
-            # bodies' final polynomials (so they never change them)
-            redo = False
-            failed = False
-            riders_converged = True
-            dt_new = fixed_h if tolerance == 0.0 else dt
-            for phase in range(2):
-                if phase == 1 and (everyone or riders.size == 0):
+            rows = control if phase == 0 else riders
+            want = (-1 if everyone else 0) if phase == 0 else 1
+            converged, sweeps = _converge(rows, rows, phase == 0, fx, t_start + elapsed, pos,
+                                          csx, vel, csv, a0, b, g, x, v, a, b7, h, nodes,
+                                          c_gb, (movers, burn, elapsed, rider, want))
+            if phase == 1:
+                # riders that do not converge over the whole step take substeps below
+                riders_converged = converged
+                break
+            stats[SWEEPS] += sweeps
+            if not converged:
+                stats[NOT_CONVERGED] += 1
+            if not converged and h > min_step:
+                # the fixed-point iteration diverges when the step is far too long
+                stats[REJECTED] += 1
+                dt = max(_SAFETY * h, min_step)
+                redo = True
+                break
+            if tolerance > 0.0:
+                # The next step comes from the dynamical time of Pham et al. (2024). Whether
+                # this step is redone is decided by the truncation error it actually made,
+                # measured by the last term of the polynomial relative to the largest
+                # acceleration (Rein & Spiegel 2015): the dynamical time alone collapses for
+                # a body whose acceleration passes through zero, and would reject such steps
+                # forever.
+                max_a = 0.0
+                max_b7 = 0.0
+                for q in range(control.size):
+                    i = control[q]
+                    for c in range(3):
+                        max_a = max(max_a, abs(a[i, c]))
+                        max_b7 = max(max_b7, abs(b[i, 6, c]))
+                truncation = max_b7 / max_a if max_a > 0.0 else 0.0
+                dt_new = dt_scale * _step_criterion(b, a0, h, control)
+                if not (dt_new > 0.0):
+                    failed = True                    # NaN accelerations
                     break
-                rows = control if phase == 0 else riders
-                want = (-1 if everyone else 0) if phase == 0 else 1
-                converged, sweeps = _converge(rows, rows, phase == 0, fx, t_start + elapsed, pos,
-                                              csx, vel, csv, a0, b, g, x, v, a, b7, h, nodes,
-                                              c_gb, (movers, burn, elapsed, rider, want))
-                if phase == 1:
-                    # riders that do not converge over the whole step take substeps below
-                    riders_converged = converged
-                    break
-                stats[SWEEPS] += sweeps
-                if not converged:
-                    stats[NOT_CONVERGED] += 1
-                if not converged and h > min_step:
-                    # the fixed-point iteration diverges when the step is far too long
+                # a landing or clipped step is short by choice
+                basis = max(h, dt) if landing or clipped else h
+                dt_new = min(dt_new, basis / _SAFETY)
+                if dt_new < min_step:
+                    dt_new = min_step
+                    stats[AT_MIN_STEP] += 1
+                if truncation > reject_above and h > min_step:
                     stats[REJECTED] += 1
-                    dt = max(_SAFETY * h, min_step)
+                    dt = max(min(dt_new, _SAFETY * h), min_step)
                     redo = True
                     break
-                if tolerance > 0.0:
-                    # The next step comes from the dynamical time of Pham et al. (2024). Whether
-                    # this step is redone is decided by the truncation error it actually made,
-                    # measured by the last term of the polynomial relative to the largest
-                    # acceleration (Rein & Spiegel 2015): the dynamical time alone collapses for
-                    # a body whose acceleration passes through zero, and would reject such steps
-                    # forever.
-                    max_a = 0.0
-                    max_b7 = 0.0
-                    for q in range(control.size):
-                        i = control[q]
-                        for c in range(3):
-                            max_a = max(max_a, abs(a[i, c]))
-                            max_b7 = max(max_b7, abs(b[i, 6, c]))
-                    truncation = max_b7 / max_a if max_a > 0.0 else 0.0
-                    dt_new = dt_scale * _step_criterion(b, a0, h, control)
-                    if not (dt_new > 0.0):
-                        failed = True                    # NaN accelerations
-                        break
-                    # a landing or clipped step is short by choice
-                    basis = max(h, dt) if landing or clipped else h
-                    dt_new = min(dt_new, basis / _SAFETY)
-                    if dt_new < min_step:
-                        dt_new = min_step
-                        stats[AT_MIN_STEP] += 1
-                    if truncation > reject_above and h > min_step:
-                        stats[REJECTED] += 1
-                        dt = max(min(dt_new, _SAFETY * h), min_step)
-                        redo = True
-                        break
-            if failed:
-                landing = False
-                break
-            if redo:
-                continue
-            # riders whose own dynamical time says this step is too long for them take
-            # substeps of their own inside it, against the control bodies' fitted motion
-            needy = all_rows[:0]
-            if not everyone and riders.size and tolerance > 0.0:
-                needy = _needy_riders(riders, b, a0, h, dt_scale, needy_mask, riders_converged)
-                if needy.size:
-                    _substep_riders(needy, h, dt_scale, reject_above, control, fx,
-                                    t_start + elapsed, nodes, c_gb, d_bg, pos, csx, vel, csv,
-                                    a0, b, g, x, v, a, b7, stats, movers, burn, elapsed,
-                                    needy_mask)
-            _finish_step(all_rows if needy.size == 0 else _unmasked(needy_mask), pos, vel,
-                         csx, csv, a0, b, h)
-            needy_mask[needy] = False
-            stats[STEPS] += 1
-            elapsed = 0.0 if landing else (stop if clipped else elapsed + h)
-            h_next = min(dt_new, max_step, dt_out - elapsed)     # the next step, as far as known
-            if h_next / h > 1.0 / _SAFETY:
-                # a short landing step's fit, extrapolated far past its interval, is mostly
-                # amplified noise: start the next step without a prediction
-                _forget(b, e)
-                have_predictor = False
-            else:
-                _predict(b, e, h_next / h, have_predictor)
-                have_predictor = True
-            for q in range(needy.size):
-                # a substepping rider's polynomial spans its last substep: start it afresh
-                for k in range(7):
-                    for c in range(3):
-                        b[needy[q], k, c] = 0.0
-                        e[needy[q], k, c] = 0.0
-            dt_b = h_next
-            dt = dt_new
-            if landing:
-                break
-        if not landing:                              # the interval was abandoned
-            undo(state, actors)
-            copy_into(csx, saved[0])
-            copy_into(csv, saved[1])
-            params[3] = dt
-            params[4] = dt_b
-            params[5] = 1.0 if have_predictor else 0.0
-            return interval, status(state, False) | FAILED
-        done = interval + 1
-        removed = end(state, rules, actors, ht, t_start, dt_out)
-        frame = capture(frames, frame, done, ht)
-        if removed:
+        if failed:
+            landing = False
+            break
+        if redo:
+            continue
+        # riders whose own dynamical time says this step is too long for them take
+        # substeps of their own inside it, against the control bodies' fitted motion
+        needy = all_rows[:0]
+        if not everyone and riders.size and tolerance > 0.0:
+            needy = _needy_riders(riders, b, a0, h, dt_scale, needy_mask, riders_converged)
+            if needy.size:
+                _substep_riders(needy, h, dt_scale, reject_above, control, fx,
+                                t_start + elapsed, nodes, c_gb, d_bg, pos, csx, vel, csv,
+                                a0, b, g, x, v, a, b7, stats, movers, burn, elapsed,
+                                needy_mask)
+        _finish_step(all_rows if needy.size == 0 else _unmasked(needy_mask), pos, vel,
+                     csx, csv, a0, b, h)
+        needy_mask[needy] = False
+        stats[STEPS] += 1
+        elapsed = 0.0 if landing else (stop if clipped else elapsed + h)
+        h_next = min(dt_new, max_step, dt_out - elapsed)     # the next step, as far as known
+        if h_next / h > 1.0 / _SAFETY:
+            # a short landing step's fit, extrapolated far past its interval, is mostly
+            # amplified noise: start the next step without a prediction
+            _forget(b, e)
+            have_predictor = False
+        else:
+            _predict(b, e, h_next / h, have_predictor)
+            have_predictor = True
+        for q in range(needy.size):
+            # a substepping rider's polynomial spans its last substep: start it afresh
+            for kk in range(7):
+                for c in range(3):
+                    b[needy[q], kk, c] = 0.0
+                    e[needy[q], kk, c] = 0.0
+        dt_b = h_next
+        dt = dt_new
+        if landing:
             break
     params[3] = dt
     params[4] = dt_b
     params[5] = 1.0 if have_predictor else 0.0
-    return done, status(state, removed)
+    if not landing:                              # the interval was abandoned
+        copy_into(csx, saved[0])
+        copy_into(csv, saved[1])
+        return False
+    return True
+
+
+step.register(GaussRadau, start_=_scratch, advance_=_interval, keep=True, parallel=True,
+              counted=True)

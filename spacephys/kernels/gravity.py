@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 from numba import types
-from .._jit import implements, kernel
+from .._jit import implements, is_table, kernel
 from . import pairs
 from . import tape as ktape
 from .diagnostics import add
@@ -69,16 +69,14 @@ def register(table, model, own_pull, **options):
     (a plain function with pull's arguments), compiled with _jit.kernel's options into the
     kernels that call `pull` with a table of that type."""
     MODELS[table] = model
-    implements(pull, own_pull,
-               lambda t: isinstance(t, types.BaseNamedTuple) and t.instance_class is table,
-               **options)
+    implements(pull, own_pull, lambda t, *rest: is_table(t, table), **options)
 
 
 def _no_gravity(model, tape, src, passive, pos, mass, out, targets, threads):
     _fill(out, targets, 0.0, 0.0, 0.0)
 
 
-implements(pull, _no_gravity, lambda t: isinstance(t, types.NoneType), lean=True)
+implements(pull, _no_gravity, lambda t, *rest: isinstance(t, types.NoneType), lean=True)
 
 
 @kernel(lean=True)

@@ -40,14 +40,15 @@ structref.define_proxy(State, StateType, list(FIELDS))
 
 # the arrays the per-step functions move, read once before a kernel's step loop (step.hoist);
 # not the event buffer, which a kernel may replace when it grows it
-StateArrays = namedtuple("StateArrays", ("pos", "vel", "prev", "mass", "alive", "pos0", "vel0"))
+StateArrays = namedtuple("StateArrays", ("pos", "vel", "prev", "mass", "alive", "pos0", "vel0",
+                                         "acc"))
 
 
 @kernel(inline=True)
 def hoist(state):
     """The State's arrays as a StateArrays tuple."""
     return StateArrays(state.pos, state.vel, state.prev, state.mass, state.alive, state.pos0,
-                       state.vel0)
+                       state.vel0, state.acc)
 
 
 @kernel

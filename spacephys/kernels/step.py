@@ -1,16 +1,38 @@
-"""The sequence around every step's integration, written once and called by all four families.
+"""One step, written once: the loop every integrator family runs, and the sequence around
+each step's integration.
 
-    hoist(...)      once before the step loop: the tables' arrays as one tuple ht, which the
+    run(state, forces, rules, actors, frames, method, dt, nsteps, t0) -> (steps done, status)
+
+is the one step kernel (steppers.Plan calls it). `method` is a family's table, a namedtuple
+whose type names the family (integrate.Splitting, integrate.RungeKutta,
+gauss_radau.GaussRadau, wisdom_holman.WisdomHolman); the family gives only its integration,
+`register`ed here and chosen by numba from that type when it compiles:
+
+    start(method, state, fx, actors) -> carry    its scratch for the call
+    span(method, every, frames, frame, done, n)   steps the next round takes (default 1;
+                                                  Wisdom-Holman's runs between syncs)
+    advance(method, carry, sa, aa, fx, t, dt, k, kicked, played) -> ok
+                                                  k steps' integration from t; False: failed
+                                                  (sa, aa: the state's and the actors'
+                                                  arrays, hoist; aa None without actors)
+    finish(method, carry)                         what the family carries to the next call
+
+Around each round run does, for every family:
+
+    hoist(...)      once before the loop: the tables' arrays as one tuple ht, which the
                     per-step functions take (compiled without reference counting, _jit lean:
                     an array read or handed on inside the loop costs two atomic updates)
     begin(...)      prev <- pos on the call's last step (render interpolation); the state at
                     the step's start kept (collisions need the lines, undo the state); actors
                     turned and their burns set
-    <integration>   the family's own: drifts and kicks, stages, Gauss-Radau substeps, Kepler
+    the tape        a prediction's tape plays the pulling bodies or records them
+                    (kernels/tape.py; None elsewhere, and compiled out)
+    <advance>       the family's integration
+    the NaN check   for a family that undoes a non-finite round (Wisdom-Holman)
+    undo(...)       a failed round taken back (Gauss-Radau, Wisdom-Holman)
     end(...)        fuel booked, collisions found and resolved, fuses and lifetimes; True
                     when bodies died (the call then stops so that World can remove them)
     capture(...)    a recording's frame, when one falls due after this step
-    undo(...)       a failed step taken back (Gauss-Radau, Wisdom-Holman)
     status(...)     what the call reports: REMOVED, NONFINITE (the NaN check: one pass)
 
 `rules` (kernels/collide.Rules) and `actors` (kernels/control.Actors) are None when a scene has
@@ -22,11 +44,13 @@ this call after which to copy the state into fpos[k], fvel[k] (F, n, 3) and fmas
 
 import numpy as np
 
-from .._jit import kernel
+from .._jit import implements, is_table, kernel
 from . import control
 from . import state as kstate
+from . import tape
 from .arrays import copy_into
-from .codes import NONFINITE, REMOVED
+from .codes import FAILED, NONFINITE, REMOVED
+from .forces import hoist as hoist_forces, implements_by_users
 from .collide import _periods, collide_step
 from .control import after_step, begin_step, end_burn, flush, undo_turns
 
@@ -41,7 +65,7 @@ def periods(rules):
     return L[0], L[1], L[2]
 
 
-@kernel(inline=True)
+@kernel
 def hoist(state, rules, actors):
     """ht = (the state's arrays (state.StateArrays), the collision table's owners (None
     without actors, empty without collisions: only arming reads them), the actors' arrays (control.ActorArrays; None without actors), whether
@@ -139,10 +163,120 @@ def undo(state, actors):
 @kernel
 def status(state, removed):
     """The call's status bits: REMOVED when bodies died, NONFINITE when any position or
-    velocity is NaN or infinite (x * 0 is 0 for finite x, NaN otherwise: one pass)."""
+    velocity is NaN or infinite."""
+    return (REMOVED if removed else 0) | (0 if finite(state.pos, state.vel) else NONFINITE)
+
+
+@kernel(lean=True)
+def finite(pos, vel):
+    """Whether every position and velocity is finite (x * 0 is 0 for finite x, NaN
+    otherwise: one pass)."""
     s = 0.0
-    pos, vel = state.pos, state.vel
     for i in range(pos.shape[0]):
         s += (pos[i, 0] * 0.0 + pos[i, 1] * 0.0 + pos[i, 2] * 0.0
               + vel[i, 0] * 0.0 + vel[i, 1] * 0.0 + vel[i, 2] * 0.0)
-    return (REMOVED if removed else 0) | (0 if s == 0.0 else NONFINITE)
+    return s == 0.0
+
+
+# ----------------------------------------------------------------------------- the families
+
+def start(method, state, fx, actors):
+    """The family's scratch for one call (see the module)."""
+
+
+def span(method, every, frames, frame, done, nsteps):
+    """Steps the next round takes (see the module)."""
+
+
+def advance(method, carry, sa, aa, fx, t, dt, k, kicked, played):
+    """k steps' integration from time t; False when it failed (see the module)."""
+
+
+def finish(method, carry):
+    """What the family carries from this call to the next, written back."""
+
+
+def keeps(method):
+    """Whether begin keeps each round's start state, for an undo."""
+
+
+def undoes_nonfinite(method):
+    """Whether a round that leaves a position or velocity NaN or infinite fails (undone)."""
+
+
+def _one(method, every, frames, frame, done, nsteps):
+    return 1
+
+
+def _nothing(method, carry):
+    pass
+
+
+def register(table, *, start_, advance_, span_=_one, finish_=_nothing, keep=False,
+             nonfinite_fails=False, **options):
+    """An integrator family: its table's namedtuple type and its functions (plain Python
+    functions with the protocol's arguments); advance_ is compiled with _jit.kernel's
+    options (lean: without reference counts, but with them for a force table with user
+    forces, see forces.implements_by_users), the others as the step kernel is."""
+    def mine(t, *rest):
+        return is_table(t, table)
+    implements(start, start_, mine)
+    if options.get("lean"):
+        implements_by_users(advance, advance_, mine, 4, **options)
+    else:
+        implements(advance, advance_, mine, **options)
+    implements(span, span_, mine)
+    implements(finish, finish_, mine)
+    implements(keeps, (lambda method: True) if keep else (lambda method: False), mine)
+    implements(undoes_nonfinite, (lambda method: True) if nonfinite_fails else
+               (lambda method: False), mine)
+
+
+@kernel(parallel=True)
+def run(state, forces, rules, actors, frames, method, dt, nsteps, t0):
+    """The step kernel: nsteps steps of dt from t0 with the family of `method` (see the
+    module). Returns (steps taken, status): fewer than nsteps when a collision, a
+    detonation or an expiry removed or merged bodies (REMOVED), or when the family failed
+    (FAILED: the state is that after the steps reported)."""
+    fx = hoist_forces(forces)
+    ht = hoist(state, rules, actors)
+    sa, aa = ht[0], ht[2]
+    carry = start(method, state, fx, actors)
+    keep = keeps(method)
+    checked = undoes_nonfinite(method)
+    every = rules is not None or actors is not None
+    # a variable, not the expression in the call: with `rules is not None` written into the
+    # tape.collided call, the compiled kernel entered the force loop's parallel region (no
+    # work) on every call of a 3-body scene (seen in gdb; tests/test_jit.py guards it)
+    collisions = rules is not None
+    everyone, passive, src = fx.everyone, fx.passive, fx.src
+    pos, vel, mass = state.pos, state.vel, state.mass
+    kicked, was = everyone, False
+    frame = 0
+    done = 0
+    removed = False
+    while done < nsteps:
+        k = span(method, every, frames, frame, done, nsteps)
+        t = t0 + done * dt
+        begin(state, rules, actors, ht, t, dt, keep, done + k == nsteps)
+        played = tape.playing(fx.tape)       # a prediction's tape (kernels/tape.py)
+        if played != was:           # rebound only when it changes: a rebinding costs refcounts
+            kicked, was = (passive if played else everyone), played
+        ok = advance(method, carry, sa, aa, fx, t, dt, k, kicked, played)
+        if checked and ok:
+            ok = finite(pos, vel)
+        if not ok:
+            # the failed round taken back: the state is that after `done` steps, as the
+            # actors' fuel and the collisions already booked say
+            undo(state, actors)
+            finish(method, carry)
+            return done, status(state, False) | FAILED
+        tape.integrated(fx.tape, src, pos, vel, mass, played)
+        removed = end(state, rules, actors, ht, t, dt)
+        tape.collided(fx.tape, src, pos, vel, mass, played, collisions)
+        done += k
+        frame = capture(frames, frame, done, ht)
+        if removed:
+            break
+    finish(method, carry)
+    return done, status(state, removed)

@@ -16,15 +16,16 @@ orbits, by Halley's method from a Taylor or mean-anomaly start, inside a bracket
 convergence test and the Stumpff functions' cancellations need exact rounding.
 """
 import math
+from collections import namedtuple
 
 import numpy as np
 
 from .._jit import kernel
+from . import step
 from .arrays import zeroed
-from .codes import FAILED
 from .control import F, thrust_dv
-from .forces import accelerations, hoist
-from .step import begin, capture, end, hoist as hoist_step, next_frame, status, undo
+from .forces import accelerations
+from .step import next_frame
 
 # 1/n! for n = 0..25, for the Stumpff series
 _INV_FACTORIAL = tuple(1.0 / math.factorial(n) for n in range(26))
@@ -217,22 +218,23 @@ def _to_jacobi(pos, vel, order, m, xj, vj):
     """Jacobi coordinates of the bodies taken in `order`: xj[k] = x_k - R_{k-1} (R_k the centre
     of mass of bodies 0..k, masses m in the same order); xj[0] = the centre of mass of all."""
     M = m[0]
-    R = pos[order[0]].copy()
-    V = vel[order[0]].copy()
+    # R, V: the centre of mass of bodies 0..k and its velocity, in xj[0], vj[0] as they grow
+    # (the step loops call this without reference counts: it allocates nothing)
+    j = order[0]
+    for c in range(3):
+        xj[0, c] = pos[j, c]
+        vj[0, c] = vel[j, c]
     for k in range(1, order.size):
         i = order[k]
         for c in range(3):
-            xj[k, c] = pos[i, c] - R[c]
-            vj[k, c] = vel[i, c] - V[c]
+            xj[k, c] = pos[i, c] - xj[0, c]
+            vj[k, c] = vel[i, c] - vj[0, c]
         Mk = M + m[k]
         if Mk > 0.0:
             for c in range(3):
-                R[c] += m[k] * xj[k, c] / Mk
-                V[c] += m[k] * vj[k, c] / Mk
+                xj[0, c] += m[k] * xj[k, c] / Mk
+                vj[0, c] += m[k] * vj[k, c] / Mk
         M = Mk
-    for c in range(3):
-        xj[0, c] = R[c]
-        vj[0, c] = V[c]
 
 
 @kernel
@@ -398,83 +400,67 @@ def _schedule(q, nsteps, dt, corrector):
     return (0.5 * dt if q == 0 else dt), dt
 
 
-@kernel(parallel=True)
-def wisdom_holman_steps(state, forces, rules, actors, frames, method, dt, nsteps, t0):
-    """Advance nsteps steps of dt with the Wisdom-Holman map.
+# The family's table (steppers.WisdomHolman.method): order (n,) int64, the central body first,
+# then the other pulling bodies, then the passive ones; m (n,) masses in that order, 0 for
+# passive bodies (they do not move the Jacobi frames); corrector: apply the third-order
+# symplectic corrector at the start and its inverse at the end of each run of steps between
+# synchronisations.
+WisdomHolman = namedtuple("WisdomHolman", ("order", "m", "corrector"))
 
-    The arguments of every step kernel (kernels/step.py); method = (order, m, corrector):
-    order : (n,) int64, the central body first, then the other pulling bodies, then the
-    passive ones; m : (n,) masses in that order, 0 for passive bodies (they do not move the
-    Jacobi frames); corrector : apply the third-order symplectic corrector at the start and
-    its inverse at the end of each run of steps between synchronisations.
-    The state is synchronised (and the corrector applied) after every step when there are
-    collisions or actors, so that the collision pass sees positions and velocities; else at
-    the frames a recording takes and before the call's last step (whose start is kept for
-    interpolation). Thrust enters the step's kick as its exact velocity change over the step,
-    dv(dt) / dt (actors must be passive: their mass changes); drag relaxes the velocities
-    exactly within the step's kick. Returns (steps taken, status): FAILED when a Kepler solve
-    did not converge or the state turned NaN (the state is then that after the steps
-    reported), REMOVED when a collision removed or merged bodies.
-    """
-    order, m, corrector = method
-    pos, vel = state.pos, state.vel
-    n = order.size
-    xj = np.empty((n, 3))
-    vj = np.empty((n, 3))
-    acc = state.acc
-    M = np.cumsum(m)
-    fx = hoist(forces)
-    G = fx.gravity.G
+
+def _scratch(method, state, fx, actors):
+    """(xj, vj (n, 3): Jacobi positions and velocities, M (n,): the masses of bodies 0..k,
+    the actors' rows and burns, their thrust (A, 3) and none of it)."""
+    n = method.order.size
     movers = np.empty(0, np.int64) if actors is None else actors.actors
     burn = np.empty((0, 8)) if actors is None else actors.burn
-    thrust = zeroed(np.empty((movers.size, 3)))
-    none = zeroed(np.empty((movers.size, 3)))
-    every = rules is not None or actors is not None
+    return (np.empty((n, 3)), np.empty((n, 3)), np.cumsum(method.m), movers, burn,
+            zeroed(np.empty((movers.size, 3))), zeroed(np.empty((movers.size, 3))))
+
+
+def _run_length(method, every, frames, frame, done, nsteps):
+    """The steps between synchronisations: one with collisions or actors (the collision
+    pass sees positions and velocities after every step); else up to the next frame a
+    recording takes, and the call's last step alone (its start is kept for interpolation)."""
+    if every:
+        return 1
+    upto = min(nsteps - 1 if done < nsteps - 1 else nsteps, next_frame(frames, frame, nsteps))
+    return upto - done
+
+
+def _map(method, carry, sa, aa, fx, t, dt, steps, kicked, played):
+    """`steps` steps of the Wisdom-Holman map from t, synchronised at the end (the corrector
+    and its inverse around them). Thrust enters the step's kick as its exact velocity change
+    over the step, dv(dt) / dt (actors must be passive: their mass changes); drag relaxes the
+    velocities exactly within the step's kick. False when a Kepler solve did not converge.
+    One loop of drift-then-kick over the whole schedule, so that the force code appears once
+    in the compiled kernel; corrector drifts merge with their neighbours: Kepler flows
+    compose exactly."""
+    order, m, corrector = method
+    xj, vj, M, movers, burn, thrust, none = carry
+    pos, vel, acc = sa.pos, sa.vel, sa.acc
+    G = fx.gravity.G
+    for q in range(movers.size):
+        dv = thrust_dv(burn, q, dt) if burn[q, F] != 0.0 else 0.0
+        for c in range(3):
+            thrust[q, c] = dv / dt * burn[q, c]
     ok = True
-    done = 0
-    frame = 0
-    removed = False
-    ht = hoist_step(state, rules, actors)
-    # In chunks of steps between synchronisations. Within a chunk, one loop of drift-then-kick
-    # over the whole schedule, so that the force code appears once in the compiled kernel
-    # (each call site of an inlined parallel loop is compiled again). Corrector drifts merge
-    # with their neighbours: Kepler flows compose exactly.
-    while done < nsteps:
-        t = t0 + done * dt
-        upto = min(nsteps - 1 if done < nsteps - 1 else nsteps,
-                   next_frame(frames, frame, nsteps))
-        steps = 1 if every else upto - done
-        begin(state, rules, actors, ht, t, dt, True, done == nsteps - 1)
-        for q in range(movers.size):
-            dv = thrust_dv(burn, q, dt) if burn[q, F] != 0.0 else 0.0
-            for c in range(3):
-                thrust[q, c] = dv / dt * burn[q, c]
-        if n > 0:      # no body left (all expired or destroyed in this call): time still passes
-            _to_jacobi(pos, vel, order, m, xj, vj)
-            kicks = steps + (4 if corrector else 0)
-            tau = 0.0
-            for q in range(kicks):
-                d, k = _schedule(q, steps, dt, corrector)
-                ok = _drift_all(xj, vj, M, G, d) & ok
-                tau += d
-                # the step's own kick carries the thrust and the drag, the corrector's do not
-                main = not corrector or 2 <= q < steps + 2
-                _kick(xj, vj, order, m, M, fx, t + tau, pos, vel, acc, k, movers,
-                      thrust if main else none, main)
-            ok = _drift_all(xj, vj, M, G, _CORRECTOR_A * dt if corrector else 0.5 * dt) & ok
-            _from_jacobi(xj, vj, order, m, M, pos, vel)
-        for i in range(pos.shape[0]):
-            for c in range(3):
-                if not (abs(pos[i, c]) < np.inf and abs(vel[i, c]) < np.inf):
-                    ok = False
-        if not ok:
-            # the failed chunk taken back: the state is that after `done` steps, as the
-            # actors' fuel and the collisions already booked say
-            undo(state, actors)
-            return done, status(state, False) | FAILED
-        done += steps
-        removed = end(state, rules, actors, ht, t, dt)
-        frame = capture(frames, frame, done, ht)
-        if removed:
-            break
-    return done, status(state, removed)
+    if order.size > 0:    # no body left (all expired or destroyed in this call): time passes
+        _to_jacobi(pos, vel, order, m, xj, vj)
+        kicks = steps + (4 if corrector else 0)
+        tau = 0.0
+        for q in range(kicks):
+            d, k = _schedule(q, steps, dt, corrector)
+            ok = _drift_all(xj, vj, M, G, d) & ok
+            tau += d
+            # the step's own kick carries the thrust and the drag, the corrector's do not
+            main = not corrector or 2 <= q < steps + 2
+            _kick(xj, vj, order, m, M, fx, t + tau, pos, vel, acc, k, movers,
+                  thrust if main else none, main)
+        ok = _drift_all(xj, vj, M, G, _CORRECTOR_A * dt if corrector else 0.5 * dt) & ok
+        _from_jacobi(xj, vj, order, m, M, pos, vel)
+    return ok
+
+
+step.register(WisdomHolman, start_=_scratch, advance_=_map, span_=_run_length, keep=True,
+              nonfinite_fails=True, parallel=True, lean=True)
