@@ -7,6 +7,7 @@ from pathlib import Path
 
 from .integrators import INTEGRATORS
 from .scenes import SCENES
+from .study.benchmarks import BENCHMARKS
 
 
 def _problem_names():
@@ -92,28 +93,17 @@ def _play(args):
 
 
 def _bench(args):
-    from .study import bench
-    if args.what == "peers":
-        from .study import tradeoff
-        results = tradeoff.peers(quick=args.quick, out_dir=args.out)
-        print(tradeoff.peers_markdown(results))
-        print(f"wrote {args.out}/peers.json")
-        return 0
-    if args.what == "tradeoff":
-        from .study import tradeoff
-        results = tradeoff.study(quick=args.quick, out_dir=args.out)
-        print(tradeoff.markdown(results))
-        print(f"wrote {args.out}/tradeoff.json, tradeoff.csv and a plot per scene")
-        if args.json:
-            with open(args.json, "w") as f:
-                json.dump(results, f, indent=2)
-        return 0
-    results = bench.BENCHMARKS[args.what](quick=args.quick)
-    print(bench.format_table(results))
-    if args.json:
+    bench = BENCHMARKS[args.what]
+    run, report = bench.load()
+    results = run(quick=args.quick, **({"out_dir": args.out} if bench.writes else {}))
+    print(report(results))
+    if bench.writes:
+        print(f"wrote {args.out}/{bench.writes}")
+    if args.json and bench.json:
         with open(args.json, "w") as f:
             json.dump(results, f, indent=2)
-        print(f"wrote {args.json}")
+        if not bench.writes:          # one that writes into --out has said what it wrote
+            print(f"wrote {args.json}")
     return 0
 
 
@@ -194,13 +184,16 @@ def main(argv=None):
         p.add_argument("-o", "--output", required=True, metavar=f"OUT.{ext}")
         p.set_defaults(func=_plot)
 
-    bench = sub.add_parser("bench", help="benchmark side by side with REBOUND")
-    bench.add_argument("what", choices=["gravity", "integrators", "collisions", "fleet", "log",
-                                        "tradeoff", "peers", "memory", "models", "overhead",
-                                        "predict", "tree", "queries", "sweep", "play",
-                                        "compile"])
+    width = max(map(len, BENCHMARKS))
+    bench = sub.add_parser("bench", help="benchmark side by side with REBOUND",
+                           formatter_class=argparse.RawDescriptionHelpFormatter,
+                           epilog="benchmarks:\n" + "\n".join(
+                               f"  {b.name:{width}s}  {b.about}" for b in BENCHMARKS.values()))
+    bench.add_argument("what", metavar="NAME", choices=list(BENCHMARKS),
+                       help="the benchmark to run (below)")
     bench.add_argument("--out", default="tradeoff", metavar="DIR",
-                       help="tradeoff, peers: where the CSV, JSON and plots go (default ./tradeoff)")
+                       help=", ".join(b.name for b in BENCHMARKS.values() if b.writes) +
+                            ": where the CSV, JSON and plots go (default ./tradeoff)")
     bench.add_argument("--quick", action="store_true", help="fewer repeats, smaller cases")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.set_defaults(func=_bench)

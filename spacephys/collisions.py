@@ -1,11 +1,11 @@
 """The World's collision rules, one component: the kind x kind response matrix, walls, the
 boundary and the broad phase's cell; it validates them and builds the collision pass's table
-(kernels/collide.Rules). Adding a collision response touches kernels/codes.py (its code and
-name) and kernels/collide.py (what it does at contact)."""
+(kernels/rules.Rules). Adding a collision response touches kernels/codes.py (its code and
+name) and kernels/responses.py (what it does at contact)."""
 import numpy as np
 
 from . import _validate as check
-from .kernels import collide
+from .kernels import broadphase, rules as krules
 from .kernels.arrays import largest
 from .kernels.codes import (BOUNDARIES, BREAK_A, BREAK_B, BOUNCE, IGNORE, MIRRORED, OPEN,
                             PLANE, RESPONSES, SEGMENT)
@@ -32,7 +32,7 @@ class CollisionRules:
         self._touch_set(np.zeros((0, 3), np.int64))
 
     def _touch_set(self, pairs):
-        """The pairs in touch (collide.FIELDS: ids a < b, 1 for a sensor), with room to grow
+        """The pairs in touch (krules.FIELDS: ids a < b, 1 for a sensor), with room to grow
         without the kernel reallocating (it may: `caught_up` takes its array back)."""
         self.touch = np.zeros((max(16, 2 * len(pairs)), 3), np.int64)
         self.touch[:len(pairs)] = pairs
@@ -58,20 +58,20 @@ class CollisionRules:
         launchers the tables' unarmed missiles still ignore (None without a collision
         table)."""
         rules = None if plan is None else plan.rules
-        return self.touching(), None if rules is None else collide.owners_of(rules).copy()
+        return self.touching(), None if rules is None else krules.owners_of(rules).copy()
 
     def set_motion(self, motion, plan):
         """motion()'s into these rules and plan's table; False when the pairs in touch
         outgrew the table's array (the tables must be built again)."""
         touching, owners = motion
         if owners is not None:
-            collide.owners_of(plan.rules)[:] = owners
+            krules.owners_of(plan.rules)[:] = owners
         return self.set_touching(touching)
 
     def caught_up(self, rules):
         """After a kernel call: the touch array the kernel grew, if it did."""
         if self.ntouch[1] != self.touch.shape[0]:
-            self.touch = collide.touch_of(rules)
+            self.touch = krules.touch_of(rules)
 
     def add_kind(self):
         """Room for one more kind (every pair with it ignored)."""
@@ -202,7 +202,7 @@ class CollisionRules:
         """The collision pass's Rules for the bodies (n,) columns given (shared), or None
         when nothing can collide. owner : (n,) int64 launcher rows of unarmed missiles;
         index : the bodies' slot -> row table; scratch : name -> (n, ...) arrays for
-        collide.SCRATCH."""
+        krules.SCRATCH."""
         if not self.enabled():
             return None
         giants, cell = self.giants(radius)
@@ -215,17 +215,17 @@ class CollisionRules:
         follows = self._followers(counts * needs)
         # how the grid enters each body, by its kind (one gather: this runs after every step
         # that destroys something)
-        entered = np.where(needs, np.where(follows, collide.FOLLOWS, 1), 0).astype(np.int8)
+        entered = np.where(needs, np.where(follows, broadphase.FOLLOWS, 1), 0).astype(np.int8)
         gridded = entered[kind]
         gridded[giants] = 0
-        return collide.make(kind, radius, category, mask, fixed, self.response,
+        return krules.make(kind, radius, category, mask, fixed, self.response,
                             self.restitution, self.walls, self.boundary, self.box,
                             self.box_restitution, cell, dim, owner, giants, gridded, index,
                             self.touch, self.ntouch, scratch)
 
     def _followers(self, counts):
         """(K,) bool: the kinds whose bodies the grid enters only in cells that hold a body of
-        another kind (collide.FOLLOWS). They meet none of their own or of each other (so
+        another kind (broadphase.FOLLOWS). They meet none of their own or of each other (so
         a cell of followers alone holds no pair; those that meet a giant look the giants
         up, as the bodies outside the grid do), and are worth it: at least twice as many as
         the others (the 5e4 debris among 2e3 ships and missiles of a fleet battle: a look-up

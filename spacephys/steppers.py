@@ -262,7 +262,7 @@ class WisdomHolman(Stepper):
 
 class Plan:
     """The kernels' tables for the bodies now alive (kernels/state.State, forces.Forces,
-    collide.Rules or None, control.Actors or None, the family's method) and the compiled entry
+    rules.Rules or None, control.Actors or None, the family's method) and the compiled entry
     points that take them: a call goes straight to machine code, past numba's typing of the
     arguments. Rebuilt by World whenever the set of bodies or a setting the tables hold
     changes; arrays are shared with World, so values changed in place need no rebuild."""

@@ -4,13 +4,13 @@ A World holds the bodies (state.Bodies) and four parts, each in a file of its ow
 (forces.ForceField), the collision rules (collisions.CollisionRules), the ships, missiles and
 lifetimes (actors.Actors) and the integrator's stepper (steppers.py). It validates what it is
 told, keeps time, and on each step hands the kernels the tables its parts build (a
-steppers.Plan, rebuilt only when the set of bodies or a setting changes). The parts are the
-World's own; nothing else reads its private attributes (docs/architecture.md).
+steppers.Plan, rebuilt only when the set of bodies or a setting changes). Its step driver
+(driver.py), state (worldstate.py), body editing (editing.py) and diagnostics (measures.py)
+are modules of their own, its methods delegating to them. The parts are the World's own;
+nothing else reads its private attributes (docs/architecture.md).
 """
 import copy
 import math
-import warnings
-from collections import namedtuple
 
 import numpy as np
 
@@ -19,54 +19,27 @@ from ._jit import ThreadChoice, announced
 from .actors import Actors
 from .collisions import CollisionRules
 from .driver import Driver
-from .errors import InstabilityError, PrecisionWarning, caller_level
+# Body is sp.Body; PASSIVE_KINDS is read from here (scenario.py)
+from .editing import PASSIVE_KINDS, Body  # noqa: F401
+from .errors import InstabilityError
 from .events import EVENT_DTYPE
 from .forces import GRAVITY_MODELS, HELD, ForceField
 from .integrators import get_integrator
-from . import journal, orbits, worldstate
+from . import editing, journal, measures, orbits, worldstate
 from .journal import journaled_setter
-from .kernels import diagnostics
-from .kernels import forces as kforces
-from .kernels import gravity as kgravity
 from .kernels import state as kstate
-from .kernels.codes import BOUNDARIES, NONFINITE, RESPONSES
-from .kernels.collide import SCRATCH
+from .kernels.codes import BOUNDARIES, RESPONSES
+from .kernels.rules import SCRATCH
 from .state import Bodies
 from .steppers import Plan, stepper_for
 from .units import get_units
 
 STEP_CONTROLS = ("auto", "pulling", "all")
-# kinds whose bodies feel gravity but do not pull unless told to (active=True): their mass is
-# for thrust and collisions, and their pull on planets would only cost time
-PASSIVE_KINDS = ("ship", "missile", "debris")
 DEFAULT_KINDS = ("body", "star", "planet", "moon", "asteroid", "ship", "missile", "debris")
 _first_tables = True       # no World has built its kernel tables in this process yet
 
 __all__ = ["World", "Body", "InstabilityError", "GRAVITY_MODELS", "RESPONSES", "BOUNDARIES",
            "DEFAULT_KINDS"]
-
-
-Body = namedtuple("Body", "id pos vel mass radius kind active pulls")
-Body.__doc__ = ("A copy of one body's state: id, pos/vel (dim,), mass, radius, kind name, "
-                "active (may pull) and pulls (active and massive).")
-
-
-def _bools(name, value, k):
-    """None-free bool or (k,) bools as a (k,) array (no 0/1 ints: a typo guard)."""
-    arr = np.asarray(value)
-    if arr.dtype != np.bool_ or arr.shape not in ((), (k,)):
-        raise ValueError(f"{name} = {value!r}: must be a bool or {k} bools")
-    return np.broadcast_to(arr, (k,))
-
-
-def _bits(name, value, k):
-    """An int or (k,) ints fitting int64, as a (k,) int64 array."""
-    arr = np.asarray(value)
-    if arr.dtype.kind not in "iu" or arr.shape not in ((), (k,)):
-        raise ValueError(f"{name} = {value!r}: must be an integer or {k} integers (bits)")
-    if arr.dtype.kind == "u" and arr.size and arr.max() > np.iinfo(np.int64).max:
-        raise ValueError(f"{name} = {value!r}: bits beyond 63 do not fit")
-    return np.broadcast_to(arr.astype(np.int64), (k,))
 
 
 def _readonly(arr):
@@ -499,28 +472,7 @@ class World:
 
     def kind_code(self, name):
         """The code of a declared kind name."""
-        return int(self._kind_codes(name, 1, "kind")[0])
-
-    def _kind_codes(self, kind, k, field):
-        if isinstance(kind, np.ndarray) and kind.ndim == 0:
-            kind = kind.item()
-        names = [kind] * k if isinstance(kind, (str, int, np.integer)) else list(kind)
-        if len(names) != k:
-            raise ValueError(f"{field} has {len(names)} entries, expected {k}")
-        codes = np.empty(k, dtype=np.int16)
-        for i, name in enumerate(names):
-            label = field if isinstance(kind, (str, int, np.integer)) else f"{field}[{i}]"
-            if isinstance(name, str):
-                if name not in self._kinds:
-                    raise ValueError(f"{label} = {name!r} is not a declared kind; declared: "
-                                     f"{', '.join(self._kinds)} (declare with add_kind)")
-                codes[i] = self._kinds.index(name)
-            elif isinstance(name, (int, np.integer)) and not isinstance(name, bool) \
-                    and 0 <= name < len(self._kinds):
-                codes[i] = name
-            else:
-                raise ValueError(f"{label} = {name!r} is not a kind name or code")
-        return codes
+        return int(editing.kind_codes(self, name, 1, "kind")[0])
 
     # ---------------------------------------------------------------- bodies
     def __len__(self):
@@ -590,15 +542,8 @@ class World:
         (default: category 1, mask all bits); lifetime [time] > 0: removed that long from
         now, with an expiry event (None: never).
         """
-        pos = check.floats("pos", pos, (self._dim,))
-        vel = np.zeros(self._dim) if vel is None else check.floats("vel", vel, (self._dim,))
-        mass = check.scalar("mass", mass, minimum=0.0)
-        radius = check.scalar("radius", radius, minimum=0.0)
-        if active is not None and not isinstance(active, (bool, np.bool_)):
-            raise ValueError(f"active = {active!r}: must be True, False or None")
-        return int(self.add_bodies(mass, pos[None], vel[None], radius=radius, kind=kind,
-                                   active=active, fixed=fixed, category=category,
-                                   mask=mask, lifetime=lifetime)[0])
+        return editing.add_body(self, mass, pos, vel, radius, kind, active, fixed, category,
+                                mask, lifetime)
 
     def add_bodies(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None,
                    fixed=False, category=1, mask=-1, lifetime=None):
@@ -609,70 +554,19 @@ class World:
         add_body); category, mask : int or (k,) ints; lifetime : None, a number or (k,)
         numbers > 0. Everything is checked before anything is added.
         """
-        pos = check.floats("pos", pos, (None, self._dim))
-        k = pos.shape[0]
-        vel = np.zeros((k, self._dim)) if vel is None else check.floats("vel", vel, (k, self._dim))
-        mass = check.per_body("mass", mass, k, minimum=0.0)
-        radius = check.per_body("radius", radius, k, minimum=0.0)
-        codes = self._kind_codes(kind, k, "kind")
-        if active is None:
-            passive_codes = [self._kinds.index(k) for k in PASSIVE_KINDS if k in self._kinds]
-            act = ~np.isin(codes, passive_codes)
-        else:
-            act = _bools("active", active, k)
-        still = _bools("fixed", fixed, k)
-        category = _bits("category", category, k)
-        mask = _bits("mask", mask, k)
-        if lifetime is not None:
-            lifetime = check.per_body("lifetime", lifetime, k, minimum=0.0)
-            if np.any(lifetime == 0):
-                raise ValueError(f"lifetime[{int(np.argmin(lifetime))}] = 0: must be > 0")
-        p3 = np.zeros((k, 3))
-        v3 = np.zeros((k, 3))
-        p3[:, :self._dim] = pos
-        v3[:, :self._dim] = np.where(still[:, None], 0.0, vel)    # a fixed body never moves
-        ids = self._b.add({"pos": p3, "vel": v3, "mass": mass, "radius": radius,
-                           "kind": codes, "active": act, "fixed": still, "category": category,
-                           "mask": mask})
-        self._actors.set_lifetimes(ids, lifetime)
-        self._invalidate()
-        return ids
+        return editing.add_bodies(self, mass, pos, vel, radius, kind, active, fixed, category,
+                                  mask, lifetime)
 
     def index_of(self, ids, field="id"):
         """Rows of live bodies in the views: int for an id, (k,) int64 for an array of ids."""
-        if type(ids) is int:                          # the common case, without numpy
-            row = self._b.row(ids)
-            if row < 0:
-                raise ValueError(f"{field} = {ids} names no live body (removed, or never "
-                                 f"created)")
-            return row
-        scalar = np.ndim(ids) == 0
-        arr = np.atleast_1d(np.asarray(ids))
-        if arr.size and arr.dtype.kind not in "iu":
-            raise ValueError(f"{field} = {ids!r}: ids are integers")
-        rows = self._b.lookup(arr.astype(np.int64))
-        bad = np.flatnonzero(rows < 0)
-        if bad.size:
-            raise ValueError(f"{field} = {int(arr[bad[0]])} names no live body "
-                             f"(removed, or never created)")
-        return int(rows[0]) if scalar else rows
+        return editing.index_of(self, ids, field)
 
     def __contains__(self, body_id):
-        if type(body_id) is int:
-            return self._b.row(body_id) >= 0
-        if isinstance(body_id, bool) or not isinstance(body_id, (int, np.integer)):
-            return False
-        if not 0 <= body_id <= np.iinfo(np.int64).max:
-            return False
-        return int(self._b.lookup([body_id])[0]) >= 0
+        return editing.contains(self, body_id)
 
     def get(self, body_id):
         """A copy of one body's state as a Body namedtuple."""
-        i = self.index_of(body_id)
-        b = self._b
-        return Body(int(b.ids[i]), b.pos[i, :self._dim].copy(), b.vel[i, :self._dim].copy(),
-                    float(b.mass[i]), float(b.radius[i]), self._kinds[b.kind[i]],
-                    bool(b.active[i]), bool(b.active[i] and b.mass[i] > 0))
+        return editing.get(self, body_id)
 
     def set_body(self, body_id, *, pos=None, vel=None, mass=None, radius=None, kind=None,
                  active=None, fixed=None, category=None, mask=None):
@@ -680,54 +574,12 @@ class World:
 
         A new pos also resets the body's render interpolation (a teleport, not a smear).
         """
-        i = self.index_of(body_id)
-        if mass is not None and "actor" in self._b.columns and self._b.actor[i]:
-            raise ValueError(f"mass of {body_id}: a ship's or missile's mass is dry + fuel; "
-                             f"use set_fuel")
-        new = {}
-        if pos is not None:
-            new["pos"] = check.floats("pos", pos, (self._dim,))
-        if vel is not None:
-            new["vel"] = check.floats("vel", vel, (self._dim,))
-        if mass is not None:
-            new["mass"] = check.scalar("mass", mass, minimum=0.0)
-        if radius is not None:
-            new["radius"] = check.scalar("radius", radius, minimum=0.0)
-        if kind is not None:
-            new["kind"] = self._kind_codes(kind, 1, "kind")[0]
-        for name, value in (("active", active), ("fixed", fixed)):
-            if value is not None:
-                if not isinstance(value, (bool, np.bool_)):
-                    raise ValueError(f"{name} = {value!r}: must be True or False")
-                new[name] = value
-        for name, value in (("category", category), ("mask", mask)):
-            if value is not None:
-                new[name] = _bits(name, value, 1)[0]
-        b = self._b
-        if new.get("fixed", b.fixed[i]):
-            new["vel"] = np.zeros(self._dim)          # a fixed body never moves
-        for name, value in new.items():
-            col = getattr(b, name)
-            if name in ("pos", "vel"):
-                col[i, :self._dim] = value
-            else:
-                col[i] = value
-        if "pos" in new:
-            b.prev[i] = b.pos[i]
-        # a jump in the state voids its rounding compensation
-        for name, key in (("csx", "pos"), ("csv", "vel")):
-            if key in new and name in b.columns:
-                getattr(b, name)[i] = 0.0
-        if new.keys() - {"pos", "vel", "category", "mask"}:
-            self._invalidate()          # the tables hold copies derived from these
-        else:
-            self._rewatch()
+        editing.set_body(self, body_id, pos, vel, mass, radius, kind, active, fixed, category,
+                         mask)
 
     def remove(self, ids):
         """Remove one id or an array of ids (all must be live; duplicates count once)."""
-        rows = np.unique(np.atleast_1d(self.index_of(ids)))
-        self._b.remove(rows)
-        self._invalidate()
+        editing.remove(self, ids)
 
     # ---------------------------------------------------------------- copies
     def __getstate__(self):
@@ -854,7 +706,7 @@ class World:
     def _kind_list(self, kind, field):
         if kind == "*":
             return list(range(len(self._kinds)))
-        return [int(self._kind_codes(kind, 1, field)[0])]
+        return [int(editing.kind_codes(self, kind, 1, field)[0])]
 
     def set_collision(self, kind_a, kind_b, response, restitution=None):
         """What happens when a body of kind_a meets one of kind_b (either order).
@@ -1039,13 +891,7 @@ class World:
     def _invalidate(self):
         """The set of bodies or a per-body setting the tables derive from changed."""
         self._plan = None
-        self._rewatch()
-
-    def _rewatch(self):
-        """The World was changed between steps (bodies added, removed or set, the origin
-        moved): the watched energy starts again from here."""
-        if self._watch is not None:
-            self._watch = (self._watch[0],) + self._energy_reference()
+        measures.rewatch(self)
 
     def _sources(self):
         """(src, passive, still): the bodies that pull, the others, the immovable ones."""
@@ -1116,27 +962,8 @@ class World:
         plan = Plan(self, state, forces, rules, self._actors.table(actors),
                     self._stepper.method(self, sources), alive, work)
         self._plan = plan
-        self._check_precision(b.pos[:n, :self._dim])
+        measures.check_precision(self, b.pos[:n, :self._dim])
         return plan
-
-    def _check_precision(self, pos):
-        """Warn once (PrecisionWarning) when the bodies lie so far from the origin, for how
-        far apart they are, that positions keep fewer than 8 significant digits within the
-        scene (beyond ~1e8 times its size): a circular orbit of radius 1 at 1e9 ends a
-        period 6x less accurately than at the origin, at 1e12 2 800x. Checked whenever the
-        tables are rebuilt (bodies come or go)."""
-        if self._precision_warned or pos.shape[0] < 2:
-            return
-        span, far = diagnostics.extent(pos)
-        if span > 0.0 and np.spacing(far) > 1e-8 * span:
-            self._precision_warned = True
-            digits = max(0.0, -math.log10(np.spacing(far) / span))
-            warnings.warn(PrecisionWarning(
-                f"the bodies lie {far:.3g} from the origin but only {span:.3g} apart: their "
-                f"positions keep about {digits:.0f} significant digits within the scene (16 "
-                f"at the origin), and the integration's errors grow with that. Move the "
-                f"origin to the scene: w.shift_origin(w.center_of_mass()) (journaled; "
-                f"velocities and the motion are unchanged)"), stacklevel=caller_level())
 
     # ---------------------------------------------------------------- stepping
     def step(self, n=1):
@@ -1201,67 +1028,17 @@ class World:
     # ---------------------------------------------------------------- instability
     def named(self, rows, most=5):
         """'body 3 (planet), body 7 (moon) and 12 more' for rows of live bodies."""
-        b = self._b
-        names = [f"body {int(b.ids[r])} ({self._kinds[b.kind[r]]})" for r in rows[:most]]
-        more = f" and {len(rows) - most} more" if len(rows) > most else ""
-        return ", ".join(names) + more
+        return measures.named(self, rows, most)
 
     def closest_pulling_pair(self):
         """The rows of the two pulling bodies closest together (none if fewer than 2, or too
         many to compare all pairs for an error message)."""
-        rows = self._sources()[0]
-        if not 2 <= rows.size <= 2048:
-            return rows[:0]
-        p = self._b.pos[rows]
-        d2 = ((p[:, None, :] - p[None, :, :]) ** 2).sum(axis=2)
-        d2[np.diag_indices(rows.size)] = np.inf
-        i, j = np.unravel_index(np.argmin(d2), d2.shape)
-        return rows[[i, j]]
+        return measures.closest_pulling_pair(self)
 
     def _check_health(self, t0, status):
         """After a step() from time t0: InstabilityError if a body's state is not finite (the
         kernel's status says), or if the watched energy error passed its limit."""
-        b = self._b
-        n = b.n
-        if status & NONFINITE:
-            rows = np.flatnonzero(~(np.isfinite(b.pos[:n]).all(axis=1)
-                                    & np.isfinite(b.vel[:n]).all(axis=1)))
-            if rows.size:
-                raise InstabilityError(
-                    f"the state became NaN or infinite between t = {t0:g} and t = {self.t:g}: "
-                    f"{self.named(rows)}. A step too long for a close approach, bodies "
-                    f"meeting without softening, or a speed past the range of doubles; take "
-                    f"a shorter dt, soften gravity, or use gauss_radau (w.remove(ids) drops "
-                    f"them)", b.ids[rows].copy(), self.t)
-        if self._watch is None:
-            return
-        limit, E0, e0, ids0 = self._watch
-        if E0 == 0.0:                      # bodies removed since: no scale left to judge by
-            return
-        error = abs(self.energy(True) / E0 - 1.0)
-        if error <= limit:                 # (a NaN energy is not <= limit either)
-            return
-        # the bodies whose own energy changed most, as a fraction of |E0|
-        now = self._body_energies()
-        _, then_rows, now_rows = np.intersect1d(ids0, b.ids[:n], return_indices=True)
-        change = np.abs(now[now_rows] - e0[then_rows]) / abs(E0)
-        order = np.argsort(-np.nan_to_num(change, nan=np.inf), kind="stable")
-        rows = now_rows[order]
-        shares = ", ".join(f"{change[k]:.2g}" for k in order[:5])
-        raise InstabilityError(
-            f"energy error {error:.3g} since watch_energy passed its limit {limit:g} between "
-            f"t = {t0:g} and t = {self.t:g}; the energy changed most in {self.named(rows)} "
-            f"({shares} of |E0|). Their orbits are not resolved by dt = {self._dt:g} with "
-            f"{self.integrator}: take a shorter dt or use gauss_radau",
-            b.ids[rows].copy(), self.t)
-
-    def _body_energies(self):
-        b = self._b
-        out = np.empty(b.n)
-        src = self._sources()[0]
-        kgravity.body_energies(self._forces.model(src.size), b.pos[:b.n], b.vel[:b.n],
-                               self._masses(True), src, out)
-        return out
+        measures.check_health(self, t0, status)
 
     def watch_energy(self, limit):
         """From now on, raise InstabilityError after any step() or advance() that leaves the
@@ -1269,19 +1046,7 @@ class World:
         bodies whose own energy changed most; limit=None stops watching. For scenes that
         conserve energy: thrust, drag, and collisions that merge or break change it. Costs
         an energy sum, O(N_pulling^2), per call."""
-        if limit is None:
-            self._watch = None
-            return
-        limit = check.scalar("limit", limit, positive=True)
-        reference = self._energy_reference()
-        if reference[0] == 0.0:
-            raise ValueError("watch_energy: the pulling bodies' energy is 0, so a relative "
-                             "error has no scale (no massive bodies, or none moving)")
-        self._watch = (limit,) + reference
-
-    def _energy_reference(self):
-        """(E0, body energies, ids): what watch_energy measures against."""
-        return (self.energy(True), self._body_energies(), self._b.ids[:self._b.n].copy())
+        measures.watch_energy(self, limit)
 
     # ---------------------------------------------------------------- origin
     @property
@@ -1309,15 +1074,7 @@ class World:
         self._actors.shift(delta)
         self._origin[:d] += delta
         self._plan = None
-        self._rewatch()              # a uniform field's potential has no natural zero
-
-    # ---------------------------------------------------------------- diagnostics
-    # Diagnostics cover every body by default. With pulling_only=True they cover the bodies that
-    # pull only: when passive bodies have mass (ships), those are the quantities the dynamics
-    # conserve, since a passive body is pulled without pulling back.
-    def _masses(self, pulling_only):
-        b = self._b
-        return np.where(self.pulls, b.mass[:b.n], 0.0) if pulling_only else b.mass[:b.n]
+        measures.rewatch(self)       # a uniform field's potential has no natural zero
 
     # ---------------------------------------------------------------- spatial queries
     def _query_kinds(self, kinds):
@@ -1329,7 +1086,7 @@ class World:
         k = 1 if one else len(kinds)
         if k == 0:
             raise ValueError("kinds = []: give at least one kind, or None for every kind")
-        return self._kind_codes(kinds, k, "kinds")
+        return editing.kind_codes(self, kinds, k, "kinds")
 
     def query_radius(self, centers, r, kinds=None, mask=None):
         """The bodies within distance r of each center (the gap to their surface: a body of
@@ -1371,67 +1128,46 @@ class World:
         from .queries import nearest
         return nearest(self, points, k, self._query_kinds(kinds), mask)
 
+    # ---------------------------------------------------------------- diagnostics
     def gravity_accelerations(self, ids=None, exact=False):
         """(k, dim) the acceleration by gravity now [length / time^2] of the bodies `ids`
         (default: every body, in row order); drag, held and user forces and thrust left out,
         a fixed body's given though it does not move. With gravity="tree", the tree's;
         exact=True: the direct sum it approximates."""
-        b = self._b
-        rows = np.arange(b.n, dtype=np.int64) if ids is None else \
-            np.asarray(self.index_of(ids, "ids"), np.int64).reshape(-1)
-        src, passive, _ = self._sources()
-        f = self._forces.gravity_table(b.mass[:b.n], b.ids[:b.n], src, passive, exact)
-        out = np.zeros((b.n, 3))
-        kforces.accelerations_of(f, self.t, b.pos[:b.n], b.vel[:b.n], out, rows, False)
-        return out[rows, :self._dim]
+        return measures.gravity_accelerations(self, ids, exact)
 
     def kinetic_energy(self, pulling_only=False):
-        b = self._b
-        return diagnostics.kinetic_energy(b.vel[:b.n], self._masses(pulling_only))
+        return measures.kinetic_energy(self, pulling_only)
 
     def potential_energy(self, pulling_only=False, exact=False):
         """Potential energy in the gravity model (passive bodies in the pulling ones' field).
         With gravity="tree", the tree's (what its forces conserve), or with exact=True the
         direct sum over pairs (O(n^2): for checks)."""
-        b = self._b
-        src, passive, _ = self._sources()
-        passive = passive[:0] if pulling_only else passive
-        return kgravity.potential(self._forces.model(src.size), b.pos[:b.n],
-                                  self._masses(pulling_only), src, passive, exact)
+        return measures.potential_energy(self, pulling_only, exact)
 
     def energy(self, pulling_only=False, exact=False):
         """Kinetic + potential energy [mass length^2 / time^2] (exact: see
         potential_energy)."""
-        return self.kinetic_energy(pulling_only) + self.potential_energy(pulling_only, exact)
+        return measures.energy(self, pulling_only, exact)
 
     def momentum(self, pulling_only=False):
         """(dim,) total linear momentum sum m v [mass length / time]."""
-        b = self._b
-        return (self._masses(pulling_only)[:, None] * b.vel[:b.n]).sum(axis=0)[:self._dim]
+        return measures.momentum(self, pulling_only)
 
     def angular_momentum(self, pulling_only=False):
         """sum m r x v about the origin: (3,) in 3D, the scalar z component in 2D."""
-        b = self._b
-        L = (self._masses(pulling_only)[:, None] * np.cross(b.pos[:b.n], b.vel[:b.n])).sum(axis=0)
-        return L if self._dim == 3 else float(L[2])
+        return measures.angular_momentum(self, pulling_only)
 
     def total_mass(self):
-        return float(self._b.mass[:self._b.n].sum())
+        return measures.total_mass(self)
 
     def center_of_mass(self):
         """(dim,) mass-weighted mean position [length]; ValueError if the total mass is 0."""
-        b = self._b
-        M = self.total_mass()
-        if M <= 0:
-            raise ValueError("center_of_mass: the total mass is 0 (only test particles)")
-        return (b.mass[:b.n, None] * b.pos[:b.n]).sum(axis=0)[:self._dim] / M
+        return measures.center_of_mass(self)
 
     def center_of_mass_velocity(self):
         """(dim,) velocity of the centre of mass [length / time]."""
-        M = self.total_mass()
-        if M <= 0:
-            raise ValueError("center_of_mass_velocity: the total mass is 0 (only test particles)")
-        return self.momentum() / M
+        return measures.center_of_mass_velocity(self)
 
     def elements(self, body_id, about=None):
         """The osculating orbital elements (sp.Elements: a, e, i, Omega, omega, f, M,
@@ -1483,7 +1219,7 @@ class World:
         b.pos[:b.n, :self._dim] -= r
         b.prev[:b.n, :self._dim] -= r
         b.vel[:b.n, :self._dim] -= v
-        self._rewatch()
+        measures.rewatch(self)
 
     def __repr__(self):
         return (f"World(dim={self._dim}, n={self.n}, gravity={self.gravity!r}, "

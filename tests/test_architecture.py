@@ -62,8 +62,8 @@ def test_no_module_imports_itself_back():
 # World and its own parts: the modules whose classes World holds, and which read its private
 # attributes; everything else (predictions, their tape, queries, run logs, the tools) reaches
 # it through its public API and World.driver
-PARTS = {"world", "driver", "worldstate", "state", "forces", "collisions", "actors",
-         "steppers"}
+PARTS = {"world", "driver", "worldstate", "editing", "measures", "state", "forces",
+         "collisions", "actors", "steppers"}
 
 
 def _private(name):

@@ -3,7 +3,7 @@ import json
 
 import pytest
 
-from spacephys.study import bench
+from spacephys.study import modelbench
 from spacephys.cli import main
 
 
@@ -23,7 +23,7 @@ def test_the_results_name_every_model_at_both_sizes(results):
     assert results["benchmark"] == "models" and results["quick"]
     assert [c["model"] for c in results["cases"]] == \
         ["direct", "tree", "test", "central", "uniform"] * 2
-    table = bench.format_table(results)
+    table = modelbench.format_models(results)
     assert table.count("| full N-body |") == 2 and table.count("| uniform field |") == 2
 
 

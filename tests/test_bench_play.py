@@ -4,7 +4,7 @@ import os
 
 os.environ["SDL_VIDEODRIVER"] = "dummy"
 
-from spacephys.study import bench, playbench      # noqa: E402
+from spacephys.study import playbench      # noqa: E402
 
 
 def test_every_mode_is_played_and_timed():
@@ -18,6 +18,6 @@ def test_every_mode_is_played_and_timed():
         assert m["frame"]["median_ms"] > m["physics"]["median_ms"]   # the drawing is in it
         assert m["budget_ms"] == playbench.BUDGETS[name]
     assert results["modes"]["arena"]["bodies_at_end"] > 500           # missiles, debris
-    table = bench.format_table(results)
+    table = playbench.format_play(results)
     for name in ("duel", "orbit", "arena"):
         assert table.count(name) >= 2

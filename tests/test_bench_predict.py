@@ -6,7 +6,7 @@ import json
 import pytest
 
 from spacephys.cli import main
-from spacephys.study import bench
+from spacephys.study.prediction import format_predict
 
 
 @pytest.fixture(scope="module")
@@ -30,7 +30,7 @@ def test_the_errors_are_those_of_each_integrators_order(results):
 
 
 def test_the_report_names_every_figure(results):
-    table = bench.format_table(results)
+    table = format_predict(results)
     for text in ("fastest within 1e-6", "100 ships predicted in one call", "a World flying the same steps",
                  "a HUD's call",
                  "while a prediction runs beside", "launching one (predict_async)"):

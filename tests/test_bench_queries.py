@@ -1,6 +1,6 @@
 """`spacephys bench queries` (a quick run): every query beside cKDTree gives the same answers;
 the figures themselves are the benchmark's (docs/performance.md)."""
-from spacephys.study import bench, querybench
+from spacephys.study import querybench
 
 
 def test_the_queries_match_ckdtree_and_are_timed():
@@ -13,5 +13,5 @@ def test_the_queries_match_ckdtree_and_are_timed():
             assert c["same_answers"] is True and c["ratio"] > 0
         if "mean_found" in c and "rays" not in c["case"]:
             assert 5 < c["mean_found"] < 20          # r chosen for about 10 bodies
-    table = bench.format_table(results)
+    table = querybench.format_queries(results)
     assert "cKDTree" in table and table.count("True") == 6

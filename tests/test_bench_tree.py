@@ -3,7 +3,7 @@ small run: the figures themselves are the benchmark's, docs/tree.md)."""
 import pytest
 
 from spacephys.cli import main
-from spacephys.study import bench, treebench
+from spacephys.study import treebench
 
 
 @pytest.fixture(scope="module")
@@ -31,7 +31,7 @@ def test_the_equal_error_comparison_and_the_crossover_are_reported(results):
     assert [r["bodies"] for r in results["crossover_rows"]] == [500, 1000, 2000, 4000, 8000]
     # the tree wins at 8 000 bodies (measured 5x): the crossover lies inside the range
     assert results["crossover_bodies"] is not None and results["crossover_bodies"] < 8000
-    table = bench.format_table(results)
+    table = treebench.format_tree(results)
     assert "at equal RMS error" in table and "crossover:" in table
 
 

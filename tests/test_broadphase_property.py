@@ -38,7 +38,7 @@ from hypothesis import strategies as st
 import spacephys as sp
 # The grid under test, called directly by the broad-phase tests (their scenes' tables come from
 # World.tables()). The reference does not use it, nor anything else of spacephys.kernels.
-from spacephys.kernels.collide import candidate_pairs
+from spacephys.kernels.broadphase import candidate_pairs
 
 EPS = 2.0 ** -52
 QUANTUM = 2.0 ** -12            # positions and radii are multiples of it: exact geometry

@@ -8,7 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import spacephys as sp
-from spacephys.kernels import collide
+from spacephys.kernels import broadphase
+from spacephys.kernels import rules as krules
 
 # ----------------------------------------------------------------------------- helpers
 
@@ -58,8 +59,8 @@ def _pass_inputs(w, B=None, tb=None):
 def _grid_and_brute(w, B=None, tb=None):
     """The candidate pairs of the grid and of brute force for w's bodies, as sets."""
     args, plan = _pass_inputs(w, B, tb)
-    grid, _ = collide.candidate_pairs(*args)
-    brute = collide.brute_pairs(*args)
+    grid, _ = broadphase.candidate_pairs(*args)
+    brute = broadphase.brute_pairs(*args)
     as_set = lambda pairs: {tuple(p) for p in pairs.tolist()}
     assert len(as_set(grid)) == len(grid)            # never reported twice
     return as_set(grid), as_set(brute), plan
@@ -97,7 +98,7 @@ def test_default_cell_with_giants_finds_the_brute_force_pairs(seed, n, dim, gian
     B = np.zeros((w.n, 3))
     B[:, :dim] = w.vel * 0.2
     grid, brute, plan = _grid_and_brute(w, B, rng.uniform(0, 0.5, w.n) * (rng.random(w.n) < .3))
-    assert collide.giants_of(plan.rules).size >= (giants > 0)   # the giants path is exercised
+    assert krules.giants_of(plan.rules).size >= (giants > 0)   # the giants path is exercised
     assert grid == brute
 
 
@@ -127,7 +128,7 @@ def test_bodies_that_meet_only_giants_find_them_through_the_giants_grid(seed, pl
     B = np.zeros((w.n, 3))
     B[:, :dim] = w.vel * w.dt
     grid, brute, plan = _grid_and_brute(w, B)
-    giants = collide.giants_of(plan.rules).size
+    giants = krules.giants_of(plan.rules).size
     assert giants == planets or planets > 64            # (65 and more: none, or a few)
     assert grid == brute
 
@@ -154,14 +155,14 @@ def test_a_giant_over_more_cells_than_a_look_up_takes_tests_the_grids_bodies(dim
     B = np.zeros((w.n, 3))
     B[:, :dim] = w.vel * w.dt
     grid, brute, plan = _grid_and_brute(w, B)
-    assert collide.giants_of(plan.rules).size == 1
+    assert krules.giants_of(plan.rules).size == 1
     assert (0, w.n - 1) in brute and sum(1 for i, j in brute if i == 0) > 100
     assert grid == brute
 
 
 def _followers(rules):
-    """How many bodies the grid enters only where the others are (collide.FOLLOWS)."""
-    return int(np.sum(collide.gridded_of(rules) == collide.FOLLOWS))
+    """How many bodies the grid enters only where the others are (broadphase.FOLLOWS)."""
+    return int(np.sum(krules.gridded_of(rules) == broadphase.FOLLOWS))
 
 
 @settings(deadline=None, max_examples=40)
@@ -223,7 +224,7 @@ def test_followers_find_every_pair_with_the_leaders_cells_mapped_or_hashed(dim, 
     B[:, :dim] = rng.normal(scale=0.2, size=(w.n, dim))
     grid, brute, plan = _grid_and_brute(w, B)
     assert _followers(plan.rules) == ships * k
-    lead_set, lead_map, _ = collide._grid_pairs(*_pass_inputs(w, B)[0])[1][6]
+    lead_set, lead_map, _ = broadphase.grid_pairs(*_pass_inputs(w, B)[0])[1][6]
     assert (lead_map.size > 0, lead_set.shape[0] > 0) == (mapped, not mapped)
     assert len(brute) > ships
     assert grid == brute
@@ -584,7 +585,7 @@ def test_merging_matches_rebound_line_merge():
     # whose contacts are all pairs: where three bodies touch at once REBOUND's own result
     # varies from run to run)
     import rebound
-    from spacephys.study.bench import _merging_cluster
+    from spacephys.study.collisionbench import _merging_cluster
     result = _merging_cluster(1500, 10, 0.01, 1, seed=5)
     assert result["merges"] == result["rebound_merges"] > 5
     assert result["same_masses"]
@@ -594,7 +595,7 @@ def test_merging_matches_rebound_line_merge():
 
 def test_broad_phase_work_is_linear():
     # entries per body stay bounded as the field grows: cells per body, not pairs per body
-    from spacephys.study.bench import circle_field
+    from spacephys.study.collisionbench import circle_field
     setup_entries = []
     for n in (2000, 8000):
         w = circle_field(n)
@@ -604,7 +605,7 @@ def test_broad_phase_work_is_linear():
         B = np.zeros((n, 3))
         B[:, :2] = w.vel * w.dt
         lo, hi = np.empty((n, 3)), np.empty((n, 3))
-        pairs, entries = collide.candidate_pairs(A, B, np.zeros(n), plan.alive, plan.rules,
+        pairs, entries = broadphase.candidate_pairs(A, B, np.zeros(n), plan.alive, plan.rules,
                                                  lo, hi)
         setup_entries.append(entries / n)
         assert len(pairs) < n                        # a sparse field: few candidates
@@ -632,14 +633,14 @@ def test_the_grid_scratch_grows_to_the_entries_and_is_kept():
     A, B, tb = w.pos.copy(), w.vel * w.dt, np.zeros(n)
     lo, hi = np.empty((n, 3)), np.empty((n, 3))
     before = scratch_of(plan.rules)
-    pairs, entries = collide.candidate_pairs(A, B, tb, plan.alive, plan.rules, lo, hi)
+    pairs, entries = broadphase.candidate_pairs(A, B, tb, plan.alive, plan.rules, lo, hi)
     grown = scratch_of(plan.rules)
     assert entries > 4 * n and before.size == 16 * n     # more than the first room
     assert grown.size >= 4 * entries
-    again, _ = collide.candidate_pairs(A, B, tb, plan.alive, plan.rules, lo, hi)
+    again, _ = broadphase.candidate_pairs(A, B, tb, plan.alive, plan.rules, lo, hi)
     kept = scratch_of(plan.rules)
     assert kept.ctypes.data == grown.ctypes.data and kept.size == grown.size
-    brute = {tuple(p) for p in collide.brute_pairs(A, B, tb, plan.alive, plan.rules, lo,
+    brute = {tuple(p) for p in broadphase.brute_pairs(A, B, tb, plan.alive, plan.rules, lo,
                                                    hi).tolist()}
     assert len(brute) > 1000
     assert {tuple(p) for p in pairs.tolist()} == brute
@@ -656,7 +657,7 @@ def test_a_2d_body_inside_one_cell_makes_one_entry():
     A = np.zeros((3, 3))
     A[:, :2] = w.pos
     lo, hi = np.empty((3, 3)), np.empty((3, 3))
-    pairs, entries = collide.candidate_pairs(A, np.zeros((3, 3)), np.zeros(3), plan.alive,
+    pairs, entries = broadphase.candidate_pairs(A, np.zeros((3, 3)), np.zeros(3), plan.alive,
                                              plan.rules, lo, hi)
     assert entries == 3 and len(pairs) == 0
 
@@ -679,7 +680,7 @@ def _entries_and_pairs(pos, radius):
     A = np.zeros((w.n, 3))
     A[:, :2] = w.pos
     lo, hi = np.empty((w.n, 3)), np.empty((w.n, 3))
-    _, entries = collide.candidate_pairs(A, np.zeros((w.n, 3)), np.zeros(w.n), plan.alive,
+    _, entries = broadphase.candidate_pairs(A, np.zeros((w.n, 3)), np.zeros(w.n), plan.alive,
                                          plan.rules, lo, hi)
     return entries, got == brute
 

@@ -1,4 +1,4 @@
-"""Sensor and contact begin/end events (kernels/collide._touches): a sensor pair reports
+"""Sensor and contact begin/end events (kernels/touch.touches): a sensor pair reports
 sensor_begin when the two start to overlap and sensor_end when they stop, once each, at their
 times within the step; a contact pair (elastic, bounce) that ends a step touching reports
 contact_begin, and contact_end when it lifts off. Checked on exact cases, against a brute
@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 import spacephys as sp
 from spacephys.events import CONTACT_BEGIN, CONTACT_END, SENSOR_BEGIN, SENSOR_END
-from spacephys.kernels.collide import CONTACT_SLOP
+from spacephys.kernels.touch import CONTACT_SLOP
 
 
 def _zone_world(dt=0.1, **kw):

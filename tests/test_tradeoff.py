@@ -99,7 +99,7 @@ def test_peers_do_the_same_work_and_report_a_ratio_per_pair():
 
 
 def test_state_is_linear_in_the_number_of_bodies():
-    from spacephys.study.bench import memory_used
+    from spacephys.study.memorybench import memory_used
     small = memory_used(20_000)[0] / 20_000
     large = memory_used(200_000)[0] / 200_000
     # the same bytes per body at 10x the bodies (what is fixed, e.g. the event buffer, fades),
@@ -110,7 +110,7 @@ def test_state_is_linear_in_the_number_of_bodies():
 
 
 def test_the_collision_pass_scratch_is_made_only_for_a_scene_that_collides():
-    from spacephys.kernels.collide import SCRATCH
+    from spacephys.kernels.rules import SCRATCH
     w = sp.World(dim=2, gravity="none")
     w.add_bodies(1.0, [[0.0, 0.0], [5.0, 0.0]], radius=1.0)
     w.step(1)

@@ -6,7 +6,7 @@ asks it of a set (REMOVING), not of a range.
 
 # (the gravity models' codes live with their accelerations and potentials, in forces.py)
 
-# collision responses, the kind x kind matrix (kernels/collide.py)
+# collision responses, the kind x kind matrix (kernels/responses.py)
 IGNORE, SENSOR, ELASTIC, BOUNCE, MERGE = 0, 1, 2, 3, 4
 DESTROY_A, DESTROY_B, DESTROY_BOTH = 5, 6, 7
 BREAK_A, BREAK_B = 8, 9          # a bounce, then the first (second) body is destroyed

@@ -33,7 +33,7 @@ from .._jit import TableType, kernel
 from .codes import (BURN_ANTINORMAL, BURN_NORMAL, BURN_PROGRADE, BURN_RADIAL_IN,
                     BURN_RETROGRADE, BURN_VECTOR, EV_BURNOUT, EV_DETONATION, EV_EXPIRY,
                     EV_FUEL_EMPTY, NO_GUIDANCE, PURSUIT)
-from .collide import _wrap
+from .rules import wrap
 from .state import record
 
 # pending events (the lean functions cannot grow the event buffer; flush records them): a row
@@ -200,9 +200,9 @@ def _desired(act, i, j, pos, vel, hx, hy, hz, a_max, L):
     when there is nothing to do. Pursuit: along the line of sight. Proportional navigation:
     the lateral acceleration N Vc (line-of-sight rate) = N Vc v_perp / |r|, plus whatever
     thrust is left along the line of sight to close; pursuit while the range opens."""
-    rx = _wrap(pos[j, 0] - pos[i, 0], L[0])           # the nearest image when wrapping
-    ry = _wrap(pos[j, 1] - pos[i, 1], L[1])
-    rz = _wrap(pos[j, 2] - pos[i, 2], L[2])
+    rx = wrap(pos[j, 0] - pos[i, 0], L[0])           # the nearest image when wrapping
+    ry = wrap(pos[j, 1] - pos[i, 1], L[1])
+    rz = wrap(pos[j, 2] - pos[i, 2], L[2])
     r = math.sqrt(rx * rx + ry * ry + rz * rz)
     if r == 0.0:
         return hx, hy, hz
@@ -645,12 +645,12 @@ def after_step(ht, t0, dt, L):
         if act.fuse[i] <= 0.0 or j < 0 or not alive[i] or not alive[j]:
             continue
         # nearest images when wrapping: pos is already wrapped into the box
-        d0x = _wrap(pos0[j, 0] - pos0[i, 0], L[0])
-        d0y = _wrap(pos0[j, 1] - pos0[i, 1], L[1])
-        d0z = _wrap(pos0[j, 2] - pos0[i, 2], L[2])
-        ex = _wrap(pos[j, 0] - pos0[j, 0], L[0]) - _wrap(pos[i, 0] - pos0[i, 0], L[0])
-        ey = _wrap(pos[j, 1] - pos0[j, 1], L[1]) - _wrap(pos[i, 1] - pos0[i, 1], L[1])
-        ez = _wrap(pos[j, 2] - pos0[j, 2], L[2]) - _wrap(pos[i, 2] - pos0[i, 2], L[2])
+        d0x = wrap(pos0[j, 0] - pos0[i, 0], L[0])
+        d0y = wrap(pos0[j, 1] - pos0[i, 1], L[1])
+        d0z = wrap(pos0[j, 2] - pos0[i, 2], L[2])
+        ex = wrap(pos[j, 0] - pos0[j, 0], L[0]) - wrap(pos[i, 0] - pos0[i, 0], L[0])
+        ey = wrap(pos[j, 1] - pos0[j, 1], L[1]) - wrap(pos[i, 1] - pos0[i, 1], L[1])
+        ez = wrap(pos[j, 2] - pos0[j, 2], L[2]) - wrap(pos[i, 2] - pos0[i, 2], L[2])
         ee = ex * ex + ey * ey + ez * ez
         s = 0.0
         if ee > 0.0:
@@ -674,9 +674,9 @@ def after_step(ht, t0, dt, L):
             closing -= nx * ex / dt
             closing -= ny * ey / dt
             closing -= nz * ez / dt
-        px = pos0[i, 0] + s * _wrap(pos[i, 0] - pos0[i, 0], L[0])
-        py = pos0[i, 1] + s * _wrap(pos[i, 1] - pos0[i, 1], L[1])
-        pz = pos0[i, 2] + s * _wrap(pos[i, 2] - pos0[i, 2], L[2])
+        px = pos0[i, 0] + s * wrap(pos[i, 0] - pos0[i, 0], L[0])
+        py = pos0[i, 1] + s * wrap(pos[i, 1] - pos0[i, 1], L[1])
+        pz = pos0[i, 2] + s * wrap(pos[i, 2] - pos0[i, 2], L[2])
         m = _pend(pending, m, EV_DETONATION, i, j, s * dt, px, py, pz, nx, ny, nz, closing,
                   dist)
         alive[i] = False

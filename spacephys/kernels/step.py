@@ -35,7 +35,7 @@ Around each round run does, for every family:
     capture(...)    a recording's frame, when one falls due after this step
     status(...)     what the call reports: REMOVED, NONFINITE (the NaN check: one pass)
 
-`rules` (kernels/collide.Rules) and `actors` (kernels/control.Actors) are None when a scene has
+`rules` (kernels/rules.Rules) and `actors` (kernels/control.Actors) are None when a scene has
 no collisions or no ships, missiles and lifetimes: numba then compiles a kernel without that
 code at all (its branches are pruned on the argument's type), so a gravity-only scene neither
 compiles nor runs it. `frames` is None, or (frame_at, fpos, fvel, fmass): the step counts of
@@ -51,7 +51,8 @@ from . import tape
 from .arrays import copy_into
 from .codes import FAILED, NONFINITE, REMOVED
 from .forces import hoist as hoist_forces, implements_by_users
-from .collide import _periods, collide_step
+from .collide import collide_step
+from .rules import periods as box_periods
 from .control import after_step, begin_step, end_burn, flush, undo_turns
 
 
@@ -61,7 +62,7 @@ def periods(rules):
     zeros without one."""
     if rules is None:
         return 0.0, 0.0, 0.0
-    L = _periods(rules)
+    L = box_periods(rules)
     return L[0], L[1], L[2]
 
 

@@ -1,6 +1,7 @@
-"""The study tools: benchmarks beside REBOUND (bench), the work-precision study (tradeoff),
-the reference problems (validate) and sp.recommend. They use the World's public API and one
-World -> REBOUND adapter (rebound.py)."""
+"""The study tools: the benchmarks of `spacephys bench`, most beside REBOUND (a module each,
+listed in benchmarks.py), the work-precision study (tradeoff), the reference problems
+(validate) and sp.recommend. They use the World's public API and one World -> REBOUND
+adapter (rebound.py)."""
 
 import math
 import os
@@ -18,6 +19,12 @@ def header(name, quick, rebound=None):
     return {"benchmark": name, "quick": quick,
             "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
             "numba_threads": numba.get_num_threads(), "versions": versions}
+
+
+def title(results):
+    """The first line of a benchmark's report, from what header() put in its results."""
+    return (f"{results['benchmark']} benchmark on {results['machine']} "
+            f"({results['numba_threads']} numba threads; {results['versions']})")
 
 
 def best_of(fn, repeats):

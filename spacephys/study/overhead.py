@@ -4,14 +4,12 @@ Per-call costs (best of alternating repeats of many calls): step(1) and advance(
 bodies against REBOUND's sim.steps(1); a duel (a fixed star, two ships with held controls,
 collisions on): step(1) and control(); leapfrog batched in one call on 2 to 5 bodies; the
 Spacewar! loop of docs/guide/game-loop.md, run as pasted; threads beside two busy processes; a jitted user force
-against REBOUND's Python callback; and the cold and warm start in fresh processes.
+against REBOUND's Python callback. The start and what it compiles: `spacephys bench compile`.
 """
 import math
-import os
 import re
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -220,79 +218,12 @@ def _user_force(quick):
             "ratio": theirs / ours, "max_position_difference": diff}
 
 
-_START_PROBE = """
-import time
-start = time.perf_counter()
-import spacephys as sp
-from spacephys.scenes import star_system
-imported = time.perf_counter()
-w = star_system(integrator="yoshida4", dt=0.002)
-w.step(1)
-first = time.perf_counter()
-print(imported - start, first - start)
-"""
-
-_ALL_PROBE = """
-import time
-start = time.perf_counter()
-import spacephys as sp
-from spacephys.scenes import uniform_sphere
-for name in sp.INTEGRATORS:
-    w = uniform_sphere(64, dt=1e-3)
-    w.integrator = name
-    w.step(1)
-w.energy()
-gravity = time.perf_counter()
-for name in sp.INTEGRATORS:
-    w = uniform_sphere(16, dt=1e-3, softening=0.05)
-    w.integrator = name
-    w.set_collision("*", "*", "merge")
-    w.add_ship(sp.ShipSpec(fuel_mass=1.0, max_thrust=1.0, exhaust_speed=10.0), (5.0, 0.0, 0.0))
-    w.step(1)
-print(gravity - start, time.perf_counter() - start)
-"""
-
-# the floor: any numba program's start, importing numpy and numba and calling one cached kernel
-_FLOOR_MODULE = "import numba\n\n@numba.njit(cache=True)\ndef total(a):\n    return a.sum()\n"
-_FLOOR_PROBE = """
-import time
-start = time.perf_counter()
-import numpy as np
-import floor_probe
-floor_probe.total(np.ones(3))
-print(time.perf_counter() - start)
-"""
-
-
-def _start_times():
-    """Seconds in fresh processes: with an empty numba cache (import and the default scene's
-    first step; every integrator's kernels, gravity only and with collisions and ships), then
-    with the cache warm; and the floor: import numpy and numba and call one cached kernel."""
-    with tempfile.TemporaryDirectory() as cache:
-        Path(cache, "floor_probe.py").write_text(_FLOOR_MODULE)
-        env = dict(os.environ, NUMBA_CACHE_DIR=cache,
-                   PYTHONPATH=os.pathsep.join([cache, os.environ.get("PYTHONPATH", "")]))
-        run = lambda probe: [float(x) for x in subprocess.run(
-            [sys.executable, "-c", probe], env=env, check=True, capture_output=True,
-            text=True).stdout.split()]
-        cold_import, cold_first = run(_START_PROBE)
-        cold_gravity, cold_all = run(_ALL_PROBE)
-        warm = [run(_START_PROBE) for _ in range(3)]
-        floor = [run(_FLOOR_PROBE)[0] for _ in range(4)][1:]       # the first compiles
-    return {"cold_first_step_s": cold_first, "cold_import_s": cold_import,
-            "cold_all_gravity_kernels_s": cold_gravity, "cold_all_kernels_s": cold_all,
-            "warm_import_s": min(w[0] for w in warm),
-            "warm_import_and_first_step_s": min(w[1] for w in warm),
-            "floor_numba_first_call_s": min(floor)}
-
-
 def overhead(quick=False):
     """The per-call benchmark (see the module)."""
     rebound = peer.load()
     return {**header("overhead", quick, rebound),
             "calls": _calls(quick), "batched": _batched(quick), "spacewar": _spacewar(),
-            "threads": _threads(quick), "user_force": _user_force(quick),
-            "start": _start_times()}
+            "threads": _threads(quick), "user_force": _user_force(quick)}
 
 
 def format_overhead(r):
@@ -332,12 +263,5 @@ def format_overhead(r):
               f"step ({u['steps']} steps), REBOUND IAS15 with a Python callback "
               f"{us(u['rebound_s_per_step'])} per step ({u['rebound_steps']} steps): "
               f"{u['ratio']:.1f}x; positions agree to {u['max_position_difference']:.1e}"]
-    s = r["start"]
-    lines += ["", f"cold numba cache: import {s['cold_import_s']:.2f} s, import + first step of "
-              f"the default scene {s['cold_first_step_s']:.2f} s; every integrator's kernels "
-              f"{s['cold_all_gravity_kernels_s']:.2f} s (gravity only), "
-              f"{s['cold_all_kernels_s']:.2f} s (with collisions and ships too)",
-              f"warm numba cache: import {s['warm_import_s']:.2f} s, import + first step "
-              f"{s['warm_import_and_first_step_s']:.2f} s; the floor (import numpy and numba, "
-              f"call one cached kernel) {s['floor_numba_first_call_s']:.2f} s"]
+    lines += ["", "start and compile times: spacephys bench compile"]
     return "\n".join(lines)
