@@ -7,7 +7,8 @@ stays cheap for a game.
 import importlib
 
 from ._jit import get_threads, set_threads
-from .entities import GUIDANCE, ExplosionSpec, MissileSpec, ShipSpec
+from . import entities
+from .entities import *  # noqa: F401,F403 (entities.__all__: the specs)
 from .errors import InstabilityError, PrecisionWarning
 from .events import EVENT_DTYPE, EVENT_KINDS
 from .geometry import polygon_center_of_mass
@@ -35,7 +36,7 @@ _LAZY = {
 __all__ = [
     "World", "Body", "InstabilityError", "PrecisionWarning", "DEFAULT_KINDS", "GRAVITY_MODELS", "RESPONSES", "BOUNDARIES",
     "EVENT_DTYPE", "EVENT_KINDS",
-    "ShipSpec", "MissileSpec", "ExplosionSpec", "GUIDANCE",
+    *entities.__all__,
     "INTEGRATORS", "Integrator", "get_integrator", "STEPPERS", "Capabilities", "capabilities",
     "UNITS", "UnitSystem", "get_units",
     "polygon_center_of_mass",

@@ -22,7 +22,8 @@ import numpy as np  # noqa: E402
 from numba import types
 from numba.core.errors import NumbaPerformanceWarning
 from numba.core.registry import CPUDispatcher
-from numba.extending import overload
+from numba.experimental.structref import _Utils
+from numba.extending import intrinsic, overload
 
 # With prange-only parallelism (PRANGE_ONLY) numba's check for "a parallel transformation"
 # misses the prange loops of inlined helpers and warns on kernels that do run threaded (the
@@ -125,13 +126,37 @@ def implements(stub, fn, when, **options):
     re-optimise everything fn calls once more). Kernels that call `stub` are cached as any
     other; fn is compiled into them."""
     opts = _options(**options)
-    del opts["cache"], opts["inline"]
+    inline = opts.pop("inline")
+    del opts["cache"]
 
-    @overload(stub, jit_options=opts, strict=False)
+    @overload(stub, jit_options=opts, strict=False, inline=inline)
     def choose(*args):
         if when(*args):
             return fn
     return choose
+
+
+@intrinsic
+def read(typingctx, table, arrays):
+    """arrays(table.f for f in arrays' fields): the fields of the structref `table` that the
+    namedtuple class `arrays` names, read at once (a kernel's tables hoisted before its step
+    loop: the fields listed once, in the namedtuple)."""
+    cls = arrays.instance_class
+    fields = table.field_dict
+    tys = [fields[name] for name in cls._fields]
+    out = types.NamedTuple(tys, cls)
+    sig = out(table, arrays)
+
+    def codegen(context, builder, sig, args):
+        data = _Utils(context, builder, sig.args[0]).get_data_struct(args[0])
+        values = []
+        for name, ty in zip(cls._fields, tys):
+            value = getattr(data, name)
+            if context.enable_nrt:
+                context.nrt.incref(builder, ty, value)     # a new reference, as getattr's
+            values.append(value)
+        return context.make_tuple(builder, out, values)
+    return sig, codegen
 
 
 def field_type(t, name):

@@ -5,10 +5,10 @@ name) and kernels/responses.py (what it does at contact)."""
 import numpy as np
 
 from . import _validate as check
-from .kernels import broadphase, rules as krules
+from .kernels import rules as krules
 from .kernels.arrays import largest
-from .kernels.codes import (BOUNDARIES, BREAK_A, BREAK_B, BOUNCE, IGNORE, MIRRORED, OPEN,
-                            PLANE, RESPONSES, SEGMENT)
+from .kernels.codes import (BOUNCE, BOUNDARIES, BREAK_A, BREAK_B, FOLLOWS, IGNORE, IN_GRID,
+                            MIRRORED, OPEN, OUT_OF_GRID, PLANE, RESPONSES, SEGMENT)
 
 
 def _restitution(value):
@@ -215,17 +215,19 @@ class CollisionRules:
         follows = self._followers(counts * needs)
         # how the grid enters each body, by its kind (one gather: this runs after every step
         # that destroys something)
-        entered = np.where(needs, np.where(follows, broadphase.FOLLOWS, 1), 0).astype(np.int8)
-        gridded = entered[kind]
-        gridded[giants] = 0
-        return krules.make(kind, radius, category, mask, fixed, self.response,
-                            self.restitution, self.walls, self.boundary, self.box,
-                            self.box_restitution, cell, dim, owner, giants, gridded, index,
-                            self.touch, self.ntouch, scratch)
+        entered = np.where(needs, np.where(follows, FOLLOWS, IN_GRID), OUT_OF_GRID)
+        gridded = entered.astype(np.int8)[kind]
+        gridded[giants] = OUT_OF_GRID
+        return krules.make(scratch, kind=kind, radius=radius, category=category, mask=mask,
+                           fixed=fixed, response=self.response, restitution=self.restitution,
+                           walls=self.walls, boundary=self.boundary, box=self.box,
+                           box_restitution=self.box_restitution, cell=cell, dim=dim,
+                           owner=owner, giants=giants, gridded=gridded, index=index,
+                           touch=self.touch, ntouch=self.ntouch)
 
     def _followers(self, counts):
         """(K,) bool: the kinds whose bodies the grid enters only in cells that hold a body of
-        another kind (broadphase.FOLLOWS). They meet none of their own or of each other (so
+        another kind (codes.FOLLOWS). They meet none of their own or of each other (so
         a cell of followers alone holds no pair; those that meet a giant look the giants
         up, as the bodies outside the grid do), and are worth it: at least twice as many as
         the others (the 5e4 debris among 2e3 ships and missiles of a fleet battle: a look-up

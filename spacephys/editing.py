@@ -108,8 +108,8 @@ def add_bodies(w, mass, pos, vel, radius, kind, active, fixed, category, mask, l
     return ids
 
 
-def index_of(w, ids, field):
-    """World.index_of: an int row for an id, (k,) int64 rows for an array of ids."""
+def index_of(w, ids, field="id"):
+    """Rows of live bodies in the views: int for an id, (k,) int64 for an array of ids."""
     if type(ids) is int:                          # the common case, without numpy
         row = w._b.row(ids)
         if row < 0:

@@ -8,6 +8,9 @@ import numpy as np
 from . import _validate as check
 from .kernels.codes import GUIDANCE
 
+# what `import spacephys` re-exports: a new spec is public once it is listed here
+__all__ = ["ShipSpec", "MissileSpec", "ExplosionSpec", "GUIDANCE"]
+
 G0_SI = 9.80665           # standard gravity [m/s^2]: exhaust speed = isp * G0 (SI units only)
 
 

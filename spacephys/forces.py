@@ -168,7 +168,7 @@ class ForceField:
         held : (n, 6) or None; threads : (1,) int64 shared with World's ThreadChoice, or None
         (the scene's force loops never run on threads)."""
         tape = self.tape.table_for(src, ids[src]) if self.tape is not None else None
-        return kforces.make(mass, ids, gravity_=self.model(src.size), src=src,
+        return kforces.make(mass, ids, gravity=self.model(src.size), src=src,
                             passive=passive, still=still, held=held,
                             user=self.typed_user(mass.shape[0]),
                             drag=self.drag if self.drag[0] > 0.0 else None, tape=tape,
@@ -193,7 +193,7 @@ class ForceField:
     def gravity_table(self, mass, ids, src, passive, exact):
         """A Forces table of gravity alone (no drag, held or user forces, nobody held still);
         exact: the tree's sum made directly."""
-        return kforces.make(mass, ids, gravity_=self.model(src.size, exact), src=src,
+        return kforces.make(mass, ids, gravity=self.model(src.size, exact), src=src,
                             passive=passive, still=np.zeros(0, np.int64))
 
     def work(self, n, pulling):

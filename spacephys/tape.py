@@ -33,7 +33,7 @@ class Tape:
         self.at[ktape.PER_STEP] = per_step
         self.tape = np.zeros((0, 4, src.size))
         self.ends = np.zeros((0, src.size, 14))
-        self.table = ktape.make(self.tape, self.ends, self.at)     # the kernels' Tape
+        self.table = ktape.TapeArrays(self.tape, self.ends, self.at)   # the kernels' tape
         self.origin = None          # (time, dt) of the tape's step 0
         self.start = None           # (ns, 7): the pulling bodies then (pos, vel, mass)
         self.moved = None           # what else sets how they move (_moved)
@@ -46,7 +46,7 @@ class Tape:
         w.driver.attach_tape(self)
 
     def table_for(self, src, src_ids):
-        """The kernels' Tape for a Forces table just built for the copy (its pulling rows src,
+        """The kernels' tape for a Forces table just built for the copy (its pulling rows src,
         their ids), if the same bodies pull in the same order; else None, and the tape
         stops (the copy's own run removed a pulling body)."""
         if np.array_equal(src_ids, self.src_ids):
@@ -105,7 +105,7 @@ class Tape:
             self.origin = (t0 + k * dt, dt)
             at[ktape.VALID] = valid - k
             k = 0
-        if not self._room(k + nsteps):
+        if not self._room(w, k + nsteps):
             return
         at[ktape.STEP] = k
         at[ktape.ON] = 1
@@ -126,10 +126,10 @@ class Tape:
         then = self.start if k == 0 else self.ends[k - 1, :, 7:]   # after its collisions
         return k if np.array_equal(self._state(w), then) else None
 
-    def _room(self, steps):
+    def _room(self, w, steps):
         """Room for `steps` steps, grown within MAX_BYTES to twice that (a HUD's World moves
-        on a few steps a call: the tape's start is dropped only when the room runs out);
-        False when past it."""
+        on a few steps a call: the tape's start is dropped only when the room runs out), the
+        copy w's tables built anew with the grown arrays; False when past it."""
         if steps <= self.ends.shape[0]:
             return True
         per_step = (self.per_step * 4 + 14) * self.src_ids.size * 8
@@ -143,7 +143,8 @@ class Tape:
         tape[:valid * self.per_step] = self.tape[:valid * self.per_step]
         ends[:valid] = self.ends[:valid]
         self.tape, self.ends = tape, ends
-        ktape.set_arrays(self.table, tape, ends)
+        self.table = ktape.TapeArrays(tape, ends, self.at)
+        w.driver.attach_tape(self)
         return True
 
     def covers(self, nsteps):
@@ -163,7 +164,7 @@ class Tape:
         other = Tape.__new__(Tape)
         other.__dict__.update(self.__dict__)
         other.at = self.at.copy()
-        other.table = ktape.make(other.tape, other.ends, other.at)
+        other.table = ktape.TapeArrays(other.tape, other.ends, other.at)
         other.parent = self
         other._bind(w, src)
         return other

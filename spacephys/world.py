@@ -557,9 +557,7 @@ class World:
         return editing.add_bodies(self, mass, pos, vel, radius, kind, active, fixed, category,
                                   mask, lifetime)
 
-    def index_of(self, ids, field="id"):
-        """Rows of live bodies in the views: int for an id, (k,) int64 for an array of ids."""
-        return editing.index_of(self, ids, field)
+    index_of = editing.index_of        # itself, not a call to it: a game's every-frame call
 
     def __contains__(self, body_id):
         return editing.contains(self, body_id)
@@ -948,9 +946,10 @@ class World:
         scratch = self._scratch_rows(n)
         alive = scratch["alive"]
         alive[:] = True
-        state = kstate.make(b.pos[:n], b.vel[:n], b.prev[:n], b.mass[:n], b.ids[:n], alive,
-                            scratch["acc"], scratch["pos0"], scratch["vel0"], self._events,
-                            self._event_count, self._dim)
+        state = kstate.make(pos=b.pos[:n], vel=b.vel[:n], prev=b.prev[:n], mass=b.mass[:n],
+                            ids=b.ids[:n], alive=alive, acc=scratch["acc"],
+                            pos0=scratch["pos0"], vel0=scratch["vel0"], events=self._events,
+                            count=self._event_count, dim=self._dim)
         work = self._forces.work(n, sources[0].size)
         threads = self._threads.min_pairs if self._threads.mode != "never" and \
             self._forces.threaded(work) else None

@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 import spacephys as sp
 from spacephys.kernels import broadphase
+from spacephys.kernels import codes
 from spacephys.kernels import rules as krules
 
 # ----------------------------------------------------------------------------- helpers
@@ -161,8 +162,8 @@ def test_a_giant_over_more_cells_than_a_look_up_takes_tests_the_grids_bodies(dim
 
 
 def _followers(rules):
-    """How many bodies the grid enters only where the others are (broadphase.FOLLOWS)."""
-    return int(np.sum(krules.gridded_of(rules) == broadphase.FOLLOWS))
+    """How many bodies the grid enters only where the others are (codes.FOLLOWS)."""
+    return int(np.sum(krules.gridded_of(rules) == codes.FOLLOWS))
 
 
 @settings(deadline=None, max_examples=40)

@@ -38,7 +38,7 @@ def _run(pos, mass, pulls, model, G=1.7, eps2=0.0, field=np.zeros(3), field_mass
     n = len(mass)
     out = np.full((n, 3), np.nan)
     table = _model(model, src.size, G, eps2, field, field_mass)
-    f = forces.make(mass, np.arange(n, dtype=np.int64), gravity_=table, src=src,
+    f = forces.make(mass, np.arange(n, dtype=np.int64), gravity=table, src=src,
                     passive=passive, still=still, threads=threads)
     forces.accelerations_of(f, 0.0, pos, np.zeros_like(pos), out, np.arange(n, dtype=np.int64),
                             False)
@@ -107,7 +107,7 @@ def test_every_code_path_of_the_forces_gives_the_same_bits(rng):
     everyone = np.arange(n, dtype=np.int64)
     results = []
     for threads in (np.array([1], np.int64), np.array([2**62], np.int64), None):
-        f = forces.make(mass, everyone, gravity_=_model("direct", src.size, G=1.3, eps2=1e-4),
+        f = forces.make(mass, everyone, gravity=_model("direct", src.size, G=1.3, eps2=1e-4),
                         src=src, passive=np.flatnonzero(~pulls), still=np.zeros(0, np.int64),
                         threads=threads)
         out = np.full((n, 3), np.nan)

@@ -17,7 +17,7 @@ import numpy as np
 
 from .._jit import kernel
 from .arrays import grown_pairs, sort_in_place, stable_order
-from .codes import IGNORE
+from .codes import FOLLOWS, IGNORE, IN_GRID
 from .rules import allowed, periods, wrap
 
 _SPARSE = 0.5        # a sparse scene's coarse cell: this times the span's length per body
@@ -25,9 +25,6 @@ _SPARSE = 0.5        # a sparse scene's coarse cell: this times the span's lengt
 # passed over without reading either body (debris among debris, in heaps after explosions)
 _KIND_BITS = 16
 _KIND_MASK = (1 << _KIND_BITS) - 1
-# gridded's mark of a body whose kind meets no kind so marked (debris that hit ships and
-# planets but not each other): only a cell that also holds an unmarked body can make its pairs
-FOLLOWS = 2
 
 
 @kernel
@@ -257,14 +254,14 @@ def _lead_cells(lo, hi, alive, gridded, origin, cell, ncell):
 
 @kernel
 def _entered(alive, gridded):
-    """The rows of the live bodies entered in every cell their box covers (gridded 1)."""
+    """The rows of the live bodies entered in every cell their box covers (IN_GRID)."""
     count = 0
     for i in range(alive.size):
-        count += 1 if alive[i] and gridded[i] == 1 else 0
+        count += 1 if alive[i] and gridded[i] == IN_GRID else 0
     rows = np.empty(count, np.int64)
     k = 0
     for i in range(alive.size):
-        if alive[i] and gridded[i] == 1:
+        if alive[i] and gridded[i] == IN_GRID:
             rows[k] = i
             k += 1
     return rows
@@ -537,7 +534,7 @@ def grid_pairs(A, B, tb, alive, rules, lo, hi):
                     rules.response[kind[giants[q]], k] != IGNORE
     loose = np.zeros(n, np.bool_)                      # live bodies outside the grid or
     for j in range(n):                                 # following in it, that may meet a
-        loose[j] = alive[j] and gridded[j] != 1 and reach[kind[j]]     # giant...
+        loose[j] = alive[j] and gridded[j] != IN_GRID and reach[kind[j]]     # giant...
     for q in range(giants.size):                       # ...and are no giants
         loose[giants[q]] = False
     if giants.size == 0 or not loose.any():
@@ -807,7 +804,7 @@ def _focused(alive, rules, lo, hi, focus, in_focus, stale, changed, grid, is_gia
             continue
         if gridded[i]:
             count = _grid_meets(i, grid, nothing, lo, hi, L, alive, stale, near, work,
-                                gridded[i] == 1)
+                                gridded[i] == IN_GRID)
             if count < 0:
                 return -1
             for p in range(count):

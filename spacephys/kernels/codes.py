@@ -52,6 +52,16 @@ BURN_DIRECTIONS = {"vector": BURN_VECTOR, "prograde": BURN_PROGRADE,
                    "antinormal": BURN_ANTINORMAL, "radial_in": BURN_RADIAL_IN,
                    "radial_out": BURN_RADIAL_OUT}
 
+# what a contact, and the collision pass of a step, did (kernels/responses.py, collide.py):
+# nothing; changed velocities only; removed or merged bodies away. Ordered: a pass reports
+# the most any of its contacts did
+UNTOUCHED, DEFLECTED, BODIES_GONE = 0, 1, 2
+
+# how the broad phase's grid takes a body (kernels/broadphase.py, spacephys/collisions.py):
+# left out (a giant, or of a kind that meets giants only), entered in every cell its box
+# covers, or entered only in the cells an IN_GRID body covers (it meets none of its own)
+OUT_OF_GRID, IN_GRID, FOLLOWS = 0, 1, 2
+
 # what a step kernel's call reports, as bits of its status
 REMOVED = 1        # bodies were destroyed or merged: the call stopped so World can catch up
 NONFINITE = 2      # a position or velocity is NaN or infinite after the call

@@ -19,7 +19,7 @@ import numpy as np
 from .._jit import kernel
 from .arrays import contact_order, sort_in_place
 from .broadphase import focused_pairs, grid_pairs
-from .codes import MERGE, PLANE, REFLECT, SENSOR
+from .codes import MERGE, PLANE, REFLECT, SENSOR, UNTOUCHED
 from .impact import pair_contacts, wall_time
 from .responses import met, respond, respond_wall, survivor
 from .rules import allowed, periods, wrap
@@ -39,7 +39,8 @@ def collide_step(state, rules, dt, t0):
     updated by merges (bodies destroyed or merged away get mass 0 and are marked dead in
     state.alive); events are appended to its buffer. rules : Rules; dt : the step [time];
     t0 : the simulation time at its start.
-    Returns 2 if a body was removed or merged, 1 if only velocities changed, 0 if nothing.
+    Returns BODIES_GONE if a body was removed or merged, DEFLECTED if only velocities
+    changed, UNTOUCHED if nothing (kernels/codes.py).
     """
     pos0, vel0, pos, vel, mass = state.pos0, state.vel0, state.pos, state.vel, state.mass
     radius, kind, alive, ids = rules.radius, rules.kind, state.alive, state.ids
@@ -76,7 +77,7 @@ def collide_step(state, rules, dt, t0):
             row[1 + c] = rules.box[side, c]
             row[4 + c] = 1.0 if side == 0 else -1.0
             row[7] = rules.box_restitution
-    result = 0
+    result = UNTOUCHED
     # merged_into: a body merged away hands its remaining contacts of the step to its
     # survivor, so that everything that touched within the step ends up one body (merges
     # chain transitively)
@@ -181,7 +182,7 @@ def collide_step(state, rules, dt, t0):
                              V0, V1, D, mass, radius, alive, ids, rules, dt, t0, L, state)
                 if resp == MERGE:
                     merged_into[i if not alive[i] else j] = j if not alive[i] else i
-            if r > 0:
+            if r != UNTOUCHED:
                 for body in (i, j):
                     if body >= 0 and not touched[body]:
                         touched[body] = True

@@ -29,7 +29,7 @@ from collections import namedtuple
 import numpy as np
 from numba.experimental import structref
 
-from .._jit import TableType, kernel
+from .._jit import TableType, kernel, read
 from .codes import (BURN_ANTINORMAL, BURN_NORMAL, BURN_PROGRADE, BURN_RADIAL_IN,
                     BURN_RETROGRADE, BURN_VECTOR, EV_BURNOUT, EV_DETONATION, EV_EXPIRY,
                     EV_FUEL_EMPTY, NO_GUIDANCE, PURSUIT)
@@ -105,37 +105,24 @@ ActorArrays = namedtuple("ActorArrays", FIELDS)
 @kernel(inline=True)
 def hoist(act):
     """The Actors table's fields as an ActorArrays tuple."""
-    return ActorArrays(act.actors, act.quat, act.omega, act.throttle, act.turn, act.strafe,
-                       act.dry, act.fuel, act.thrust, act.side, act.exhaust, act.turn_rate,
-                       act.inertia, act.torque, act.curve, act.curve_table, act.guidance,
-                       act.nav, act.target, act.burn_end, act.armed_at, act.fuse, act.kill,
-                       act.flags, act.expires, act.dim, act.plan, act.clock, act.planned,
-                       act.burn, act.saved, act.pending)
-
+    return read(act, ActorArrays)
 
 
 @kernel
-def _make(actors, quat, omega, throttle, turn, strafe, dry, fuel, thrust, side, exhaust,
-          turn_rate, inertia, torque, curve, curve_table, guidance, nav, target, burn_end,
-          armed_at, fuse, kill, flags, expires, dim, plan, clock, planned, burn, saved, pending):
-    return Actors(actors, quat, omega, throttle, turn, strafe, dry, fuel, thrust, side,
-                  exhaust, turn_rate, inertia, torque, curve, curve_table, guidance, nav,
-                  target, burn_end, armed_at, fuse, kill, flags, expires, dim, plan, clock,
-                  planned, burn, saved, pending)
+def _make(*fields):
+    return Actors(*fields)
 
 
 def make(columns, actors, target, curve_table, expires, dim, plan, clock, planned):
     """An Actors table: columns maps the per-body FIELDS (quat ... flags but target) to (n, ...)
     arrays, shared, not copied; actors (A,) rows, target (n,) rows, expires (n,) or (0,);
     plan (P, 11), the clock (2,) (shared) and planned (A, 2): the planned burns."""
-    c = columns
-    return _make(actors, c["quat"], c["omega"], c["throttle"], c["turn"], c["strafe"],
-                 c["dry"], c["fuel"], c["thrust"], c["side"], c["exhaust"], c["turn_rate"],
-                 c["inertia"], c["torque"], c["curve"], curve_table, c["guidance"], c["nav"],
-                 target, c["burn_end"], c["armed_at"], c["fuse"], c["kill"], c["flags"],
-                 expires, int(dim), plan, clock, planned, np.zeros((actors.size, 10)),
-                 np.zeros((actors.size, 7)),
-                 np.empty((3 * actors.size + expires.shape[0], PENDING)))   # written before read
+    fields = dict(columns, actors=actors, target=target, curve_table=curve_table,
+                  expires=expires, dim=int(dim), plan=plan, clock=clock, planned=planned,
+                  burn=np.zeros((actors.size, 10)), saved=np.zeros((actors.size, 7)),
+                  # written before read
+                  pending=np.empty((3 * actors.size + expires.shape[0], PENDING)))
+    return _make(*(fields[name] for name in FIELDS))
 
 
 # ---------------------------------------------------------------- rotations
@@ -374,7 +361,7 @@ def begin_step(ht, t0, dt, L):
     undo_turns), turn every live actor over the step and set its burn in burn (see the
     module). ht : step.hoist's tuple; L : 3-tuple, the periods of a wrapping boundary (zeros:
     none)."""
-    state, owner, act = ht[0], ht[1], ht[2]
+    state, owner, act = ht.state, ht.owner, ht.actors
     actors = act.actors
     alive = state.alive
     pos, vel, mass, burn = state.pos, state.vel, state.mass, act.burn
@@ -558,7 +545,7 @@ def _fly_plan(act, q, i, state, t0, dt):
 def end_burn(ht, t0, dt):
     """Book the fuel the step burned; report fuel running out and burn times ending (into
     the pending rows: returns how many, for flush); count the step on the clock."""
-    state, act = ht[0], ht[2]
+    state, act = ht.state, ht.actors
     pending = act.pending
     act.clock[1] += 1.0
     actors = act.actors
@@ -613,7 +600,7 @@ def _pend(pending, m, kind, i, j, t_in_step, px, py, pz, nx, ny, nz, speed, dist
 def flush(state, ht, m, t0):
     """Record the first m pending rows (the Actors table's) as events of the step from t0, in
     order."""
-    pending = ht[2].pending
+    pending = ht.actors.pending
     ids = state.ids
     point = np.empty(3)
     normal = np.empty(3)
@@ -632,7 +619,7 @@ def after_step(ht, t0, dt, L):
     """Proximity fuses (the closest approach along both bodies' straight lines over the step)
     and lifetimes, their events into the pending rows. Returns (a body died (World must
     remove it, and may spawn its explosion), pending rows written)."""
-    state, act = ht[0], ht[2]
+    state, act = ht.state, ht.actors
     pending = act.pending
     alive = state.alive
     pos0, pos = state.pos0, state.pos

@@ -25,9 +25,8 @@ import numpy as np
 from numba import typed, types
 from numba.experimental import structref
 
-from .._jit import TableType, field_type, implements, kernel
+from .._jit import TableType, field_type, implements, kernel, read
 from . import gravity
-from . import tape as ktape
 
 # the signature of a user force: (t [time], pos (n, 3), vel (n, 3), mass (n,), ids (n,) int64,
 # params (p,) float64, out (n, 3) accelerations to add to) -> None
@@ -61,35 +60,35 @@ FIELDS = (
     "held",        # (n, 6) [force (3,) [mass length/time^2], acceleration (3,)], or None
     "user",        # UserForces, or None
     "drag",        # (4,) [k [1/time], wind (3,) [length/time]], shared with World; or None
-    "tape",        # a prediction's tape (kernels/tape.Tape), or None
+    "tape",        # a prediction's tape (kernels/tape.TapeArrays), or None
     "threads",     # (1,) int64: the fewest pair evaluations a force loop runs on threads
                    # (World's ThreadChoice sets it between calls), or None: never (no
                    # threaded loop compiled)
 )
 structref.define_proxy(Forces, ForcesType, list(FIELDS))
 
-# the table's fields read once before a step loop (hoist), the tape's arrays in place of the
-# tape: a read of a structref's array field costs two atomic reference-count updates, and so
-# does every array handed to a helper compiled with reference counts. The step loops hand
-# this tuple to helpers compiled without them (_jit lean): 10 ns the pair here, 43% of a
-# ship's prediction among 10 planets.
+# the table's fields read once before a step loop (hoist): a read of a structref's array
+# field costs two atomic reference-count updates, and so does every array handed to a helper
+# compiled with reference counts. The step loops hand this tuple to helpers compiled without
+# them (_jit lean): 10 ns the pair here, 43% of a ship's prediction among 10 planets.
 ForceArrays = namedtuple("ForceArrays", FIELDS)
 
 
 @kernel
-def _make(gravity_, mass, ids, src, passive, still, everyone, held, user, drag, tape, threads):
-    return Forces(gravity_, mass, ids, src, passive, still, everyone, held, user, drag, tape,
-                  threads)
+def _make(*fields):
+    return Forces(*fields)
 
 
-def make(mass, ids, *, gravity_, src, passive, still, held=None, user=None, drag=None,
+def make(mass, ids, *, gravity, src, passive, still, held=None, user=None, drag=None,
          tape=None, threads=None):
     """A Forces table for the bodies mass, ids (n,); arrays are shared, not copied (a change
-    to drag or to a held force between steps needs no new table). gravity_ : a model table
+    to drag or to a held force between steps needs no new table). gravity : a model table
     of kernels/gravity.py or None; held (n, 6), user (UserForces), drag (4,), tape
-    (kernels/tape.Tape), threads (1,) int64: each None when the scene has none."""
-    return _make(gravity_, mass, ids, src, passive, still,
-                 np.arange(mass.shape[0], dtype=np.int64), held, user, drag, tape, threads)
+    (kernels/tape.TapeArrays), threads (1,) int64: each None when the scene has none."""
+    fields = dict(gravity=gravity, mass=mass, ids=ids, src=src, passive=passive, still=still,
+                  everyone=np.arange(mass.shape[0], dtype=np.int64), held=held, user=user,
+                  drag=drag, tape=tape, threads=threads)
+    return _make(*(fields[name] for name in FIELDS))
 
 
 def no_user_forces():
@@ -99,10 +98,8 @@ def no_user_forces():
 
 @kernel
 def hoist(f):
-    """The table's fields as a ForceArrays tuple (the tape's arrays for the tape), read once
-    before a step loop."""
-    return ForceArrays(f.gravity, f.mass, f.ids, f.src, f.passive, f.still, f.everyone,
-                       f.held, f.user, f.drag, ktape.arrays(f.tape), f.threads)
+    """The table's fields as a ForceArrays tuple, read once before a step loop."""
+    return read(f, ForceArrays)
 
 
 # ----------------------------------------------------------------------------- the contract

@@ -472,7 +472,7 @@ def _scratch(method, state, fx, actors):
             zeroed(np.empty(n, np.bool_)), rider, movers, burn)
 
 
-def _interval(method, carry, sa, aa, fx, t_start, dt_out, k, kicked, played):
+def _interval(method, carry, sa, burns, fx, t_start, dt_out, k, kicked, played):
     """One output interval of dt_out from t_start, landing exactly on its end, in adaptive
     steps. The collision pass runs at the end of each interval (so dt_out caps the collision
     step); controls are held over it, thrust is sampled at the nodes, and steps end where a

@@ -26,7 +26,7 @@ def _no_scratch(method, state, fx, actors):
     return None
 
 
-def _split(method, carry, sa, aa, fx, t, dt, k, kicked, played):
+def _split(method, carry, sa, burns, fx, t, dt, k, kicked, played):
     """One step of the drift/kick sequence. With drag each kick also relaxes the velocities
     toward the wind, exactly (forces.kick), so the splitting keeps its order. A step played
     from a prediction's tape (played) drifts only the rows it kicks: the tape puts the
@@ -49,8 +49,8 @@ def _split(method, carry, sa, aa, fx, t, dt, k, kicked, played):
                     pos[i, 0] += h * vel[i, 0]
                     pos[i, 1] += h * vel[i, 1]
                     pos[i, 2] += h * vel[i, 2]
-            if aa is not None:
-                drift_thrust(aa.actors, aa.burn, pos, vel, tau, tau + h)
+            if burns is not None:
+                drift_thrust(burns[0], burns[1], pos, vel, tau, tau + h)
             tau += h
         h = kicks[s] * dt
         if h != 0.0:
@@ -71,7 +71,7 @@ def _stages(method, state, fx, actors):
     return np.empty((S, n, 3)), zeroed(np.empty((S, n, 3)))
 
 
-def _rk(method, carry, sa, aa, fx, t, dt, k, kicked, played):
+def _rk(method, carry, sa, burns, fx, t, dt, k, kicked, played):
     """One step of the tableau: stage s evaluates x_s = x + dt sum_j a[s, j] v_j,
     v_s = v + dt sum_j a[s, j] a_j, a_s = a(x_s, v_s), drag included."""
     a, b = method
@@ -95,8 +95,8 @@ def _rk(method, carry, sa, aa, fx, t, dt, k, kicked, played):
         for j in range(s):
             c_s += a[s, j]
         accelerations(fx, t + c_s * dt, x, kx[s], kv[s], kicked, True)
-        if aa is not None:
-            add_thrust(aa.actors, aa.burn, kv[s], c_s * dt, no_mask, -1)
+        if burns is not None:
+            add_thrust(burns[0], burns[1], kv[s], c_s * dt, no_mask, -1)
     for i in range(n):
         for c in range(3):
             dx = 0.0
@@ -106,8 +106,8 @@ def _rk(method, carry, sa, aa, fx, t, dt, k, kicked, played):
                 dv += b[s] * kv[s, i, c]
             pos[i, c] += dt * dx
             vel[i, c] += dt * dv
-    if aa is not None:
-        rk_thrust_fix(aa.actors, aa.burn, vel, a, b, dt)
+    if burns is not None:
+        rk_thrust_fix(burns[0], burns[1], vel, a, b, dt)
     return True
 
 

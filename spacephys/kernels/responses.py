@@ -10,8 +10,9 @@ import math
 import numpy as np
 
 from .._jit import kernel
-from .codes import (BOUNCE, BREAK_A, DESTROY_A, DESTROY_B, DESTROY_BOTH, ELASTIC, EV_BOUNCE,
-                    EV_DESTROY, EV_MERGE, EV_WALL, MERGE, REFLECTING, SENSOR)
+from .codes import (BODIES_GONE, BOUNCE, BREAK_A, DEFLECTED, DESTROY_A, DESTROY_B,
+                    DESTROY_BOTH, ELASTIC, EV_BOUNCE, EV_DESTROY, EV_MERGE, EV_WALL, MERGE,
+                    REFLECTING, SENSOR, UNTOUCHED)
 from .rules import wrap
 from .state import record
 
@@ -46,9 +47,10 @@ def _velocity_at(V0, V1, D, k, t, out):
 @kernel
 def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rules, dt, t0,
              L, state):
-    """Apply response resp to the contact of i and j at time t of the step. Returns 0 when
-    nothing changed a trajectory, 1 when velocities changed, 2 when a body was removed or
-    merged (the caller must refresh what depends on the set of bodies)."""
+    """Apply response resp to the contact of i and j at time t of the step. Returns
+    UNTOUCHED when nothing changed a trajectory, DEFLECTED when velocities changed,
+    BODIES_GONE when a body was removed or merged (the caller must refresh what depends on
+    the set of bodies)."""
     pi = np.empty(3)
     pj = np.empty(3)
     n = np.empty(3)
@@ -83,10 +85,10 @@ def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rul
     when = t0 + t * dt
     if resp == SENSOR:
         meet(rules, i, j, t)            # its begin and end are found at the step's end
-        return 0
+        return UNTOUCHED
     if resp in REFLECTING:
         if closing >= 0.0:
-            return 0
+            return UNTOUCHED
         fi, fj = _fractions(mass[i], mass[j], fixed_i, fixed_j)
         if resp == ELASTIC:
             e = 1.0
@@ -118,7 +120,7 @@ def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rul
         record(state, EV_BOUNCE, ids[i], ids[j], when, t * dt, point, n, -closing, lost, dist)
         if resp == ELASTIC or resp == BOUNCE:
             meet(rules, i, j, t)        # a contact may begin
-            return 1
+            return DEFLECTED
         # a break: the bounce happened (the other body keeps its rebound), then the broken
         # one is destroyed where it stood (the seed's brick)
         k = i if resp == BREAK_A else j
@@ -131,7 +133,7 @@ def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rul
         tb[k] = t                        # when it went (its pairs in touch end then)
         record(state, EV_DESTROY, ids[k], ids[j if k == i else i], when, t * dt, point,
                 n, -closing, 0.0, dist)
-        return 2
+        return BODIES_GONE
     if resp == MERGE:
         # the heavier (or the immovable) one survives, with the pair's mass and momentum
         s, o = i, j
@@ -172,7 +174,7 @@ def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rul
             A[o, c] = po[c]
         record(state, EV_MERGE, ids[s], ids[o], when, t * dt, point, n, -closing, lost,
                 dist)
-        return 2
+        return BODIES_GONE
     # destroy one or both: frozen where they met, no mass, out of the game
     lost = 0.0
     for which in range(2):
@@ -191,7 +193,7 @@ def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rul
             tb[k] = t
             record(state, EV_DESTROY, ids[k], ids[other], when, t * dt, point, n,
                     -closing, lost, dist)
-    return 2
+    return BODIES_GONE
 
 
 @kernel
@@ -203,7 +205,7 @@ def respond_wall(i, t, n0, n1, n2, e, A, B, tb, V0, V1, D, mass, radius, ids, ru
     _velocity_at(V0, V1, D, i, t, u)
     un = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]
     if un >= 0.0 or rules.fixed[i]:
-        return 0
+        return UNTOUCHED
     p = np.empty(3)
     for c in range(3):
         p[c] = A[i, c] + B[i, c] * t
@@ -221,7 +223,7 @@ def respond_wall(i, t, n0, n1, n2, e, A, B, tb, V0, V1, D, mass, radius, ids, ru
     lost = 0.5 * (1.0 - e * e) * mass[i] * un * un
     record(state, EV_WALL, ids[i], -1, t0 + t * dt, t * dt, point, normal, -un, lost,
             radius[i])
-    return 1
+    return DEFLECTED
 
 
 @kernel(lean=True)

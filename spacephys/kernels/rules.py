@@ -36,9 +36,8 @@ FIELDS = (
     "dim",           # 2 or 3: merged radii keep area (2D) or volume (3D)
     "owner",         # (n,) int64: the launcher of a missile not yet armed (ignored by it), -1
     "giants",        # (G,) int64 rows of bodies far larger than the cell: tested against all
-    "gridded",       # (n,) int8: 0 a body left out of the grid (a giant, or of a kind that
-                     # meets giants only), 1 entered in every cell its box covers, FOLLOWS
-                     # entered only in the cells a body entered with 1 covers (see _entries)
+    "gridded",       # (n,) int8: how the broad phase's grid takes each body (codes.py:
+                     # OUT_OF_GRID, IN_GRID, FOLLOWS)
     "index",         # (slots,) int64: the World's slot -> row table (ids to rows)
     "touch",         # (cap, 3) int64: the pairs overlapping (sensors) or touching (contacts)
                      # at the end of the last step: ids a < b, 1 for a sensor pair, 0 a contact
@@ -65,26 +64,20 @@ def owners_of(rules):
 
 
 @kernel
-def _make(kind, radius, category, mask, fixed, response, restitution, walls, boundary, box,
-          box_restitution, cell, dim, owner, giants, gridded, index, touch, ntouch, A, B, D,
-          lo, hi, tb, ever, touched, in_focus, is_giant, merged, stale, grid):
-    return Rules(kind, radius, category, mask, fixed, response, restitution, walls, boundary,
-                 box, box_restitution, cell, dim, owner, giants, gridded, index, touch, ntouch,
-                 np.empty((16, 2), np.int64), np.empty(16), np.zeros(1, np.int64), A, B, D,
-                 lo, hi, tb, ever, touched, in_focus, is_giant, merged, stale, grid)
+def _make(*fields):
+    return Rules(*fields)
 
 
-def make(kind, radius, category, mask, fixed, response, restitution, walls, boundary, box,
-         box_restitution, cell, dim, owner, giants, gridded, index, touch, ntouch, scratch):
-    """A Rules table (arrays shared, not copied); index : the World's slot -> row table;
-    touch, ntouch : the pairs in touch (FIELDS), the World's; scratch : dict of the per-body
-    scratch arrays named in FIELDS, n rows each."""
-    return _make(kind, radius, category, mask, fixed, response, restitution, walls,
-                 int(boundary), box, float(box_restitution), float(cell), int(dim), owner,
-                 giants, gridded, index, touch, ntouch,
-                 *(scratch[k] for k in ("A", "B", "D", "lo", "hi", "tb", "ever", "touched",
-                                        "in_focus", "is_giant", "merged", "stale",
-                                        "grid")))
+def make(scratch, **fields):
+    """A Rules table from the fields named in FIELDS (arrays shared, not copied): index, the
+    World's slot -> row table; touch and ntouch, the pairs in touch, the World's; scratch : the
+    per-body scratch arrays named in SCRATCH, n rows each. This step's meetings start empty."""
+    fields = {**scratch, **fields, "boundary": int(fields["boundary"]),
+              "box_restitution": float(fields["box_restitution"]),
+              "cell": float(fields["cell"]), "dim": int(fields["dim"]),
+              "found": np.empty((16, 2), np.int64), "found_t": np.empty(16),
+              "nfound": np.zeros(1, np.int64)}
+    return _make(*(fields[name] for name in FIELDS))
 
 
 @kernel
@@ -101,7 +94,8 @@ def giants_of(rules):
 
 @kernel
 def gridded_of(rules):
-    """How the grid enters each row (0, 1, FOLLOWS: see FIELDS), for tests and tools."""
+    """How the grid takes each row (codes.OUT_OF_GRID, IN_GRID, FOLLOWS), for tests and
+    tools."""
     return rules.gridded
 
 

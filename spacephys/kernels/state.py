@@ -11,7 +11,7 @@ from collections import namedtuple
 import numpy as np
 from numba.experimental import structref
 
-from .._jit import TableType, kernel
+from .._jit import TableType, kernel, read
 
 
 @structref.register
@@ -47,18 +47,18 @@ StateArrays = namedtuple("StateArrays", ("pos", "vel", "prev", "mass", "alive", 
 @kernel(inline=True)
 def hoist(state):
     """The State's arrays as a StateArrays tuple."""
-    return StateArrays(state.pos, state.vel, state.prev, state.mass, state.alive, state.pos0,
-                       state.vel0, state.acc)
+    return read(state, StateArrays)
 
 
 @kernel
-def _make(pos, vel, prev, mass, ids, alive, acc, pos0, vel0, events, count, dim):
-    return State(pos, vel, prev, mass, ids, alive, acc, pos0, vel0, events, count, dim)
+def _make(*fields):
+    return State(*fields)
 
 
-def make(pos, vel, prev, mass, ids, alive, acc, pos0, vel0, events, count, dim):
-    """A State over the given arrays (shared, not copied)."""
-    return _make(pos, vel, prev, mass, ids, alive, acc, pos0, vel0, events, count, int(dim))
+def make(**fields):
+    """A State over the arrays named as in FIELDS (shared, not copied)."""
+    fields["dim"] = int(fields["dim"])
+    return _make(*(fields[name] for name in FIELDS))
 
 
 @kernel

@@ -11,10 +11,11 @@ gauss_radau.GaussRadau, wisdom_holman.WisdomHolman); the family gives only its i
     start(method, state, fx, actors) -> carry    its scratch for the call
     span(method, every, frames, frame, done, n)   steps the next round takes (default 1;
                                                   Wisdom-Holman's runs between syncs)
-    advance(method, carry, sa, aa, fx, t, dt, k, kicked, played) -> ok
+    advance(method, carry, sa, burns, fx, t, dt, k, kicked, played) -> ok
                                                   k steps' integration from t; False: failed
-                                                  (sa, aa: the state's and the actors'
-                                                  arrays, hoist; aa None without actors)
+                                                  (sa: the state's arrays, hoist; burns:
+                                                  the actors' rows and this step's burns,
+                                                  or None without actors)
     finish(method, carry)                         what the family carries to the next call
 
 Around each round run does, for every family:
@@ -42,14 +43,17 @@ compiles nor runs it. `frames` is None, or (frame_at, fpos, fvel, fmass): the st
 this call after which to copy the state into fpos[k], fvel[k] (F, n, 3) and fmass[k] (F, n).
 """
 
+from collections import namedtuple
+
 import numpy as np
+from numba import types
 
 from .._jit import implements, is_table, kernel
 from . import control
 from . import state as kstate
 from . import tape
 from .arrays import copy_into
-from .codes import FAILED, NONFINITE, REMOVED
+from .codes import BODIES_GONE, FAILED, NONFINITE, REMOVED
 from .forces import hoist as hoist_forces, implements_by_users
 from .collide import collide_step
 from .rules import periods as box_periods
@@ -66,30 +70,83 @@ def periods(rules):
     return L[0], L[1], L[2]
 
 
-@kernel
+# what a step kernel reads of its tables once per call (hoist): the state's arrays
+# (state.StateArrays), the collision table's owners (None without actors, empty without
+# collisions: only arming reads them), the actors' arrays (control.ActorArrays; None without
+# actors), whether something reads the state at each step's start (the collisions' swept
+# lines, a proximity fuse)
+Hoisted = namedtuple("Hoisted", ("state", "owner", "actors", "starts"))
+
+
+@kernel(inline=True)
 def hoist(state, rules, actors):
-    """ht = (the state's arrays (state.StateArrays), the collision table's owners (None
-    without actors, empty without collisions: only arming reads them), the actors' arrays (control.ActorArrays; None without actors), whether
-    something reads the state at each step's
-    start (the collisions' swept lines, a proximity fuse)): read once per kernel call. The
-    inlined functions below only hand ht on; reading its arrays here would cost their
-    reference counts."""
-    sa = kstate.hoist(state)
-    starts = rules is not None
-    if actors is None:
-        return sa, None, None, starts
-    owner = np.empty(0, np.int64) if rules is None else rules.owner
-    aa = control.hoist(actors)
+    """The tables' arrays as a Hoisted tuple ht, read once per kernel call. The inlined
+    functions below only hand ht on; reading its arrays here would cost their reference
+    counts."""
+    aa = _actor_arrays(actors)
+    return Hoisted(kstate.hoist(state), _owners(rules, actors), aa,
+                   rules is not None or _fused(aa))
+
+
+# Each of these has one body for None (the scene has no actors) and one for the table: a
+# function with `if x is None: return None` compiled for a table would return an optional
+# (numba unifies the two returns), which every later use unwraps at run time.
+def _actor_arrays(actors):
+    """The actors' arrays (control.ActorArrays), or None without actors."""
+
+
+def _owners(rules, actors):
+    """The collision table's owners, empty without collisions; None without actors."""
+
+
+def _burns(aa):
+    """(the actors' rows, their burns (control.begin_step)), or None without actors: what
+    the families' integration reads of the actors (handed on, a tuple of two arrays costs
+    less than all of the actors' arrays)."""
+
+
+def _none(*args):
+    return None
+
+
+def _when_none(t, *rest):
+    return isinstance(t, types.NoneType)
+
+
+def _when_not_none(t, *rest):
+    return not isinstance(t, types.NoneType)
+
+
+# inlined: a function returning the actors' arrays would count each one's references once more
+implements(_actor_arrays, _none, _when_none)
+implements(_actor_arrays, lambda actors: control.hoist(actors), _when_not_none, inline=True)
+implements(_owners, _none, lambda rules, actors: isinstance(actors, types.NoneType))
+implements(_owners, lambda rules, actors: np.empty(0, np.int64),
+           lambda rules, actors: isinstance(rules, types.NoneType)
+           and not isinstance(actors, types.NoneType), inline=True)
+implements(_owners, lambda rules, actors: rules.owner,
+           lambda rules, actors: not isinstance(rules, types.NoneType)
+           and not isinstance(actors, types.NoneType), inline=True)
+implements(_burns, _none, _when_none)
+implements(_burns, lambda aa: (aa.actors, aa.burn), _when_not_none, inline=True)
+
+
+@kernel(lean=True)
+def _fused(aa):
+    """Whether an actor has a proximity fuse (it reads the step's start state)."""
+    if aa is None:
+        return False
     for q in range(aa.actors.size):
-        starts = starts or aa.fuse[aa.actors[q]] > 0.0
-    return sa, owner, aa, starts
+        if aa.fuse[aa.actors[q]] > 0.0:
+            return True
+    return False
 
 
 @kernel(inline=True)
 def begin(state, rules, actors, ht, t0, dt, keep, last):
     """Before a step's integration (see the module). keep: save the start state even without
     collisions or actors (the family may undo the step); last: the call's last step."""
-    _keep(ht, keep or ht[3], last)            # the start state: for an undo, or ht[3]
+    _keep(ht, keep or ht.starts, last)       # the start state: for an undo, or ht.starts
     if actors is not None:
         begin_step(ht, t0, dt, periods(rules))
 
@@ -97,7 +154,7 @@ def begin(state, rules, actors, ht, t0, dt, keep, last):
 @kernel(lean=True)
 def _keep(ht, keep, last):
     """prev <- pos on the last step; pos0, vel0 <- pos, vel when keep."""
-    sa = ht[0]
+    sa = ht.state
     if last:
         copy_into(sa.prev, sa.pos)
     if keep:
@@ -115,7 +172,7 @@ def end(state, rules, actors, ht, t0, dt):
         if m:
             flush(state, ht, m, t0)
     if rules is not None:
-        removed = collide_step(state, rules, dt, t0) == 2
+        removed = collide_step(state, rules, dt, t0) == BODIES_GONE
     if actors is not None:
         died, m = after_step(ht, t0, dt, periods(rules))
         if m:
@@ -132,7 +189,7 @@ def capture(frames, k, done, ht):
         return k
     frame_at, fpos, fvel, fmass = frames
     if k < frame_at.size and frame_at[k] == done:
-        sa = ht[0]
+        sa = ht.state
         pos, vel, mass = sa.pos, sa.vel, sa.mass
         for i in range(mass.size):
             for c in range(3):
@@ -189,7 +246,7 @@ def span(method, every, frames, frame, done, nsteps):
     """Steps the next round takes (see the module)."""
 
 
-def advance(method, carry, sa, aa, fx, t, dt, k, kicked, played):
+def advance(method, carry, sa, burns, fx, t, dt, k, kicked, played):
     """k steps' integration from time t; False when it failed (see the module)."""
 
 
@@ -226,8 +283,8 @@ def register(table, *, start_, advance_, span_=_one, finish_=_nothing, keep=Fals
         implements_by_users(advance, advance_, mine, 4, **options)
     else:
         implements(advance, advance_, mine, **options)
-    implements(span, span_, mine)
-    implements(finish, finish_, mine)
+    implements(span, span_, mine, lean=True)
+    implements(finish, finish_, mine, lean=True)
     implements(keeps, (lambda method: True) if keep else (lambda method: False), mine)
     implements(undoes_nonfinite, (lambda method: True) if nonfinite_fails else
                (lambda method: False), mine)
@@ -241,7 +298,7 @@ def run(state, forces, rules, actors, frames, method, dt, nsteps, t0):
     (FAILED: the state is that after the steps reported)."""
     fx = hoist_forces(forces)
     ht = hoist(state, rules, actors)
-    sa, aa = ht[0], ht[2]
+    sa, burns = ht.state, _burns(ht.actors)
     carry = start(method, state, fx, actors)
     keep = keeps(method)
     checked = undoes_nonfinite(method)
@@ -263,7 +320,7 @@ def run(state, forces, rules, actors, frames, method, dt, nsteps, t0):
         played = tape.playing(fx.tape)       # a prediction's tape (kernels/tape.py)
         if played != was:           # rebound only when it changes: a rebinding costs refcounts
             kicked, was = (passive if played else everyone), played
-        ok = advance(method, carry, sa, aa, fx, t, dt, k, kicked, played)
+        ok = advance(method, carry, sa, burns, fx, t, dt, k, kicked, played)
         if checked and ok:
             ok = finite(pos, vel)
         if not ok:

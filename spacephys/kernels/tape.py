@@ -11,56 +11,21 @@ are the full run's, bit for bit, at the cost of the passive bodies alone. When t
 leave a pulling body elsewhere than the recording's did (this prediction's bodies hit it, or
 missed it, otherwise) the tape stops for the rest of the call.
 
-`Tape` (a structref, shared by spacephys/tape.py and the copy's force table; its arrays are
-replaced when they grow): `tape` (E, 4, ns), `ends` (T, ns, 14): pos, vel, mass after the
-integration, then after the collisions; `at` (5,) int64: [on, step (index into the tape),
-valid (steps recorded), evaluations per step, evaluation (the next one's index)]. The step
-loops read it once per call (`arrays`: a TapeArrays tuple, or None without a tape) and hand
-that to the hooks, which return at once for None.
+`TapeArrays` (the copy's force table holds it; spacephys/tape.py makes it, and a new one when
+its arrays grow): `tape` (E, 4, ns), `ends` (T, ns, 14): pos, vel, mass after the integration,
+then after the collisions; `at` (5,) int64: [on, step (index into the tape), valid (steps
+recorded), evaluations per step, evaluation (the next one's index)]. The hooks take it, or
+None (no tape), for which they return at once.
 """
 from collections import namedtuple
 
-from numba.experimental import structref
-
-from .._jit import TableType, kernel
+from .._jit import kernel
 
 ON, STEP, VALID, PER_STEP, EVAL = range(5)
 
 
-@structref.register
-class TapeType(TableType):
-    pass
-
-
-class Tape(structref.StructRefProxy):
-    """A prediction's tape (see the module); made by `make`."""
-
-
 FIELDS = ("tape", "ends", "at")
-structref.define_proxy(Tape, TapeType, list(FIELDS))
-
 TapeArrays = namedtuple("TapeArrays", FIELDS)
-
-
-@kernel
-def make(tape, ends, at):
-    """A Tape over tape (E, 4, ns), ends (T, ns, 14), at (5,) int64 (shared)."""
-    return Tape(tape, ends, at)
-
-
-@kernel
-def set_arrays(t, tape, ends):
-    """Give the Tape t grown arrays (spacephys/tape.py)."""
-    t.tape = tape
-    t.ends = ends
-
-
-@kernel
-def arrays(t):
-    """The Tape's arrays as a TapeArrays tuple, read once per kernel call; None for None."""
-    if t is None:
-        return None
-    return TapeArrays(t.tape, t.ends, t.at)
 
 
 @kernel(lean=True)

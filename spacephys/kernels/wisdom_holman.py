@@ -428,7 +428,7 @@ def _run_length(method, every, frames, frame, done, nsteps):
     return upto - done
 
 
-def _map(method, carry, sa, aa, fx, t, dt, steps, kicked, played):
+def _map(method, carry, sa, burns, fx, t, dt, steps, kicked, played):
     """`steps` steps of the Wisdom-Holman map from t, synchronised at the end (the corrector
     and its inverse around them). Thrust enters the step's kick as its exact velocity change
     over the step, dv(dt) / dt (actors must be passive: their mass changes); drag relaxes the

@@ -121,7 +121,7 @@ def split(w, repeats=3):
     arrays = (end.copy(), vel.copy(), end.copy(), copy.mass.copy(), copy.ids.copy(),
               np.ones(n, np.bool_), np.empty((n, 3)), pos.copy(), vel.copy(),
               np.zeros(4096, EVENT_DTYPE), np.zeros(1, np.int64))
-    state = kstate.make(*arrays, w.dim)
+    state = kstate.make(**dict(zip(kstate.FIELDS, arrays + (w.dim,))))
     saved = [a.copy() for a in arrays]
 
     def whole():                    # (the pairs in touch: as the first repeat left them)
