@@ -4,7 +4,8 @@
 The first call makes a virtual environment in .venv and installs spacephys (editable) with its
 test extra; later calls reinstall only when pyproject.toml changed.
   run [ARGS]    spacephys run ARGS  (the default scene, then a summary)
-  test [ARGS]   python -m pytest ARGS (the whole suite); "no tests collected" is a failure
+  test [ARGS]   python -m pytest ARGS (the whole suite, on a worker per core: pytest-xdist,
+                each test file on one worker); "no tests collected" is a failure
   bench [ARGS]  spacephys bench ARGS (default: gravity)
 """
 import hashlib
@@ -43,7 +44,11 @@ def main(argv):
     command, args = argv[0], argv[1:]
     ensure_env()
     if command == "test":
-        code = subprocess.run([PYTHON, "-m", "pytest", *args], cwd=ROOT).returncode
+        # most of a clean run is numba compiling, one core per process: a worker per core,
+        # whole files to a worker (a file's tests share their kernels); -n 0 for one process
+        workers = [] if any(a == "-n" or a.startswith("-n") for a in args) else \
+            ["-n", "auto", "--dist", "loadfile"]
+        code = subprocess.run([PYTHON, "-m", "pytest", *workers, *args], cwd=ROOT).returncode
         if code == 5:     # pytest: no tests collected; a run that tested nothing proves nothing
             print("dev.py: pytest collected no tests: failing", file=sys.stderr)
             return 1

@@ -102,12 +102,13 @@ def test_readme_commands_are_what_ci_runs():
     assert "python3.11 dev.py run" in readme
 
 
-def test_validate_prints_the_table_and_writes_it():
+def test_validate_prints_the_table_and_writes_it(tmp_path):
+    table = tmp_path / "validate.md"
     res = spacephys("validate", "kepler_e0", "hyperbolic", "--integrator", "leapfrog",
-                    "--integrator", "gauss_radau", "--markdown", "/tmp/spacephys-validate.md")
+                    "--integrator", "gauss_radau", "--markdown", str(table))
     assert res.returncode == 0, res.stderr
     rows = [line for line in res.stdout.splitlines() if line.startswith("| |")]
     assert [r.split("|")[2].strip() for r in rows] == ["leapfrog", "gauss_radau"] * 2
     assert "| **kepler_e0**" in res.stdout and "REBOUND IAS15" in res.stdout
-    with open("/tmp/spacephys-validate.md") as f:
+    with open(table) as f:
         assert f.read().startswith("# Validation against REBOUND")
