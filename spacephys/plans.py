@@ -144,14 +144,14 @@ def table(plans, ids_to_rows, actor_ids):
     """(plan (P, 11), planned (A, 2)) for the kernel from plans {ship id: rows (k,
     PLAN_WIDTH)}: each actor's rows in turn, frame ids as rows now (ids_to_rows: -1 for a
     body gone, whose burns then take the fixed point, the origin, at rest); actor_ids (A,)
-    int64."""
-    planned = np.zeros((len(actor_ids), 2), np.int64)
+    int64. (None, None) when no actor has a plan: the kernels then compile no autopilot."""
     if not plans:             # (no Python loop over thousands of missiles: rebuilt each step)
-        return np.zeros((0, 11)), planned
+        return None, None
     actor_ids = actor_ids.tolist()
     order = [plans[s] for s in actor_ids if s in plans]
     if not order:
-        return np.zeros((0, 11)), planned
+        return None, None
+    planned = np.zeros((len(actor_ids), 2), np.int64)
     allrows = np.concatenate(order)
     plan = np.empty((allrows.shape[0], 11))
     plan[:, :3] = allrows[:, 1:4]

@@ -27,9 +27,10 @@ import math
 from collections import namedtuple
 
 import numpy as np
+from numba import types
 from numba.experimental import structref
 
-from .._jit import TableType, kernel, read
+from .._jit import TableType, field_type, implements, kernel, read
 from .codes import (BURN_ANTINORMAL, BURN_NORMAL, BURN_PROGRADE, BURN_RADIAL_IN,
                     BURN_RETROGRADE, BURN_VECTOR, EV_BURNOUT, EV_DETONATION, EV_EXPIRY,
                     EV_FUEL_EMPTY, NO_GUIDANCE, PURSUIT)
@@ -86,10 +87,12 @@ FIELDS = (
     "expires",     # (n,) time of expiry (inf: never), or (0,) when no body has a lifetime
     "dim",         # 2 or 3
     "plan",        # (P, 11) planned burns: start, stop [time], direction code (codes.py),
-                   # frame row (-1: the fixed point), throttle, vector (3,), fixed point (3,)
+                   # frame row (-1: the fixed point), throttle, vector (3,), fixed point (3,);
+                   # None when no ship has a plan (the autopilot is then not compiled)
     "clock",       # (2,) the World's time base and step count at this step's start (World
                    # sets it before a call, end_burn counts): a plan is timed as World.t is
-    "planned",     # (A, 2) int64: first row and row count of each actor's burns in plan
+    "planned",     # (A, 2) int64: first row and row count of each actor's burns in plan;
+                   # None with plan
     "burn",        # (A, 10) this step's burn per actor (see the module)
     "saved",       # (A, 7) orientations and rates at the step's start, to undo a failed step
     "pending",     # (3A + len(expires), PENDING) a step's events queued for flush: fuel and
@@ -116,7 +119,8 @@ def _make(*fields):
 def make(columns, actors, target, curve_table, expires, dim, plan, clock, planned):
     """An Actors table: columns maps the per-body FIELDS (quat ... flags but target) to (n, ...)
     arrays, shared, not copied; actors (A,) rows, target (n,) rows, expires (n,) or (0,);
-    plan (P, 11), the clock (2,) (shared) and planned (A, 2): the planned burns."""
+    plan (P, 11), the clock (2,) (shared) and planned (A, 2): the planned burns (plan and
+    planned None when no ship has a plan)."""
     fields = dict(columns, actors=actors, target=target, curve_table=curve_table,
                   expires=expires, dim=int(dim), plan=plan, clock=clock, planned=planned,
                   burn=np.zeros((actors.size, 10)), saved=np.zeros((actors.size, 7)),
@@ -382,7 +386,7 @@ def begin_step(ht, t0, dt, L):
             continue
         if owner.size and owner[i] >= 0 and t0 >= act.armed_at[i]:
             owner[i] = -1                            # armed: its launcher can be hit now
-        if act.planned[q, 1] and _fly_plan(act, q, i, state, t0, dt):
+        if _flies_plan(act, q, i, state, t0, dt):
             continue
         q0, q1, q2, q3 = act.quat[i, 0], act.quat[i, 1], act.quat[i, 2], act.quat[i, 3]
         hx, hy, hz = _rotate(q0, q1, q2, q3, 1.0, 0.0, 0.0)
@@ -480,6 +484,19 @@ def _plan_direction(act, k, i, pos, vel):
     if code == BURN_RETROGRADE or code == BURN_ANTINORMAL or code == BURN_RADIAL_IN:
         norm = -norm
     return dx / norm, dy / norm, dz / norm
+
+
+def _flies_plan(act, q, i, state, t0, dt):
+    """Whether actor q flies a planned burn in the step from t0 (_fly_plan set it); False
+    without plans."""
+
+
+implements(_flies_plan, lambda act, q, i, state, t0, dt: False,
+           lambda act, *rest: isinstance(field_type(act, "planned"), types.NoneType))
+implements(_flies_plan, lambda act, q, i, state, t0, dt:
+           act.planned[q, 1] > 0 and _fly_plan(act, q, i, state, t0, dt),
+           lambda act, *rest: not isinstance(field_type(act, "planned"), types.NoneType),
+           inline=True)
 
 
 @kernel(lean=True)
