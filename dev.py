@@ -4,8 +4,9 @@
 The first call makes a virtual environment in .venv and installs spacephys (editable) with its
 test extra; later calls reinstall only when pyproject.toml changed.
   run [ARGS]    spacephys run ARGS  (the default scene, then a summary)
-  test [ARGS]   python -m pytest ARGS (the whole suite, on a worker per core: pytest-xdist,
-                each test file on one worker); "no tests collected" is a failure
+  test [ARGS]   the whole suite: a worker per core (pytest-xdist, whole files to a worker), then
+                the tests that compare measured times (marker "timed") alone; with ARGS,
+                python -m pytest ARGS. "no tests collected" is a failure
   bench [ARGS]  spacephys bench ARGS (default: gravity)
 """
 import hashlib
@@ -37,6 +38,25 @@ def ensure_env():
     STAMP.write_text(want)
 
 
+def pytest(*args):
+    code = subprocess.run([PYTHON, "-m", "pytest", *args], cwd=ROOT).returncode
+    if code == 5:         # pytest: no tests collected; a run that tested nothing proves nothing
+        print("dev.py: pytest collected no tests: failing", file=sys.stderr)
+        return 1
+    return code
+
+
+def test(args):
+    """The whole suite: most of a clean run is numba compiling, one core per process, so a
+    worker per core takes whole files (a file's tests share their kernels); then the tests
+    that compare measured times, alone. With arguments, pytest with those arguments."""
+    if args:
+        return pytest(*args)
+    parallel = pytest("-n", "auto", "--dist", "loadfile", "-m", "not timed")
+    timed = pytest("-m", "timed")
+    return parallel or timed
+
+
 def main(argv):
     if not argv or argv[0] not in ("run", "test", "bench"):
         print(__doc__)
@@ -44,15 +64,7 @@ def main(argv):
     command, args = argv[0], argv[1:]
     ensure_env()
     if command == "test":
-        # most of a clean run is numba compiling, one core per process: a worker per core,
-        # whole files to a worker (a file's tests share their kernels); -n 0 for one process
-        workers = [] if any(a == "-n" or a.startswith("-n") for a in args) else \
-            ["-n", "auto", "--dist", "loadfile"]
-        code = subprocess.run([PYTHON, "-m", "pytest", *workers, *args], cwd=ROOT).returncode
-        if code == 5:     # pytest: no tests collected; a run that tested nothing proves nothing
-            print("dev.py: pytest collected no tests: failing", file=sys.stderr)
-            return 1
-        return code
+        return test(args)
     if command == "bench" and not args:
         args = ["gravity"]
     return subprocess.run([BIN / "spacephys", command, *args], cwd=ROOT).returncode

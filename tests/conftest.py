@@ -12,10 +12,14 @@ def rng():
     return np.random.default_rng(20261121)
 
 
+
+# files whose tests compare measured times (the benchmarks' and the work-precision study's
+# figures, the run log's share of a killed writer's time): `dev.py test` runs them alone,
+# after the rest, so that another worker's compilation does not skew what they measure
+TIMED = ("test_recommend.py", "test_tradeoff.py", "test_reliability.py")
+
+
 def pytest_collection_modifyitems(config, items):
-    """The files with the most tests first, each file's tests in their order: `dev.py test`
-    hands whole files to a worker per core as each frees up, and a long file handed out last
-    would leave the other cores idle while it compiles."""
-    from collections import Counter
-    count = Counter(item.path for item in items)
-    items.sort(key=lambda item: -count[item.path])
+    for item in items:
+        if item.path.name.startswith("test_bench_") or item.path.name in TIMED:
+            item.add_marker(pytest.mark.timed)
