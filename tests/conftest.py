@@ -14,9 +14,10 @@ def rng():
 
 
 # files whose tests compare measured times (the benchmarks' and the work-precision study's
-# figures, the run log's share of a killed writer's time): `dev.py test` runs them alone,
-# after the rest, so that another worker's compilation does not skew what they measure
-TIMED = ("test_recommend.py", "test_tradeoff.py", "test_reliability.py")
+# figures, recommend's choices by them): `dev.py test` runs them alone, after the rest, so
+# that another worker's compilation does not skew what they measure (a single such test
+# elsewhere is marked @pytest.mark.timed where it stands)
+TIMED = ("test_recommend.py", "test_tradeoff.py")
 
 
 def pytest_collection_modifyitems(config, items):

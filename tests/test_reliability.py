@@ -78,6 +78,7 @@ for line in sys.stdin:
 """
 
 
+@pytest.mark.timed          # the share of its time the writer spends inside a flush
 def test_a_log_survives_100_kills_at_random_moments(tmp_path):
     """100 SIGKILLs at random moments of a recording (its creation, steps, flushes and
     checkpoints): each file opens with sp.open_run and with h5py (SWMR read at once; a plain
