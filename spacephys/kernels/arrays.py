@@ -6,8 +6,9 @@ against well under a second for these loops), and every cached kernel that uses 
 again. These do the same work at loop speed.
 """
 import numpy as np
+from numba import types
 
-from .._jit import kernel
+from .._jit import implements, kernel
 
 @kernel(inline=True)
 def zeroed(a):
@@ -73,44 +74,27 @@ def contact_order(t, i, j, k):
     """(k,) int64: the order sorting the contacts (t, i, j)[:k] by time, then i, then j (a
     merge sort). Contacts at one time (bodies overlapping at the start of a step) are
     resolved in row order, whatever order the broad phase found them in."""
-    buf = np.empty((2, k), np.int64)                   # two halves, in turn source and result
-    for q in range(k):
-        buf[0, q] = q
-    src = 0
-    width = 1
-    while width < k:
-        dst = 1 - src
-        for lo in range(0, k, 2 * width):
-            mid = min(lo + width, k)
-            hi = min(lo + 2 * width, k)
-            a, b, out = lo, mid, lo
-            while a < mid and b < hi:
-                x, y = buf[src, a], buf[src, b]
-                if t[y] < t[x] or (t[y] == t[x] and (i[y] < i[x] or
-                                                     (i[y] == i[x] and j[y] < j[x]))):
-                    buf[dst, out] = y
-                    b += 1
-                else:
-                    buf[dst, out] = x
-                    a += 1
-                out += 1
-            while a < mid:
-                buf[dst, out] = buf[src, a]
-                a += 1
-                out += 1
-            while b < hi:
-                buf[dst, out] = buf[src, b]
-                b += 1
-                out += 1
-        src = dst
-        width *= 2
-    return buf[src].copy()
+    return stable_order((t, i, j), k)
+
+
+def _before(keys, y, x):
+    """Whether row y sorts before row x: keys an array, or a tuple (t, i, j) compared in
+    that order."""
+
+
+implements(_before, lambda keys, y, x: keys[y] < keys[x],
+           lambda keys, y, x: isinstance(keys, types.Array), inline=True)
+implements(_before, lambda keys, y, x: keys[0][y] < keys[0][x] or (
+    keys[0][y] == keys[0][x] and (keys[1][y] < keys[1][x] or (
+        keys[1][y] == keys[1][x] and keys[2][y] < keys[2][x]))),
+    lambda keys, y, x: isinstance(keys, types.BaseTuple), inline=True)
 
 
 @kernel
 def stable_order(keys, k):
     """(k,) int64: the stable order sorting keys[:k] ascending (a merge sort; numbers, no
-    NaN): np.argsort(keys[:k], kind="mergesort"), which compiles 2.5 s slower."""
+    NaN), keys an array or a tuple of three compared in turn (_before):
+    np.argsort(keys[:k], kind="mergesort"), which compiles 2.5 s slower."""
     buf = np.empty((2, k), np.int64)                   # two halves, in turn source and result
     for q in range(k):
         buf[0, q] = q
@@ -124,7 +108,7 @@ def stable_order(keys, k):
             a, b, out = lo, mid, lo
             while a < mid and b < hi:
                 x, y = buf[src, a], buf[src, b]
-                if keys[y] < keys[x]:
+                if _before(keys, y, x):
                     buf[dst, out] = y
                     b += 1
                 else:
