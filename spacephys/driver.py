@@ -19,6 +19,7 @@ import warnings
 
 import numpy as np
 
+from . import measures
 from .errors import caller_level
 from .events import EVENT_DTYPE
 from .kernels import state as kstate
@@ -119,7 +120,7 @@ class Driver:
         if sink is not None:
             sink.record_events(w.events)
         if n and (status & NONFINITE or w._watch is not None):
-            w._check_health(t0, status)
+            measures.check_health(w, t0, status)
         return status
 
     def _begin_events(self):

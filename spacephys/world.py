@@ -1034,11 +1034,6 @@ class World:
         many to compare all pairs for an error message)."""
         return measures.closest_pulling_pair(self)
 
-    def _check_health(self, t0, status):
-        """After a step() from time t0: InstabilityError if a body's state is not finite (the
-        kernel's status says), or if the watched energy error passed its limit."""
-        measures.check_health(self, t0, status)
-
     def watch_energy(self, limit):
         """From now on, raise InstabilityError after any step() or advance() that leaves the
         relative energy error of the pulling bodies (since this call) above limit, naming the
