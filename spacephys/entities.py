@@ -48,7 +48,8 @@ def _exhaust(spec_name, exhaust_speed, isp):
 
 @dataclass(frozen=True)
 class ExplosionSpec:
-    """Debris thrown out when a body explodes (the seed's particle system).
+    """Debris thrown out when a body explodes (the particle system of Laird & Jamin, *Basic Game
+    Physics*).
 
     count : particles; speed : largest speed relative to the exploding body [length/time]
     (directions uniform, speeds filling a disc in 2D, a ball in 3D); lifetime [time], each
@@ -89,8 +90,9 @@ class ShipSpec:
     side_thrust: the strafing thrusters (same exhaust speed); rotation either arcade,
     turn_rate [rad/time] at full command, or physical, moment_of_inertia [mass length^2] > 0
     and torque [mass length^2/time^2] (turn commands then set the angular acceleration);
-    thrust_curve: rows (speed, factor), the seed's acceleration_value(speed): thrust =
-    max_thrust * factor(|v|) * throttle, linear between rows, flat beyond;
+    thrust_curve: rows (speed, factor), the acceleration_value(speed) of Laird & Jamin,
+    *Basic Game Physics*: thrust = max_thrust * factor(|v|) * throttle, linear between rows,
+    flat beyond;
     radius [length]; kind; active: pulls other bodies (default False: it feels gravity only);
     explosion: an ExplosionSpec thrown out when the ship is destroyed, or None.
     """

@@ -1,4 +1,5 @@
-"""Centres of mass of point-mass shapes (the seed's polygon with masses at its vertices)."""
+"""Centres of mass of point-mass shapes (the polygon with masses at its vertices of
+Laird & Jamin, *Basic Game Physics*)."""
 
 from . import _validate as check
 

@@ -104,7 +104,7 @@ class World:
         seeds every random choice (explosions): same seed, same run
     drag : float >= 0
         linear drag rate k [1/time]: every body also accelerates by
-        -k (v - wind) (an atmosphere, the seed's wind resistance)
+        -k (v - wind) (an atmosphere: the wind resistance of Laird & Jamin, *Basic Game Physics*)
     wind : (dim,)
         the air's velocity [length/time] (default 0)
     """
@@ -714,7 +714,7 @@ class World:
         (one body with the pair's mass, momentum and centre of mass; radius from the summed
         volume in 3D, area in 2D), "destroy_a", "destroy_b", "destroy_both" (a: the body of
         kind_a), "break_a", "break_b" (a bounce, restitution default 1, after which that body
-        is destroyed: the seed's brick). A kind may be "*" for every kind.
+        is destroyed: the brick of Laird & Jamin, *Basic Game Physics*). A kind may be "*" for every kind.
         """
         self._collisions.set(self._kind_list(kind_a, "kind_a"),
                              self._kind_list(kind_b, "kind_b"), response, restitution)
@@ -732,7 +732,8 @@ class World:
         return k
 
     def add_segment(self, a, b, restitution=1.0):
-        """An immovable wall segment from a to b (with round ends): the seed's circle-on-wall.
+        """An immovable wall segment from a to b (with round ends): the circle-on-wall of Laird & Jamin,
+        *Basic Game Physics*.
         Returns its index in w.walls."""
         k = self._collisions.segment(a, b, restitution, self._dim)
         self._plan = None

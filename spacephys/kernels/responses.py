@@ -94,8 +94,8 @@ def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rul
             e = 1.0
         for c in range(3):
             if resp == ELASTIC and mass[i] == mass[j] and not fixed_i and not fixed_j:
-                # equal masses swap their normal velocities exactly (the seed: identical balls
-                # swap velocities): u_i - (u_i.n) n + (u_j.n) n, which is u_j itself head-on
+                # equal masses swap their normal velocities exactly (Laird & Jamin, Basic Game
+                # Physics: identical balls swap velocities): u_i - (u_i.n) n + (u_j.n) n, which is u_j itself head-on
                 ni = ui[0] * n[0] + ui[1] * n[1] + ui[2] * n[2]
                 nj = uj[0] * n[0] + uj[1] * n[1] + uj[2] * n[2]
                 di = (ui[c] - ni * n[c] + nj * n[c]) - ui[c]
@@ -122,7 +122,7 @@ def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rul
             meet(rules, i, j, t)        # a contact may begin
             return DEFLECTED
         # a break: the bounce happened (the other body keeps its rebound), then the broken
-        # one is destroyed where it stood (the seed's brick)
+        # one is destroyed where it stood (the brick of Laird & Jamin, Basic Game Physics)
         k = i if resp == BREAK_A else j
         p = pi if k == i else pj
         for c in range(3):
