@@ -31,6 +31,7 @@ _LAZY = {
     "Recommendation": "study.recommend", "recommend": "study.recommend",
     "lambert": "lambert", "Prediction": "predict", "Hits": "queries", "RayHits": "queries",
     "sweep": "sweeps", "read_sweep": "sweeps", "Sweep": "sweeps", "SweepRun": "sweeps",
+    "compile": "precompile", "Compiled": "precompile",
 }
 
 __all__ = [

@@ -1,12 +1,10 @@
 """The one decorator every numba kernel uses: caching, fastmath and parallel policy in one place."""
 import contextlib
-import hashlib
 import os
 import sys
 import threading
 import time
 import warnings
-from pathlib import Path
 
 # numba's OpenMP threads (GNU libgomp) spin on a core after each threaded loop before they
 # sleep: 300 000 spins by default, long enough that beside a busy process (a game's own
@@ -19,6 +17,8 @@ os.environ.setdefault("GOMP_SPINCOUNT", "10000")
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
+
+from . import cache as _cache  # noqa: E402  (the cache folder, before any kernel is defined)
 from numba import types
 from numba.core.errors import NumbaPerformanceWarning
 from numba.core.registry import CPUDispatcher
@@ -100,7 +100,7 @@ def _compiled(fn, opts):
     opts = dict(opts, nopython=True)
     cache = opts.pop("cache")
     disp = _Dispatcher(py_func=fn, locals={}, targetoptions=opts)
-    if cache:
+    if cache and _cache.ENABLED:
         disp.enable_caching()
     return disp
 
@@ -169,32 +169,7 @@ def is_table(t, table):
     return isinstance(t, types.BaseNamedTuple) and t.instance_class is table
 
 
-def _purge_stale_cache():
-    """Delete cached machine code compiled from older kernel sources.
-
-    numba checks only the caller's own file when it loads a cached function, so a kernel that
-    calls into an edited module (integrate.py into gravity.py) would silently run the old
-    callee. A digest of every kernel source, kept beside the cache, catches that.
-    """
-    root = Path(__file__).parent
-    sources = [root / "_jit.py"] + sorted((root / "kernels").glob("*.py"))
-    digest = hashlib.sha256(b"".join(p.read_bytes() for p in sources)).hexdigest()
-    stamp = root / "__pycache__" / "kernels.sha256"
-    try:
-        if stamp.exists() and stamp.read_text() == digest:
-            return
-        for folder in (root / "__pycache__", root / "kernels" / "__pycache__"):
-            for f in list(folder.glob("*.nbi")) + list(folder.glob("*.nbc")):
-                f.unlink(missing_ok=True)
-        stamp.parent.mkdir(exist_ok=True)
-        tmp = stamp.with_suffix(f".{os.getpid()}")
-        tmp.write_text(digest)
-        tmp.replace(stamp)
-    except OSError:
-        pass    # a read-only install: numba keeps its cache elsewhere and sources cannot change
-
-
-_purge_stale_cache()
+_cache.purge_stale()
 
 
 def set_threads(n):
@@ -230,9 +205,8 @@ def announced(what, after=0.5):
 
     def say():
         if not done.wait(after):
-            where = numba.config.CACHE_DIR or str(Path(__file__).parent / "kernels" / "__pycache__")
             print(f"spacephys: compiling {what} with numba; this happens once per machine and "
-                  f"version (the machine code is cached in {where})", file=sys.stderr,
+                  f"version (machine code cache: {_cache.place()})", file=sys.stderr,
                   flush=True)
             said.append(True)
 

@@ -5,6 +5,7 @@ import json
 import sys
 from pathlib import Path
 
+from .extras import MissingExtra, require
 from .integrators import INTEGRATORS
 from .scenes import SCENES
 from .study.benchmarks import BENCHMARKS
@@ -15,22 +16,29 @@ def _problem_names():
     return list(PROBLEMS)
 
 
-SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
-
-
 def _resolve(scene):
-    """("scenario", path) for a scenario file or a name in scenarios/, ("scene", name) for a
-    built-in scene; ValueError listing the known ones otherwise."""
-    path = Path(scene)
-    if not path.suffix and (SCENARIOS / (scene + ".toml")).exists():
-        path = SCENARIOS / (scene + ".toml")          # scenarios/NAME.toml first
+    """("scenario", path) for a scenario file or the name of a shipped scenario, ("scene",
+    name) for a built-in scene; ValueError listing the known ones otherwise."""
+    from .scenario import shipped
+    path, known = Path(scene), shipped()
+    if not path.suffix and scene in known:
+        return "scenario", known[scene]              # a shipped scenario first
     if path.suffix != ".toml" and scene in SCENES:
         return "scene", scene
     if path.suffix != ".toml" or not path.exists():
-        known = sorted(SCENES) + sorted(p.stem for p in SCENARIOS.glob("*.toml"))
+        names = sorted(set(SCENES) | set(known))
         raise ValueError(f"{scene!r} is neither a scenario file (.toml) nor a known scene "
-                         f"or scenario: {', '.join(known)}")
+                         f"or scenario: {', '.join(names)}")
     return "scenario", path
+
+
+def _scenarios(args):
+    from .scenario import shipped, summary_line
+    known = shipped()
+    width = max(map(len, known))
+    for name, path in known.items():
+        print(f"{name:{width}s}  {summary_line(path)}")
+    return 0
 
 
 def _run(args):
@@ -42,6 +50,26 @@ def _run(args):
     print(result.summary())
     if args.out:
         print(f"log           {args.out}")
+    return 0
+
+
+def _compile(args):
+    from .precompile import compile
+    done = compile(scene=args.scene, scenario=args.scenario, every=args.all, jobs=args.jobs,
+                   progress=sys.stdout)
+    from . import cache
+    print(f"{len(done)} compiled ({sum(c.seconds for c in done):.1f} s); machine code cache: "
+          f"{cache.place()}")
+    return 0
+
+
+def _cache(args):
+    from . import cache
+    if args.action == "clear":
+        files, size = cache.clear()
+        print(f"deleted {files} files, {size / 1e6:.1f} MB ({cache.place()})")
+    else:
+        print(cache.describe())
     return 0
 
 
@@ -63,6 +91,7 @@ def _recommend(args):
 
 
 def _plot(args):
+    require(f"spacephys {args.command}", "matplotlib")
     from .plot import animate_run, plot_run
     (plot_run if args.command == "plot" else animate_run)(args.run, args.output)
     print(f"wrote {args.output}")
@@ -70,6 +99,7 @@ def _plot(args):
 
 
 def _play(args):
+    require("spacephys play", "pygame")
     from .game import loop, make_mode
     if args.replay is not None:
         result, frames = loop.replay(args.replay, headless=args.headless,
@@ -94,6 +124,7 @@ def _play(args):
 
 def _bench(args):
     bench = BENCHMARKS[args.what]
+    require(f"spacephys bench {bench.name}", *bench.needs)
     run, report = bench.load()
     results = run(quick=args.quick, **({"out_dir": args.out} if bench.writes else {}))
     print(report(results))
@@ -109,12 +140,13 @@ def _bench(args):
 
 def _sweep(args):
     import time
+    require("spacephys sweep", "distributed")
     from .runner import default_progress
     from .sweeps import parse_vary, summary, sweep
     kind, what = _resolve(args.scenario)
     if kind != "scenario":
         raise ValueError(f"{args.scenario!r} is a built-in scene: a sweep varies a scenario "
-                         f"file's keys (scenarios/*.toml)")
+                         f"file's keys (spacephys scenarios lists the shipped ones)")
     vary = {}
     for text in args.vary or []:
         key, values = parse_vary(text)
@@ -135,6 +167,7 @@ def _sweep(args):
 
 
 def _validate(args):
+    require("spacephys validate", "rebound")
     from .study import validate
     results = validate.validate(args.problems, args.integrator)
     table = validate.format_markdown(results)
@@ -156,8 +189,8 @@ def main(argv=None):
 
     run = sub.add_parser("run", help="run a scene or a scenario file and print a summary")
     run.add_argument("scene", nargs="?", default="star_system",
-                     help="a scenario file (.toml), a scenario of scenarios/ by name, or a "
-                          "built-in scene: " + ", ".join(SCENES))
+                     help="a scenario file (.toml), a shipped scenario by name "
+                          "(spacephys scenarios), or a built-in scene: " + ", ".join(SCENES))
     run.add_argument("--out", metavar="RUN.h5", help="record the run into an HDF5 log")
     run.add_argument("--integrator", choices=list(INTEGRATORS))
     run.add_argument("--dt", type=float, help="step [time units]")
@@ -165,9 +198,30 @@ def main(argv=None):
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)
 
+    sc = sub.add_parser("scenarios", help="list the shipped scenarios, one line each "
+                                          "(spacephys run NAME runs one)")
+    sc.set_defaults(func=_scenarios)
+
+    co = sub.add_parser("compile", help="compile ahead of time (a game's installer or loading "
+                                         "screen): later first steps load from the cache")
+    which = co.add_mutually_exclusive_group(required=True)
+    which.add_argument("--scene", metavar="NAME",
+                       help="a shipped scenario or built-in scene by name")
+    which.add_argument("--scenario", metavar="FILE", help="a scenario file (.toml)")
+    which.add_argument("--all", action="store_true",
+                       help="every shipped scenario and built-in scene")
+    co.add_argument("--jobs", type=int, default=1, metavar="N",
+                    help="processes compiling side by side (default 1)")
+    co.set_defaults(func=_compile)
+
+    ca = sub.add_parser("cache", help="where the compiled machine code is kept and how big "
+                                      "it is (info), or delete it (clear)")
+    ca.add_argument("action", choices=["info", "clear"])
+    ca.set_defaults(func=_cache)
+
     rec = sub.add_parser("recommend", help="the cheapest integrator and step meeting an "
                                            "error target, measured on the scene")
-    rec.add_argument("scene", help="a scenario file (.toml), a scenario of scenarios/ by name, "
+    rec.add_argument("scene", help="a scenario file (.toml), a shipped scenario by name, "
                                    "or a built-in scene: " + ", ".join(SCENES))
     rec.add_argument("--error", type=float, default=1e-6,
                      help="the error target (relative; default 1e-6)")
@@ -200,7 +254,7 @@ def main(argv=None):
 
     sw = sub.add_parser("sweep", help="run a scenario over values and seeds on Dask "
                                       "(local worker processes, or a cluster)")
-    sw.add_argument("scenario", help="a scenario file (.toml) or a scenario of scenarios/ by name")
+    sw.add_argument("scenario", help="a scenario file (.toml) or a shipped scenario by name")
     sw.add_argument("--vary", action="append", metavar="KEY=V1,V2",
                     help="a key path of the scenario and its values (repeatable; every "
                          "combination runs): world.dt=0.01,0.02  ships.red.vel=[1,0],[2,0]")
@@ -246,6 +300,9 @@ def main(argv=None):
     try:
         return args.func(args)
     except ValueError as err:     # bad input: a message, not a traceback
+        print(f"spacephys {args.command}: error: {err}", file=sys.stderr)
+        return 2
+    except MissingExtra as err:   # an optional dependency: which extra to install
         print(f"spacephys {args.command}: error: {err}", file=sys.stderr)
         return 2
     except FloatingPointError as err:     # the integration broke down

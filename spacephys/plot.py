@@ -11,6 +11,8 @@ _TRACKED = 60            # bodies drawn as trajectories; the rest appear as dots
 
 
 def _matplotlib():
+    from .extras import require
+    require("drawing a run", "matplotlib")
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

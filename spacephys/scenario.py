@@ -1,5 +1,6 @@
 """TOML scenarios: the schema in code, every problem reported with its key path, and the
-World and timeline they describe (docs/scenarios.md has the format).
+World and timeline they describe (docs/scenarios.md has the format); the scenarios that come
+with spacephys (package data, spacephys/scenarios/NAME.toml) by name.
 
 load_scenario(path or text) checks the whole file first and raises ScenarioError listing
 every problem (`bodies[2].mass: must be >= 0 (got -1.0)`), so nothing is built or run from
@@ -11,6 +12,8 @@ import os
 import re
 import tomllib
 from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
 
 import numpy as np
 
@@ -168,11 +171,44 @@ def _parse(source, text):
         raise ScenarioError(source, [("(file)", f"not valid TOML: {e}")]) from None
 
 
+def shipped():
+    """{name: path} of the scenarios that come with spacephys, sorted by name (package data:
+    found wherever spacephys is installed)."""
+    folder = resources.files(__package__) / "scenarios"
+    return {p.name[:-5]: Path(os.fspath(p))
+            for p in sorted(folder.iterdir(), key=lambda p: p.name) if p.name.endswith(".toml")}
+
+
+def summary_line(path):
+    """The first sentence of a scenario file's description (its title if it has none)."""
+    with open(path, "rb") as f:
+        top = tomllib.load(f)
+    text = top.get("description") or top.get("title") or ""
+    depth = 0
+    for k, c in enumerate(text):
+        depth += (c == "(") - (c == ")")
+        if depth == 0 and c in ".:;" and text[k + 1:k + 2] in ("", " "):
+            return text[:k]
+    return text
+
+
+def _is_name(text):
+    """A bare word such as "two_body": the name of a shipped scenario, not a path or TOML."""
+    return isinstance(text, str) and re.fullmatch(r"[A-Za-z0-9_\-]+", text) is not None
+
+
 def load_scenario(path_or_text, overrides=None):
-    """Read and check a scenario (a path to a .toml file, or its text); ScenarioError lists
-    every problem. overrides: {key path: value} set in the file's tables before the checks
-    (see set_key: "world.dt", "ships.red.vel", "bodies[0].mass"), as if the file said so."""
+    """Read and check a scenario (a path to a .toml file, the name of a shipped one such as
+    "two_body" (shipped()), or its text); ScenarioError lists every problem. overrides:
+    {key path: value} set in the file's tables before the checks (see set_key: "world.dt",
+    "ships.red.vel", "bodies[0].mass"), as if the file said so."""
     text = path_or_text
+    if _is_name(text):
+        known = shipped()
+        if text not in known:
+            raise ScenarioError(text, [("(name)", "no shipped scenario has this name; they "
+                                                  "are: " + ", ".join(known))])
+        text = path_or_text = known[text]
     if isinstance(text, os.PathLike) or isinstance(text, str) and "\n" not in text \
             and text.endswith(".toml"):
         source = os.fspath(path_or_text)

@@ -271,11 +271,9 @@ def connect(client, workers=None):
     """(a dask Client, a function that closes what was opened here): a new local cluster
     of `workers` processes (client None), the scheduler at an address, or the Client
     given. An address that cannot be reached is a ValueError within CONNECT_TIMEOUT."""
-    try:
-        from dask.distributed import Client, LocalCluster
-    except ImportError:                                  # pragma: no cover (a dependency)
-        raise ImportError("spacephys sweeps run on dask's distributed scheduler: "
-                          "pip install 'spacephys[sweep]'") from None
+    from .extras import require
+    require("a sweep (dask's distributed scheduler)", "distributed")
+    from dask.distributed import Client, LocalCluster
     if client is not None and workers is not None:
         raise ValueError(f"workers = {workers!r}: the number of local workers; a cluster "
                          f"given by address or Client brings its own")

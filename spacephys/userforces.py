@@ -13,8 +13,10 @@ compiled once per machine.
 """
 import numba
 
+from .cache import ENABLED as CACHING     # False only where no folder can be written
 
-@numba.njit(cache=True)
+
+@numba.njit(cache=CACHING)
 def j2(t, pos, vel, mass, ids, params, out):
     """Oblateness of a planet spinning about z: the J2 term of its gravity field.
 

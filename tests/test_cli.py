@@ -1,4 +1,5 @@
 """The command line end to end, as a user runs it: exit codes, summaries, errors."""
+import os
 import re
 import subprocess
 import sys
@@ -86,6 +87,13 @@ def test_guide_spacewar_loop_runs_as_pasted():
     assert re.match(r"1200 frames: [\d.]+ ms per frame, \d+ bodies now; score ", lines[-1])
 
 
+def test_the_benchmarked_spacewar_loop_is_the_guides_word_for_word():
+    # spacephys bench overhead times the package's copy (an installed package has no docs/)
+    page = (ROOT / "docs" / "guide" / "game-loop.md").read_text()
+    block = re.search(r"<!-- spacewar -->\s*```python\n(.*?)```", page, re.S).group(1)
+    assert (ROOT / "spacephys" / "study" / "spacewar_loop.py").read_text() == block
+
+
 def test_runlog_page_example_runs_as_pasted():
     lines = _doc_example("docs/runlog.md", "runlog")
     # 300 steps / 5 + 100 / 5 + the first = 81 frames; 1 fuel at 1/3 per time: empty at 3
@@ -112,3 +120,35 @@ def test_validate_prints_the_table_and_writes_it(tmp_path):
     assert "| **kepler_e0**" in res.stdout and "REBOUND IAS15" in res.stdout
     with open(table) as f:
         assert f.read().startswith("# Validation against REBOUND")
+
+
+@pytest.mark.parametrize("args, missing, extra", [
+    (["validate"], "rebound", "bench"),
+    (["bench", "tree"], "pytreegrav", "bench"),
+    (["bench", "queries"], "scipy", "bench"),
+    (["sweep", "dogfight"], "distributed", "sweep"),
+    (["play", "duel", "--headless", "--frames", "1"], "pygame", "game"),
+    (["plot", "run.h5", "-o", "run.png"], "matplotlib", "plot"),
+])
+def test_a_missing_optional_dependency_is_one_line_naming_its_extra_before_compiling(
+        tmp_path, args, missing, extra):
+    # the package hidden from this process only, as if it were not installed
+    code = (f"import sys; sys.modules[{missing!r}] = None\n"
+            f"from spacephys.cli import main; sys.exit(main({args!r}))")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, cwd=tmp_path, timeout=300)
+    assert res.returncode == 2
+    assert res.stderr.count("\n") == 1 and f"pip install 'spacephys[{extra}]'" in res.stderr
+    assert missing.replace("pygame", "pygame-ce") in res.stderr
+    assert not list(tmp_path.rglob("*.nbi"))                 # nothing was compiled first
+
+
+def test_python_dash_m_spacephys_is_the_command():
+    res = subprocess.run([sys.executable, "-m", "spacephys", "scenarios"], capture_output=True,
+                         text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.splitlines()[0].startswith("arena ")
+    res = subprocess.run([sys.executable, "-m", "spacephys", "--help"], capture_output=True,
+                         text=True, timeout=300)
+    assert res.returncode == 0 and "compile" in res.stdout and "cache" in res.stdout

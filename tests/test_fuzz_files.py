@@ -18,7 +18,7 @@ from spacephys import checksums
 from spacephys import scenario as schema
 from spacephys.cli import main
 
-SCENARIOS = sorted((Path(__file__).parents[1] / "scenarios").glob("*.toml"))
+SCENARIOS = sorted((Path(__file__).parents[1] / "spacephys" / "scenarios").glob("*.toml"))
 SCHEMAS = {"": schema._TOP, "world": schema._WORLD, "bodies": schema._BODY,
            "rings": schema._RING, "ships": schema._SHIP, "collisions": schema._COLLISION,
            "boundary": schema._BOUNDARY, "walls": schema._WALL, "log": schema._LOG,

@@ -132,7 +132,7 @@ def test_drag_is_judged_against_gauss_radau_and_leaves_out_wisdom_holman():
     """A projectile with drag in a uniform field: Gauss-Radau takes drag and is both the
     reference and a candidate; Wisdom-Holman (no dominant mass) is not tried, and says why;
     energy is not conserved."""
-    rec = sp.recommend("scenarios/projectile.toml", 1e-8)
+    rec = sp.recommend("projectile", 1e-8)
     assert rec.met
     assert not rec.scene.conserves_energy
     tried = {r["integrator"] for r in rec.candidates}

@@ -12,7 +12,7 @@ from spacephys.runner import run_scenario
 from spacephys.scenario import ScenarioError, load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
-FILES = sorted((ROOT / "scenarios").glob("*.toml"))
+FILES = sorted((ROOT / "spacephys" / "scenarios").glob("*.toml"))
 
 BASE = """
 [world]
@@ -141,7 +141,7 @@ def _cli(*args, cwd=ROOT):
 
 def test_cli_runs_a_scenario_file_into_a_log(tmp_path):
     out = tmp_path / "run.h5"
-    res = _cli("run", str(ROOT / "scenarios" / "dogfight.toml"), "--duration", "3", "--quiet",
+    res = _cli("run", str(ROOT / "spacephys" / "scenarios" / "dogfight.toml"), "--duration", "3", "--quiet",
                "--out", str(out))
     assert res.returncode == 0, res.stderr
     assert "launch 2" in res.stdout and "steps         750 " in res.stdout
@@ -150,6 +150,26 @@ def test_cli_runs_a_scenario_file_into_a_log(tmp_path):
         calls = [e["call"] for e in run.inputs()]
         assert calls.count("launch") == 2 and calls.count("control") == 1   # t = 1, 1.5, 2
     assert sp.replay(out).ok
+
+
+def test_a_shipped_scenario_runs_by_name_from_any_directory(tmp_path):
+    # package data: found beside the installed package, not in the current directory
+    res = _cli("run", "two_body", "--duration", "0.5", "--quiet", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "scene         two_body (2D, 2 bodies" in res.stdout
+    assert load_scenario("two_body").source == str(FILES[[p.stem for p in FILES].index("two_body")])
+    assert run_scenario("projectile", duration=0.1).steps > 0
+    with pytest.raises(ScenarioError, match=r"no shipped scenario has this name.*two_body"):
+        load_scenario("two_bdy")
+
+
+def test_the_scenarios_command_lists_every_shipped_one_a_line_each(tmp_path):
+    res = _cli("scenarios", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    lines = res.stdout.splitlines()
+    assert [line.split()[0] for line in lines] == [p.stem for p in FILES]
+    assert all(len(line.split()) > 2 for line in lines)          # a name and what it is
+    assert "two_body" in lines[-1] and "A planet of a thousandth" in lines[-1]
 
 
 def test_cli_refuses_a_bad_scenario_without_a_traceback_or_a_file(tmp_path):
@@ -170,7 +190,7 @@ def test_plot_and_animate_draw_a_run(tmp_path):
     from PIL import Image
     from spacephys.plot import _energy
     log = tmp_path / "two.h5"
-    run_scenario(ROOT / "scenarios" / "two_body.toml", duration=6.3, out=log)
+    run_scenario(ROOT / "spacephys" / "scenarios" / "two_body.toml", duration=6.3, out=log)
     png, gif = tmp_path / "two.png", tmp_path / "two.gif"
     res = _cli("plot", str(log), "-o", str(png))
     assert res.returncode == 0, res.stderr
@@ -200,7 +220,7 @@ def test_plot_refuses_a_file_that_is_not_a_log(tmp_path):
 
 def _track(tmp_path, name, body, **kw):
     log = tmp_path / f"{name}.h5"
-    result = run_scenario(ROOT / "scenarios" / f"{name}.toml", out=log, **kw)
+    result = run_scenario(ROOT / "spacephys" / "scenarios" / f"{name}.toml", out=log, **kw)
     with sp.open_run(log) as run:
         return result, run.trajectory(body), run.events()
 
@@ -219,7 +239,7 @@ def test_projectile_with_wind_and_drag_follows_the_closed_form(tmp_path):
 
 
 def test_projectile_without_drag_has_the_seeds_apex_and_range():
-    text = (ROOT / "scenarios" / "projectile.toml").read_text().replace("drag = 0.3", "drag = 0.0")
+    text = (ROOT / "spacephys" / "scenarios" / "projectile.toml").read_text().replace("drag = 0.3", "drag = 0.0")
     text = text.replace('integrator = "yoshida4"', 'integrator = "leapfrog"')
     sc = load_scenario(text)
     v0, angle, g = 20.0, math.radians(30.0), 10.0
@@ -264,7 +284,7 @@ def test_hohmann_transfer_by_plan_reaches_the_orbit_and_meets_the_station(tmp_pa
 
 
 def test_a_plan_in_a_scenario_is_checked_before_anything_is_built():
-    text = (ROOT / "scenarios" / "orbit_transfer.toml").read_text().replace(
+    text = (ROOT / "spacephys" / "scenarios" / "orbit_transfer.toml").read_text().replace(
         'hohmann = { ship = "ship", radius = 2.0, about = "planet" }',
         'plan = { ship = "ship", burns = [{ start = 0.0, duration = -1.0 }, '
         '{ start = 1.0, duration = 1.0, direction = "up", frame = "moon" }] }')
@@ -273,7 +293,7 @@ def test_a_plan_in_a_scenario_is_checked_before_anything_is_built():
     problems = dict(err.value.problems)
     assert "duration = -1.0" in problems["timeline[0].plan.burns[0]"]
     assert "'moon' names no body" in problems["timeline[0].plan.burns[1].frame"]
-    bad = (ROOT / "scenarios" / "orbit_transfer.toml").read_text().replace(
+    bad = (ROOT / "spacephys" / "scenarios" / "orbit_transfer.toml").read_text().replace(
         'radius = 2.0, about = "planet"', 'radius = -2.0, about = "sun"')
     with pytest.raises(ScenarioError) as err:
         load_scenario(bad)
@@ -284,7 +304,7 @@ def test_a_plan_in_a_scenario_is_checked_before_anything_is_built():
 
 def test_solar_system_scenario_is_the_j2000_scene():
     from spacephys.scenes import solar_system
-    w, ids = load_scenario(ROOT / "scenarios" / "solar_system.toml").build()
+    w, ids = load_scenario(ROOT / "spacephys" / "scenarios" / "solar_system.toml").build()
     ref = solar_system()
     np.testing.assert_allclose(w.pos, ref.pos, rtol=0, atol=1e-12)
     np.testing.assert_allclose(w.vel, ref.vel, rtol=0, atol=1e-12)
@@ -293,12 +313,12 @@ def test_solar_system_scenario_is_the_j2000_scene():
 
 
 def test_asteroid_belt_merges_and_keeps_momentum():
-    result = run_scenario(ROOT / "scenarios" / "asteroid_belt.toml", duration=3.0)
+    result = run_scenario(ROOT / "spacephys" / "scenarios" / "asteroid_belt.toml", duration=3.0)
     w = result.world
     assert result.events.get("merge", 0) > 20 and w.n == 402 - result.events["merge"]
     assert result.momentum_error < 1e-12
     # a ring is the same every run: seeded
-    again = run_scenario(ROOT / "scenarios" / "asteroid_belt.toml", duration=3.0).world
+    again = run_scenario(ROOT / "spacephys" / "scenarios" / "asteroid_belt.toml", duration=3.0).world
     assert np.array_equal(again.pos, w.pos)
 
 
@@ -312,7 +332,7 @@ def test_a_scenario_log_section_records_the_run(tmp_path):
 
 def test_star_system_scenario_is_the_demo_scene():
     from spacephys.scenes import star_system
-    w, ids = load_scenario(ROOT / "scenarios" / "star_system.toml").build()
+    w, ids = load_scenario(ROOT / "spacephys" / "scenarios" / "star_system.toml").build()
     ref = star_system(asteroids=0)
     rows = {"star": 0, "inner": 1, "red": 2, "giant": 3, "outer": 4, "comet": 6}
     for name, row in rows.items():
@@ -328,7 +348,7 @@ def test_star_system_scenario_is_the_demo_scene():
 
 
 def test_arena_bricks_break_and_balls_bounce():
-    result = run_scenario(ROOT / "scenarios" / "arena.toml")
+    result = run_scenario(ROOT / "spacephys" / "scenarios" / "arena.toml")
     w = result.world
     bricks = int(np.sum(w.kind == w.kind_code("brick")))
     assert bricks < 30 and result.events["bounce"] >= 30 - bricks
@@ -336,7 +356,7 @@ def test_arena_bricks_break_and_balls_bounce():
 
 
 def test_overrides_leave_the_scenario_as_it_was_read():
-    sc = load_scenario(ROOT / "scenarios" / "two_body.toml")
+    sc = load_scenario(ROOT / "spacephys" / "scenarios" / "two_body.toml")
     result = run_scenario(sc, integrator="rk4", dt=0.002, duration=0.1)
     assert result.world.integrator == "rk4" and result.world.dt == 0.002
     assert sc.data["world"]["integrator"] == "leapfrog" and sc.data["world"]["dt"] == 0.001

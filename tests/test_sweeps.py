@@ -23,7 +23,7 @@ from spacephys.sweeps import parse_vary, read_sweep, run_one
 cloudpickle.register_pickle_by_value(sys.modules[__name__])
 
 ROOT = Path(__file__).resolve().parent.parent
-DOGFIGHT = ROOT / "scenarios" / "dogfight.toml"
+DOGFIGHT = ROOT / "spacephys" / "scenarios" / "dogfight.toml"
 VARY = {"missiles.seeker.nav_constant": [3.0, 4.0], "world.dt": [0.004, 0.008]}
 SEEDS = range(10)                       # 40 runs of about 50 ms each
 CLI_VARY = ["--vary", "missiles.seeker.nav_constant=3.0,4.0", "--vary", "world.dt=0.004,0.008",

@@ -15,10 +15,9 @@ def _pygame(headless):
     os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")    # (its banner on stdout)
     if headless:
         os.environ["SDL_VIDEODRIVER"] = "dummy"      # no window: frames drawn off screen
-    try:
-        import pygame
-    except ImportError:
-        raise SystemExit("spacephys play needs pygame-ce: pip install 'spacephys[game]'")
+    from ..extras import require
+    require("spacephys play", "pygame")
+    import pygame
     pygame.display.init()
     pygame.font.init()
     return pygame

@@ -21,6 +21,7 @@ class Benchmark:
     # "" for a benchmark that takes no out_dir
     writes: str = ""
     json: bool = True       # `--json PATH` writes the results there too
+    needs: tuple = ("rebound",)   # the optional packages it imports (spacephys.extras)
 
     def load(self):
         """(run, format): the two functions, their module imported now."""
@@ -41,11 +42,12 @@ BENCHMARKS = {b.name: b for b in [
               "logbench", "log", "format_log"),
     Benchmark("tradeoff", "every integrator's error against its cost (files into --out)",
               "tradeoff", "study", "markdown",
-              writes="tradeoff.json, tradeoff.csv and a plot per scene"),
+              writes="tradeoff.json, tradeoff.csv and a plot per scene",
+              needs=("rebound", "matplotlib")),
     Benchmark("peers", "REBOUND's cost over ours at equal accuracy (files into --out)",
               "tradeoff", "peers", "peers_markdown", writes="peers.json", json=False),
     Benchmark("memory", "bytes per body; the peak memory of a million bodies stepped",
-              "memorybench", "memory", "format_memory"),
+              "memorybench", "memory", "format_memory", needs=()),
     Benchmark("models", "what each gravity model costs and gets wrong, beside REBOUND",
               "modelbench", "models", "format_models"),
     Benchmark("overhead", "the cost of a call (step, advance, control), beside REBOUND",
@@ -53,13 +55,13 @@ BENCHMARKS = {b.name: b for b in [
     Benchmark("predict", "what a predicted path costs and how right it is, beside REBOUND",
               "prediction", "predict_bench", "format_predict"),
     Benchmark("tree", "the tree beside pytreegrav, REBOUND's tree and direct summation",
-              "treebench", "tree", "format_tree"),
+              "treebench", "tree", "format_tree", needs=("rebound", "pytreegrav")),
     Benchmark("queries", "the spatial queries beside scipy's cKDTree",
-              "querybench", "queries", "format_queries"),
+              "querybench", "queries", "format_queries", needs=("scipy",)),
     Benchmark("sweep", "a sweep's throughput on 1 and 2 local Dask workers, beside a loop",
-              "sweepbench", "sweep_bench", "format_sweep"),
+              "sweepbench", "sweep_bench", "format_sweep", needs=("distributed",)),
     Benchmark("play", "the game's frame budget, each mode played headless",
-              "playbench", "play_bench", "format_play"),
+              "playbench", "play_bench", "format_play", needs=("pygame",)),
     Benchmark("compile", "each scenario's cold start and what it compiles; the warm start",
-              "compilebench", "compile_bench", "format_compile"),
+              "compilebench", "compile_bench", "format_compile", needs=()),
 ]}

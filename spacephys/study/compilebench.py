@@ -1,6 +1,6 @@
 """`spacephys bench compile`: what a scene waits for before its first step, and what it compiles.
 
-Every scenario of scenarios/ runs in a fresh process with an empty numba cache
+Every shipped scenario runs in a fresh process with an empty numba cache
 (NUMBA_CACHE_DIR pointed at a new folder): the seconds to import spacephys, to build the
 scenario's World, and to its first step (what `spacephys run` does before it: the energy and
 momentum it reports, the timeline's entries at t = 0, then step(1)), and the kernels numba
@@ -18,44 +18,24 @@ from pathlib import Path
 
 from . import header
 
-SCENARIOS = Path(__file__).resolve().parent.parent.parent / "scenarios"
 DEFAULT = "star_system"
 
-# numba's compile events, per dispatcher: (compilations, own seconds); printed as JSON last
+# numba's compile events, per kernel (precompile.Compiles), from the first compilation on:
+# registered after the import, which compiles nothing
 _LISTENER = """
-import json, time
 from numba.core import event
-
-class _Compiles(event.Listener):
-    def __init__(self):
-        self.stack, self.kernels = [], {}
-
-    def on_start(self, ev):
-        self.stack.append([time.perf_counter(), 0.0])
-
-    def on_end(self, ev):
-        start, inner = self.stack.pop()
-        took = time.perf_counter() - start
-        if self.stack:
-            self.stack[-1][1] += took
-        fn = getattr(ev.data["dispatcher"], "py_func", None)
-        name = (f"{getattr(fn, '__module__', None) or '?'}.{fn.__qualname__}" if fn is not None
-                else str(ev.data["dispatcher"]))
-        k = self.kernels.setdefault(name.replace("spacephys.", ""), [0, 0.0])
-        k[0] += 1
-        k[1] += took - inner
-
-_compiles = _Compiles()
+from spacephys.precompile import Compiles
+_compiles = Compiles()
 event.register("numba:compile", _compiles)
 """
 
 _SCENARIO_PROBE = """
-import sys, time
+import json, sys, time
 start = time.perf_counter()
-""" + _LISTENER + """
 import numpy as np
 import spacephys as sp
 imported = time.perf_counter()
+""" + _LISTENER + """
 from spacephys.scenario import apply, load_scenario
 sc = load_scenario(sys.argv[1])
 w, ids = sc.build()
@@ -71,10 +51,10 @@ print(json.dumps({"import_s": imported - start, "build_s": built - imported,
 """
 
 _EVERY_PROBE = """
-import time
+import json, time
 start = time.perf_counter()
-""" + _LISTENER + """
 import spacephys as sp
+""" + _LISTENER + """
 from spacephys.scenes import uniform_sphere
 for name in sp.INTEGRATORS:
     w = uniform_sphere(64, dt=1e-3)
@@ -106,7 +86,8 @@ print(time.perf_counter() - start)
 
 def scenarios():
     """The shipped scenarios' names, sorted."""
-    return sorted(p.stem for p in SCENARIOS.glob("*.toml"))
+    from ..scenario import shipped
+    return list(shipped())
 
 
 def _probe(code, cache, *args):
@@ -125,10 +106,10 @@ def _kernels(raw):
 
 
 def cold_scenario(name):
-    """A scenario of scenarios/ in a fresh process with an empty cache: its start's seconds
+    """A shipped scenario in a fresh process with an empty cache: its start's seconds
     and the kernels it compiled."""
     with tempfile.TemporaryDirectory() as cache:
-        r = _probe(_SCENARIO_PROBE, cache, str(SCENARIOS / f"{name}.toml"))
+        r = _probe(_SCENARIO_PROBE, cache, name)
     return {"scenario": name, "import_s": r["import_s"], "build_s": r["build_s"],
             "first_step_s": r["first_step_s"], "compile_s": sum(s for _, s in r["kernels"].values()),
             "kernels": _kernels(r["kernels"])}
@@ -147,7 +128,7 @@ def warm_start(repeats=3):
     cached numba function."""
     with tempfile.TemporaryDirectory() as cache:
         Path(cache, "floor_probe.py").write_text(_FLOOR_MODULE)
-        path = str(SCENARIOS / f"{DEFAULT}.toml")
+        path = DEFAULT
         _probe(_SCENARIO_PROBE, cache, path)                    # fills the cache
         warm = [_probe(_SCENARIO_PROBE, cache, path) for _ in range(repeats)]
         env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=cache)

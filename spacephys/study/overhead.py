@@ -11,15 +11,12 @@ import re
 import subprocess
 import sys
 import time
-from pathlib import Path
+from importlib import resources
 
 import numpy as np
 
 from . import header
 from . import rebound as peer
-
-ROOT = Path(__file__).resolve().parents[2]
-
 
 def _per_call(calls, repeats, count):
     """Best seconds per call of each function in calls (a dict), run in turn, `count` calls a
@@ -116,29 +113,15 @@ def _batched(quick):
     return rows
 
 
-SPACEWAR_PAGE = "docs/guide/game-loop.md"      # the docs page whose block is the Spacewar! loop
-
-
-def _doc_block(page, tag):
-    """The python block marked <!-- tag --> of the repository's file `page` (None if the file
-    is not there: an installed package without its repository)."""
-    path = ROOT / page
-    if not path.exists():
-        return None
-    found = re.search(rf"<!-- {tag} -->\s*```python\n(.*?)```", path.read_text(), re.S)
-    return found.group(1) if found else None
-
-
 def _spacewar():
-    """The Spacewar! loop of docs/guide/game-loop.md, run as pasted in a fresh process: its
-    frame time."""
-    block = _doc_block(SPACEWAR_PAGE, "spacewar")
-    if block is None:
-        return {"skipped": f"{SPACEWAR_PAGE} not found beside the package"}
+    """The Spacewar! loop of docs/guide/game-loop.md (study/spacewar_loop.py, the page's block
+    word for word: tests/test_cli.py checks), run as pasted in a fresh process: its frame
+    time."""
+    block = (resources.files(__package__) / "spacewar_loop.py").read_text()
     runs = []
     for _ in range(3):
         res = subprocess.run([sys.executable, "-c", block], capture_output=True, text=True,
-                             cwd=ROOT, check=True)
+                             check=True)
         found = re.search(r"([\d.]+) ms per frame, (\d+) bodies", res.stdout)
         runs.append((float(found.group(1)), int(found.group(2))))
     return {"ms_per_frame": min(r[0] for r in runs), "runs_ms": [r[0] for r in runs],
@@ -243,10 +226,9 @@ def format_overhead(r):
                      f"{us(b['rebound_s_per_step'])} | {b['ratio']:.2f}x |")
     sw = r["spacewar"]
     lines.append("")
-    lines.append(f"Spacewar! loop ({SPACEWAR_PAGE}): " + (sw["skipped"] if "skipped" in sw else
-                 f"{sw['ms_per_frame']:.3f} ms per frame (runs: "
-                 f"{', '.join(f'{x:.3f}' for x in sw['runs_ms'])}), {sw['bodies_at_end']} "
-                 f"bodies at the end"))
+    lines.append(f"Spacewar! loop (docs/guide/game-loop.md): {sw['ms_per_frame']:.3f} ms per "
+                 f"frame (runs: {', '.join(f'{x:.3f}' for x in sw['runs_ms'])}), "
+                 f"{sw['bodies_at_end']} bodies at the end")
     th = r["threads"]
     if isinstance(th, dict):
         lines.append(f"threads: {th['skipped']}")

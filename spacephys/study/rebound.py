@@ -4,11 +4,10 @@ import numpy as np
 
 
 def load():
-    """The rebound module; ValueError saying how to install it."""
-    try:
-        import rebound
-    except ImportError:
-        raise ValueError("the benchmarks compare with REBOUND: pip install 'spacephys[test]'") from None
+    """The rebound module; extras.MissingExtra saying how to install it."""
+    from ..extras import require
+    require("comparing with REBOUND", "rebound")
+    import rebound
     return rebound
 
 

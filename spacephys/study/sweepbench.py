@@ -2,20 +2,19 @@
 the same runs in a plain loop in this process (the runs themselves), and what each worker
 compiled.
 
-The runs: scenarios/dogfight.toml (two ships around a planet, guided missiles, explosions)
+The runs: the shipped scenario dogfight (two ships around a planet, guided missiles, explosions)
 over two guidance constants x two steps x seeds, each run about 50 ms. Each cluster is
 started and its workers given one run each before the timing (a worker's first run loads
 the kernels from numba's cache): the timing is the sweep itself, its first run alone
 included (that is how sp.sweep starts).
 """
 import time
-from pathlib import Path
 
 import numpy as np
 
 from . import header
 
-DOGFIGHT = Path(__file__).resolve().parent.parent.parent / "scenarios" / "dogfight.toml"
+DOGFIGHT = "dogfight"       # the shipped scenario
 VARY = {"missiles.seeker.nav_constant": [3.0, 4.0], "world.dt": [0.004, 0.008]}
 
 
@@ -68,11 +67,11 @@ def sweep_bench(quick=False):
     """200 runs (quick: 40) on 1 and 2 workers, and in a loop here."""
     from ..sweeps import SweepRun, plan, run_one
     runs = 40 if quick else 200
-    text = DOGFIGHT.read_text()
-    job = {"text": text, "source": str(DOGFIGHT), "measure": None, "setup": None,
+    from ..scenario import load_scenario, shipped
+    path = shipped()[DOGFIGHT]
+    job = {"text": path.read_text(), "source": str(path), "measure": None, "setup": None,
            "logs": None}
-    from ..scenario import load_scenario
-    todo = plan(load_scenario(DOGFIGHT), VARY, range(runs // 4))
+    todo = plan(load_scenario(path), VARY, range(runs // 4))
     run_one(job, SweepRun(0, todo[0].params, 0, 0))        # kernels loaded here
     start = time.perf_counter()
     walls = [run_one(job, r)["wall"] for r in todo]
@@ -87,7 +86,7 @@ def sweep_bench(quick=False):
 def format_sweep(results):
     r = results
     lines = [f"sweep benchmark on {r['machine']} ({r['versions']}): {r['runs']} runs of "
-             f"scenarios/dogfight.toml, local Dask workers (1 thread each)",
+             f"the scenario dogfight, local Dask workers (1 thread each)",
              f"{'where':22s} {'wall':>9s} {'runs/s':>8s} {'run':>9s} {'overhead/run':>13s} "
              f"{'start-up':>9s}  kernels compiled / loaded per worker",
              f"{'a loop, this process':22s} {r['loop_s']:8.2f}s {r['runs'] / r['loop_s']:8.1f} "

@@ -1,0 +1,172 @@
+"""Where the compiled machine code goes (spacephys/cache.py), tried as other users meet it: a
+copy of the package that cannot be written (a system install), a home that cannot be
+written (a service account), both, and NUMBA_CACHE_DIR; each in fresh processes run as
+another user (as root: `nobody`, for whom a root-owned folder is read-only)."""
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+NOBODY = 65534
+
+# the package's own kernel with the least to compile, then what the cache module chose
+PROBE = """
+import json, warnings
+warnings.simplefilter("always")
+with warnings.catch_warnings(record=True) as said:
+    import spacephys
+    from spacephys import cache
+from numba.core import event
+from spacephys.precompile import Compiles
+listener = Compiles()
+event.register("numba:compile", listener)
+import numpy as np
+from spacephys.kernels.diagnostics import add
+add(1.0, 0.0, 2.0)
+print(json.dumps({"package": spacephys.__file__, "where": cache.WHERE,
+                  "folder": None if cache.FOLDER is None else str(cache.FOLDER),
+                  "files": [str(f) for f in cache.files()], "compiled": list(listener.kernels),
+                  "warnings": [str(w.message) for w in said]}))
+"""
+
+
+def _as_other_user():
+    return os.geteuid() == 0 if hasattr(os, "geteuid") else False
+
+
+def _folder(path, writable):
+    """A folder the probe's user can (or cannot) write."""
+    path.mkdir(parents=True, exist_ok=True)
+    if _as_other_user():
+        os.chown(path, NOBODY if writable else 0, NOBODY if writable else 0)
+        path.chmod(0o755)
+    else:
+        path.chmod(0o755 if writable else 0o555)
+    return path
+
+
+@pytest.fixture
+def place():
+    """run(package_writable, home_writable, tmp_writable, env) -> (its folder, the two
+    probes' JSON); in a folder of /tmp that the other user can reach (pytest's are private)"""
+    top = Path(tempfile.mkdtemp(prefix="spacephys-cache-test-"))
+    top.chmod(0o755)
+
+    def run(package_writable, home_writable, tmp_taken=False, env=()):
+        case = top / f"case{len(list(top.iterdir()))}"
+        _folder(case, False)
+        code = case / "code"
+        shutil.copytree(ROOT / "spacephys", code / "spacephys",
+                        ignore=shutil.ignore_patterns("__pycache__"))
+        for d in [code, *[p for p in (code / "spacephys").rglob("*") if p.is_dir()],
+                  code / "spacephys"]:
+            _folder(d, package_writable)
+        home, tmp = _folder(case / "home", home_writable), _folder(case / "tmp", True)
+        if tmp_taken:        # the temporary cache folder's name taken by another user
+            uid = NOBODY if _as_other_user() else os.getuid()
+            taken = tmp / f"spacephys-cache-{uid}"
+            taken.mkdir()
+            if not _as_other_user():
+                taken.chmod(0o777)             # one's own, but anyone could plant code in it
+        environ = {k: v for k, v in os.environ.items()
+                   if not k.startswith("NUMBA_") and k not in ("XDG_CACHE_HOME", "PYTHONPATH")}
+        environ.update(HOME=str(home), TMPDIR=str(tmp), PYTHONPATH=str(code))
+        for key, name in dict(env).items():             # a folder of the case's, writable
+            environ[key] = str(_folder(case / name, True))
+        user = dict(user=NOBODY, group=NOBODY) if _as_other_user() else {}
+        out = []
+        for _ in range(2):                      # the second process finds what the first left
+            res = subprocess.run([sys.executable, "-c", PROBE], env=environ, cwd=case,
+                                 capture_output=True, text=True, timeout=300, **user)
+            assert res.returncode == 0, res.stderr
+            out.append(json.loads(res.stdout.strip().splitlines()[-1]))
+        assert out[0]["package"] == str(code / "spacephys" / "__init__.py")
+        return case, out
+    yield run
+    shutil.rmtree(top)
+
+
+def test_a_writable_package_keeps_its_machine_code_beside_it(place):
+    case, (first, second) = place(package_writable=True, home_writable=False)
+    assert first["where"] == "package" and first["folder"] is None and not first["warnings"]
+    assert first["compiled"] and first["files"]
+    assert all(f.startswith(str(case / "code" / "spacephys")) and "__pycache__" in f
+               for f in first["files"])
+    assert second["compiled"] == []                          # loaded from the cache
+
+
+def test_a_read_only_package_caches_in_the_users_cache_folder(place):
+    case, (first, second) = place(package_writable=False, home_writable=True)
+    assert first["where"] == "user" and not first["warnings"]
+    assert first["folder"] == str(case / "home" / ".cache" / "spacephys")
+    assert first["files"] and all(f.startswith(first["folder"]) for f in first["files"])
+    assert not list((case / "code").rglob("*.nbi"))
+    assert second["compiled"] == [] and second["files"] == first["files"]
+
+
+def test_nothing_writable_but_the_temporary_folder_warns_and_caches_there(place):
+    case, (first, second) = place(package_writable=False, home_writable=False)
+    assert first["where"] == "temporary"
+    assert first["folder"].startswith(str(case / "tmp" / "spacephys-cache-"))
+    assert "which the system may empty" in first["warnings"][0]
+    assert first["files"] and second["compiled"] == []
+
+
+def test_no_folder_of_ones_own_turns_caching_off_with_a_warning_and_still_runs(place):
+    case, (first, second) = place(package_writable=False, home_writable=False, tmp_taken=True)
+    assert first["where"] == "off" and "nothing is cached" in first["warnings"][0]
+    assert first["compiled"] and second["compiled"] == first["compiled"]   # compiled again
+    assert not list(case.rglob("*.nbi"))
+
+
+def test_numba_cache_dir_is_honoured(place):
+    case, (first, second) = place(package_writable=True, home_writable=True,
+                                  env={"NUMBA_CACHE_DIR": "given"})
+    given = case / "given"
+    assert first["where"] == "NUMBA_CACHE_DIR" and first["folder"] == str(given)
+    assert first["files"] and all(f.startswith(str(given)) for f in first["files"])
+    assert second["compiled"] == []
+
+
+def test_the_compile_message_names_the_folder_used_and_compile_then_loads(tmp_path):
+    cache = tmp_path / "cache"
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
+    exe = Path(sys.executable).parent / "spacephys"
+    res = subprocess.run([str(exe), "compile", "--scene", "two_body"], env=env, cwd=tmp_path,
+                         capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    assert f"machine code cache: {cache})" in res.stderr          # the announcement
+    assert res.stdout.startswith("[1/1] two_body: ") and "kernels.step.run" in res.stdout
+    res = subprocess.run([str(exe), "run", "two_body", "--duration", "0.1", "--quiet"],
+                         env=env, cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0 and "compiling" not in res.stderr, res.stderr
+    info = subprocess.run([str(exe), "cache", "info"], env=env, capture_output=True,
+                          text=True).stdout
+    assert "cache         NUMBA_CACHE_DIR" in info and f"folder        {cache}" in info
+    files = int(info.split(" MB in ")[1].split()[0])
+    assert files > 20
+    res = subprocess.run([str(exe), "cache", "clear"], env=env, capture_output=True, text=True)
+    assert res.stdout.startswith(f"deleted {files} files")
+    assert not list(cache.rglob("*.nbi"))
+
+
+def test_compile_runs_targets_side_by_side_and_later_processes_load_them(tmp_path):
+    code = """
+import json, sys
+import spacephys as sp
+done = sp.compile(scene=["two_body", "figure_eight"], jobs=2)
+print(json.dumps([[c.target, len(c.kernels)] for c in done]))
+"""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    runs = [json.loads(subprocess.run([sys.executable, "-c", code], env=env, check=True,
+                                      capture_output=True, text=True).stdout)
+            for _ in range(2)]
+    assert [t for t, _ in runs[0]] == ["two_body", "figure_eight"]
+    assert all(k > 5 for _, k in runs[0])              # each compiled in its own process
+    assert runs[1] == [["two_body", 0], ["figure_eight", 0]]
