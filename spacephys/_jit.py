@@ -222,6 +222,31 @@ def announced(what, after=0.5):
                   flush=True)
 
 
+def _cores_taken():
+    """How many runnable threads other than this one the machine has now: the least of two
+    looks at Linux's /proc/loadavg (its running count, this thread included), 0.2 ms apart,
+    so that a thread that ran for an instant does not count. None where there is no such
+    file."""
+    seen = []
+    for k in range(2):
+        if k:
+            time.sleep(0.0002)
+        try:
+            with open("/proc/loadavg", "rb") as f:
+                seen.append(int(f.read().split()[3].split(b"/")[0]) - 1)
+        except (OSError, IndexError, ValueError):
+            return None
+    return min(seen)
+
+
+def _crowded():
+    """Whether other work holds cores this process's threads would need: a threaded loop
+    then waits for its slowest, descheduled thread (beside one busy process on 2 cores,
+    1 000 steps of star_system took 0.49-4.3 s on threads, 0.24 s on one)."""
+    taken = _cores_taken()
+    return taken is not None and (os.cpu_count() or 1) - taken < numba.config.NUMBA_NUM_THREADS
+
+
 class ThreadChoice:
     """Whether one World's force loops run on threads, chosen by the work and by what the
     threads deliver. Results are the same bit for bit either way; only the time differs.
@@ -237,8 +262,10 @@ class ThreadChoice:
     and the faster kept. A trial is TRIAL_CALLS
     calls and counts the fastest of them, compared with the fastest of the current choice's
     last TRIAL_CALLS: the first call after a switch pays for waking or parking the pool. A
-    scene starts on threads (a long run in one call keeps them); its first two calls, which
-    load kernels and build tables, are not timed.
+    call too long to try the other choice on (a run, a warp; and the first calls) runs on
+    threads only when no other work holds the cores they need (_crowded: Linux's count of
+    runnable threads), and a trial of threads waits while it does; the first two calls of a
+    scene, which load kernels and build tables, are not timed.
     """
 
     def __init__(self, mode="auto"):
@@ -276,9 +303,19 @@ class ThreadChoice:
             self._measure_afresh()
             self.settle = 2            # its first calls load kernels and build tables: untimed
         now = time.perf_counter()
-        short = self.cost[self.threaded] * steps < PROBE_MAX
-        if short and not self.trial and now >= self.probe_at:
-            self.trial, self.trial_cost = TRIAL_CALLS, np.inf
+        cost = self.cost[self.threaded]
+        short = (cost if cost < np.inf else self.cost[not self.threaded]) * steps < PROBE_MAX
+        if not short:          # no trial inside one call: threads unless measured slower,
+            # or other work holds the cores they need
+            slower = np.inf > self.cost[True] > self.cost[False]
+            threaded = not (slower or _crowded())
+            if threaded != self.threaded:
+                self.threaded, self.recent = threaded, []
+        elif not self.trial and now >= self.probe_at:
+            if self.threaded or not _crowded():
+                self.trial, self.trial_cost = TRIAL_CALLS, np.inf
+            else:
+                self.probe_at = now + self.backoff      # threads would wait: not now
         probe = short and self.trial > 0
         use = self.threaded != probe
         self.min_pairs[0] = PARALLEL_MIN_PAIRS if use else NEVER

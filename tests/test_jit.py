@@ -8,8 +8,8 @@ def test_a_long_compilation_is_announced_with_where_it_is_cached(capsys):
     with _jit.announced("the test kernel", after=0.05):
         time.sleep(0.3)
     err = capsys.readouterr().err.splitlines()
-    assert err[0].startswith("spacephys: compiling the test kernel with numba; this happens "
-                             "once per machine and version (the machine code is cached in ")
+    assert err[0] == ("spacephys: compiling the test kernel with numba; this happens once "
+                      f"per machine and version (machine code cache: {_jit._cache.place()})")
     assert err[1].startswith("spacephys: compiled in 0.")
 
 

@@ -1,6 +1,7 @@
 """The force contract (kernels/forces.py) and the energy kernels against plain numpy, on every
 gravity model and code path."""
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -276,6 +277,7 @@ def test_thread_choice_keeps_what_measures_faster(monkeypatch):
     clock = _Clock()
     monkeypatch.setattr(_jit.time, "perf_counter", clock)
     monkeypatch.setattr(_jit.numba.config, "NUMBA_NUM_THREADS", 2)   # whatever the machine
+    monkeypatch.setattr(_jit, "_crowded", lambda: False)   # no other program running
     busy = _jit.ThreadChoice()
     used = [_call(busy, clock, 8e-3, 3e-4) for _ in range(6)]
     assert used == [True, True, True, False, False, False] and not busy.threaded
@@ -309,6 +311,9 @@ def test_thread_choice_keeps_what_measures_faster(monkeypatch):
     batch = _jit.ThreadChoice()
     used = [_call(batch, clock, 1e-4, 2e-4, steps=1000) for _ in range(5)]
     assert used == [True] * 5
+    # measured slower on threads, a long run stays on one thread
+    used = [_call(busy, clock, 8e-3, 3e-4, steps=1000) for _ in range(2)]
+    assert used == [False] * 2
     small = _jit.ThreadChoice()
     assert small.begin(PARALLEL_MIN_PAIRS - 1, 1) is None         # never worth it
     for mode, want in (("always", PARALLEL_MIN_PAIRS), ("never", _jit.NEVER)):
@@ -316,3 +321,43 @@ def test_thread_choice_keeps_what_measures_faster(monkeypatch):
         assert small.begin(90_000, 1) is None and small.min_pairs[0] == want
     with pytest.raises(ValueError, match="threads='sometimes'"):
         small.set("sometimes")
+
+
+def test_beside_busy_programs_a_long_call_and_the_first_frames_take_one_thread(monkeypatch):
+    """Other work holds the cores (_crowded): a long call, which no trial can split, and a
+    scene's first calls run on one thread, and a trial of threads waits until the cores are
+    free again; then the choice is measured as on an idle machine."""
+    from spacephys import _jit
+    clock = _Clock()
+    monkeypatch.setattr(_jit.time, "perf_counter", clock)
+    monkeypatch.setattr(_jit.numba.config, "NUMBA_NUM_THREADS", 2)
+    crowded = [True]
+    monkeypatch.setattr(_jit, "_crowded", lambda: crowded[0])
+    batch = _jit.ThreadChoice()
+    assert [_call(batch, clock, 1e-4, 2e-4, steps=1000) for _ in range(3)] == [False] * 3
+    frames = _jit.ThreadChoice()
+    used = [_call(frames, clock, 8e-3, 3e-4) for _ in range(4)]
+    assert used == [False] * 4 and not frames.threaded
+    clock.now += 1.1
+    assert not _call(frames, clock, 8e-3, 3e-4)          # a trial is due, the cores are not
+    crowded[0] = False
+    clock.now += 1.1
+    used = [_call(frames, clock, 1e-4, 3e-4) for _ in range(4)]
+    assert used == [True] * 4 and frames.threaded      # tried once the cores were free: kept
+    assert _call(batch, clock, 1e-4, 2e-4, steps=1000)   # a long call on an idle machine
+
+
+def test_the_cores_other_programs_hold_are_counted():
+    """_cores_taken reads the machine's runnable threads: two spinning processes count."""
+    import subprocess
+    import time
+    from spacephys import _jit
+    spinners = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
+    try:
+        time.sleep(0.5)
+        seen = max(_jit._cores_taken() for _ in range(20))
+    finally:
+        for p in spinners:
+            p.kill()
+            p.wait()
+    assert seen >= 2

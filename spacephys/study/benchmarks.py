@@ -62,6 +62,8 @@ BENCHMARKS = {b.name: b for b in [
               "sweepbench", "sweep_bench", "format_sweep", needs=("distributed",)),
     Benchmark("play", "the game's frame budget, each mode played headless",
               "playbench", "play_bench", "format_play", needs=("pygame",)),
+    Benchmark("threads", "the default thread choice beside busy processes, against one "
+              "thread and all", "threadbench", "threads", "format_threads", needs=()),
     Benchmark("compile", "each scenario's cold start and what it compiles; the warm start",
               "compilebench", "compile_bench", "format_compile", needs=()),
 ]}
