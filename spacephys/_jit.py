@@ -222,21 +222,37 @@ def announced(what, after=0.5):
                   flush=True)
 
 
+def _running(path):
+    """Threads in state R (running or ready) among /proc/self/task's."""
+    count = 0
+    for task in os.listdir(path):
+        try:
+            with open(f"{path}/{task}/stat", "rb") as f:
+                count += f.read().rsplit(b")", 1)[1].split()[0] == b"R"
+        except (OSError, IndexError):
+            pass                                   # the thread ended meanwhile
+    return count
+
+
 def _cores_taken():
-    """How many runnable threads other than this one the machine has now: the least of two
-    looks at Linux's /proc/loadavg (its running count, this thread included), 0.2 ms apart,
-    so that a thread that ran for an instant does not count. None where there is no such
-    file."""
+    """How many runnable threads other programs have now: the least of two looks at Linux's
+    /proc/loadavg (its running count) less this process's own running threads (its OpenMP
+    threads spin a moment after a loop), 0.2 ms apart when the first saw any, so that a
+    thread that ran for an instant does not count (one look: 50 us). None where there are no
+    such files."""
     seen = []
     for k in range(2):
         if k:
+            if seen[0] <= 0:
+                break                              # nobody else: no second look needed
             time.sleep(0.0002)
         try:
             with open("/proc/loadavg", "rb") as f:
-                seen.append(int(f.read().split()[3].split(b"/")[0]) - 1)
+                running = int(f.read().split()[3].split(b"/")[0])
+            seen.append(running - max(1, _running("/proc/self/task")))
         except (OSError, IndexError, ValueError):
             return None
-    return min(seen)
+    return max(0, min(seen))
 
 
 def _crowded():
