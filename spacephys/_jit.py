@@ -222,37 +222,34 @@ def announced(what, after=0.5):
                   flush=True)
 
 
-def _running(path):
-    """Threads in state R (running or ready) among /proc/self/task's."""
-    count = 0
-    for task in os.listdir(path):
+def _others_running():
+    """Linux's count of running threads (/proc/loadavg) less this process's own in state R
+    (its OpenMP threads spin a moment after a loop). OSError, IndexError or ValueError where
+    there are no such files."""
+    with open("/proc/loadavg", "rb") as f:
+        running = int(f.read().split()[3].split(b"/")[0])
+    own = 0
+    for task in os.listdir("/proc/self/task"):
         try:
-            with open(f"{path}/{task}/stat", "rb") as f:
-                count += f.read().rsplit(b")", 1)[1].split()[0] == b"R"
+            with open(f"/proc/self/task/{task}/stat", "rb") as f:
+                own += f.read().rsplit(b")", 1)[1].split()[0] == b"R"
         except (OSError, IndexError):
             pass                                   # the thread ended meanwhile
-    return count
+    return running - max(1, own)
 
 
 def _cores_taken():
-    """How many runnable threads other programs have now: the least of two looks at Linux's
-    /proc/loadavg (its running count) less this process's own running threads (its OpenMP
-    threads spin a moment after a loop), 0.2 ms apart when the first saw any, so that a
-    thread that ran for an instant does not count (one look: 50 us). None where there are no
-    such files."""
-    seen = []
-    for k in range(2):
-        if k:
-            if seen[0] <= 0:
-                break                              # nobody else: no second look needed
+    """How many runnable threads other programs have now (_others_running): when the first
+    look sees any, the least of it and a second look 0.2 ms later, so that a thread that ran
+    for an instant does not count (one look: 50 us). None where there are no such files."""
+    try:
+        seen = _others_running()
+        if seen > 0:
             time.sleep(0.0002)
-        try:
-            with open("/proc/loadavg", "rb") as f:
-                running = int(f.read().split()[3].split(b"/")[0])
-            seen.append(running - max(1, _running("/proc/self/task")))
-        except (OSError, IndexError, ValueError):
-            return None
-    return max(0, min(seen))
+            seen = min(seen, _others_running())
+    except (OSError, IndexError, ValueError):
+        return None
+    return max(0, seen)
 
 
 def _crowded():

@@ -3,10 +3,10 @@ import argparse
 import dataclasses
 import json
 import sys
-from pathlib import Path
 
 from .extras import MissingExtra, require
 from .integrators import INTEGRATORS
+from .runner import resolve
 from .scenes import SCENES
 from .study.benchmarks import BENCHMARKS
 
@@ -14,22 +14,6 @@ from .study.benchmarks import BENCHMARKS
 def _problem_names():
     from .study.validate import PROBLEMS
     return list(PROBLEMS)
-
-
-def _resolve(scene):
-    """("scenario", path) for a scenario file or the name of a shipped scenario, ("scene",
-    name) for a built-in scene; ValueError listing the known ones otherwise."""
-    from .scenario import shipped
-    path, known = Path(scene), shipped()
-    if not path.suffix and scene in known:
-        return "scenario", known[scene]              # a shipped scenario first
-    if path.suffix != ".toml" and scene in SCENES:
-        return "scene", scene
-    if path.suffix != ".toml" or not path.exists():
-        names = sorted(set(SCENES) | set(known))
-        raise ValueError(f"{scene!r} is neither a scenario file (.toml) nor a known scene "
-                         f"or scenario: {', '.join(names)}")
-    return "scenario", path
 
 
 def _scenarios(args):
@@ -45,7 +29,7 @@ def _run(args):
     from .runner import default_progress, run_scenario, run_scene
     kw = dict(integrator=args.integrator, dt=args.dt, duration=args.duration, out=args.out,
               progress=None if args.quiet else default_progress())
-    kind, what = _resolve(args.scene)
+    kind, what = resolve(args.scene)
     result = (run_scene if kind == "scene" else run_scenario)(what, **kw)
     print(result.summary())
     if args.out:
@@ -75,7 +59,7 @@ def _cache(args):
 
 def _recommend(args):
     from .study.recommend import recommend
-    kind, what = _resolve(args.scene)
+    kind, what = resolve(args.scene)
     duration = args.duration
     if kind == "scene":
         build, default_duration, integrator, dt = SCENES[what]
@@ -143,7 +127,7 @@ def _sweep(args):
     require("spacephys sweep", "distributed")
     from .runner import default_progress
     from .sweeps import parse_vary, summary, sweep
-    kind, what = _resolve(args.scenario)
+    kind, what = resolve(args.scenario)
     if kind != "scenario":
         raise ValueError(f"{args.scenario!r} is a built-in scene: a sweep varies a scenario "
                          f"file's keys (spacephys scenarios lists the shipped ones)")

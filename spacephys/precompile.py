@@ -67,7 +67,7 @@ def _exercise(w):
 
 
 def _build(kind, what):
-    """A World from ("scene", name), ("scenario", name or path)."""
+    """A World from ("scene", name) or ("scenario", path)."""
     if kind == "scene":
         from .scenes import SCENES
         build, _, integrator, dt = SCENES[what]
@@ -80,32 +80,29 @@ def _build(kind, what):
     return w
 
 
-def _one(kind, what):
+def _one(label, kind, what):
     """Compile one target in this process: a Compiled."""
     start = time.perf_counter()
     _, rows = _listening(lambda: _exercise(_build(kind, what)))
-    return Compiled(str(what), time.perf_counter() - start, rows)
+    return Compiled(label, time.perf_counter() - start, rows)
 
 
 def targets(scene=None, scenario=None, every=False):
-    """[(kind, name)] for `spacephys compile`: built-in scenes or shipped scenarios by name
-    (one or a list), a scenario file, or every shipped scenario and built-in scene."""
+    """[(label, kind, what)] for `spacephys compile`: built-in scenes or shipped scenarios by
+    name (one or a list; runner.resolve), a scenario file, or every shipped scenario and
+    built-in scene."""
+    from .runner import resolve
     from .scenario import shipped
     from .scenes import SCENES
-    known = shipped()
     if every:
-        return [("scenario", name) for name in known] + [("scene", s) for s in SCENES
-                                                          if s not in known]
-    if scene is not None:
+        names = list(shipped()) + [s for s in SCENES if s not in shipped()]
+    elif scene is not None:
         names = [scene] if isinstance(scene, str) else list(scene)
-        for name in names:
-            if name not in known and name not in SCENES:
-                raise ValueError(f"scene = {name!r}: not a built-in scene or shipped scenario; "
-                                 f"they are: {', '.join(sorted(set(SCENES) | set(known)))}")
-        return [("scenario" if name in known else "scene", name) for name in names]
-    if scenario is not None:
-        return [("scenario", os.fspath(scenario))]
-    raise ValueError("nothing to compile: give a world, a scene, a scenario or every=True")
+    elif scenario is not None:
+        return [(os.fspath(scenario), "scenario", os.fspath(scenario))]
+    else:
+        raise ValueError("nothing to compile: give a world, a scene, a scenario or every=True")
+    return [(name, *resolve(name)) for name in names]
 
 
 def compile(world=None, *, scene=None, scenario=None, every=False, jobs=1, progress=None):
@@ -130,9 +127,9 @@ def compile(world=None, *, scene=None, scenario=None, every=False, jobs=1, progr
     todo = targets(scene, scenario, every)
     if jobs == 1 or len(todo) == 1:
         done = []
-        for k, (kind, what) in enumerate(todo):
-            _bar(progress, k, len(todo), what)
-            done.append(_one(kind, what))
+        for k, target in enumerate(todo):
+            _bar(progress, k, len(todo), target[0])
+            done.append(_one(*target))
             _report(progress, done[-1], k + 1, len(todo))
         return done
     import multiprocessing
@@ -140,7 +137,7 @@ def compile(world=None, *, scene=None, scenario=None, every=False, jobs=1, progr
     done = {}
     with ProcessPoolExecutor(min(jobs, len(todo)),
                              mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures = {pool.submit(_one, kind, what): k for k, (kind, what) in enumerate(todo)}
+        futures = {pool.submit(_one, *target): k for k, target in enumerate(todo)}
         _bar(progress, 0, len(todo), "")
         for future in as_completed(futures):
             done[futures[future]] = future.result()
@@ -150,8 +147,8 @@ def compile(world=None, *, scene=None, scenario=None, every=False, jobs=1, progr
 
 def _bar(progress, k, total, what):
     if progress is not None and progress.isatty():
-        bar = "#" * (30 * k // total)
-        print(f"\r[{bar:<30}] {k}/{total} {what}", end="", file=progress, flush=True)
+        from .runner import draw_bar
+        draw_bar(progress, k, total, f"{k}/{total} {what}")
 
 
 def _report(progress, c, k, total):

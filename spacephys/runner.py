@@ -4,6 +4,7 @@ import os
 import sys
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -196,9 +197,7 @@ def _run_steps(w, name, total, plan, ids, missiles, progress, log):
             tally()
             done += n
         if progress is not None:
-            bar = "#" * (30 * c // chunks)
-            print(f"\r[{bar:<30}] {100 * c // chunks:3d}%  t = {w.t:.4g}", end="", file=progress,
-                  flush=True)
+            draw_bar(progress, c, chunks, f"{100 * c // chunks:3d}%  t = {w.t:.4g}")
     wall = time.perf_counter() - start
     if progress is not None:
         print(file=progress)
@@ -207,6 +206,28 @@ def _run_steps(w, name, total, plan, ids, missiles, progress, log):
     return RunResult(w, name, done, wall, compile_wall, t0, E0, w.energy(True),
                      float(np.linalg.norm(w.momentum(True) - P0)) / scale, L0, _norm_L(w),
                      dict(sorted(counts.items())), bodies0, ids)
+
+
+def resolve(scene):
+    """("scenario", path) for a scenario file or the name of a shipped scenario, ("scene",
+    name) for a built-in scene; ValueError listing the known ones otherwise."""
+    from .scenario import shipped
+    path, known = Path(scene), shipped()
+    if not path.suffix and scene in known:
+        return "scenario", known[scene]              # a shipped scenario first
+    if path.suffix != ".toml" and scene in SCENES:
+        return "scene", scene
+    if path.suffix != ".toml" or not path.exists():
+        names = sorted(set(SCENES) | set(known))
+        raise ValueError(f"{scene!r} is neither a scenario file (.toml) nor a known scene "
+                         f"or scenario: {', '.join(names)}")
+    return "scenario", path
+
+
+def draw_bar(progress, k, total, text):
+    """Redraw, on one line of the file `progress`, a bar for k of total done, then text."""
+    bar = "#" * (30 * k // total)
+    print(f"\r[{bar:<30}] {text}", end="", file=progress, flush=True)
 
 
 def default_progress():

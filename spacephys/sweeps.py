@@ -343,10 +343,10 @@ def _execute(client, job, pending, digest, done, journal, progress, total):
 
 
 def _bar(progress, n, total, started, done):
+    from .runner import draw_bar
     errors = sum(1 for r in done.values() if r["status"] != "ok")
-    bar = "#" * (30 * n // total)
-    print(f"\r[{bar:<30}] {n}/{total} runs, {errors} errors, "
-          f"{time.perf_counter() - started:.1f} s", end="", file=progress, flush=True)
+    draw_bar(progress, n, total, f"{n}/{total} runs, {errors} errors, "
+                                 f"{time.perf_counter() - started:.1f} s")
 
 
 # ----------------------------------------------------------------------- the files

@@ -31,6 +31,14 @@ def _scenes(quick):
     }
 
 
+def _fresh(build, mode):
+    """A new World of the scene on `mode`, its kernels loaded and tables built (untimed)."""
+    w = build()
+    w.threads = mode
+    w.step(2)
+    return w
+
+
 def _frames(w, seconds):
     """Seconds per step over step(1) calls for `seconds`."""
     steps, start = 0, time.perf_counter()
@@ -56,19 +64,15 @@ def threads(quick=False):
         try:
             time.sleep(0.3)
             for name, (build, long_steps) in _scenes(quick).items():
+                steps = long_steps // 4 if quick else long_steps * 3
                 row = {"scene": name, "busy": busy}
                 runs = {}
                 for _ in range(repeats):           # the modes in turn: a disturbance hits all
                     for mode in MODES:
-                        w = build()
-                        w.threads = mode
-                        w.step(2)                  # kernels loaded, tables built: untimed
-                        runs.setdefault(f"frames_{mode}_s", []).append(_frames(w, seconds))
-                        w = build()
-                        w.threads = mode
-                        w.step(2)
+                        runs.setdefault(f"frames_{mode}_s", []).append(
+                            _frames(_fresh(build, mode), seconds))
                         runs.setdefault(f"long_{mode}_s", []).append(
-                            _long(w, long_steps // 4 if quick else long_steps * 3))
+                            _long(_fresh(build, mode), steps))
                 row.update({key: float(np.median(v)) for key, v in runs.items()})
                 for way in ("frames", "long"):
                     row[f"{way}_auto_over_one"] = row[f"{way}_auto_s"] / row[f"{way}_never_s"]
