@@ -13,14 +13,16 @@ def rng():
 
 
 
-# files whose tests compare measured times (the benchmarks' and the work-precision study's
-# figures, recommend's choices by them): `dev.py test` runs them alone, after the rest, so
-# that another worker's compilation does not skew what they measure (a single such test
-# elsewhere is marked @pytest.mark.timed where it stands)
-TIMED = ("test_recommend.py", "test_tradeoff.py")
+# files whose tests compare measured times (one code's time against another's, recommend's
+# choices by them, a busy core's share): `dev.py test` runs them alone, after the rest, so that
+# another worker's compilation does not skew what they compare (a single such test elsewhere is
+# marked @pytest.mark.timed where it stands). A benchmark's test that only checks its report
+# (test_bench_play, _queries, _overhead, _compile, test_tradeoff) runs with the rest.
+TIMED = ("test_bench_heavy.py", "test_bench_models.py", "test_bench_predict.py",
+         "test_bench_threads.py", "test_bench_tree.py", "test_recommend.py")
 
 
 def pytest_collection_modifyitems(config, items):
     for item in items:
-        if item.path.name.startswith("test_bench_") or item.path.name in TIMED:
+        if item.path.name in TIMED:
             item.add_marker(pytest.mark.timed)
