@@ -1,4 +1,12 @@
-"""The one decorator every numba kernel uses: caching, fastmath and parallel policy in one place."""
+"""The one decorator every numba kernel uses: caching, floating-point and parallel policy in
+one place.
+
+No kernel is compiled with a fastmath flag: reassociation would let LLVM split a sum into as
+many partial sums as the CPU's vectors hold, contraction would fuse multiply-adds where the
+CPU has them, and either makes results differ between x86-64 CPUs. Without them every
+operation rounds as written (IEEE 754, as the source orders it), so a result depends on
+the inputs and the numba/LLVM version only; the force sums are laid out to vectorise
+without reordering (kernels/pairs.py)."""
 import contextlib
 import os
 import sys
@@ -20,7 +28,8 @@ import numpy as np  # noqa: E402
 
 from . import cache as _cache  # noqa: E402  (the cache folder, before any kernel is defined)
 from numba import types
-from numba.core.errors import NumbaPerformanceWarning
+from numba.core import cgutils
+from numba.core.errors import NumbaPerformanceWarning, RequireLiteralValue
 from numba.core.registry import CPUDispatcher
 from numba.experimental.structref import _Utils
 from numba.extending import intrinsic, overload
@@ -31,11 +40,6 @@ from numba.extending import intrinsic, overload
 warnings.filterwarnings("ignore", message=r"\s*The keyword argument 'parallel=True' was "
                         "specified but no transformation", category=NumbaPerformanceWarning)
 
-# Reassociation lets LLVM vectorise the force sums (about 15x on the gravity kernel here);
-# contraction allows fused multiply-add. Both keep a build deterministic on one machine, but they
-# change rounding, so they are opt-in per kernel and never used where rounding *is* the algorithm
-# (compensated sums, Kepler solvers, the diagnostics' Neumaier sums).
-FAST = frozenset({"reassoc", "contract"})
 
 # Below this many pair evaluations a serial loop beats starting the thread pool on an idle
 # machine (measured: crossover between 64 and 128 bodies, i.e. 4e3..1.6e4 pairs, on a 2-core
@@ -61,10 +65,10 @@ PRANGE_ONLY = {"prange": True, "comprehension": False, "reduction": False,
                "fusion": False}
 
 
-def kernel(fn=None, *, fast=False, parallel=False, inline=False, lean=False, counted=False):
+def kernel(fn=None, *, parallel=False, inline=False, lean=False, counted=False):
     """Compile `fn` with numba: cached, numpy error model (x/0 gives inf, no exception check).
 
-    fast : allow reassociation and FMA (see FAST); parallel : compile prange loops to threads.
+    parallel : compile prange loops to threads.
     inline : inline into callers at numba-IR level (per call site: it costs compile time, it
     saves the call; used for the small per-step and per-force helpers). lean : compiled
     without reference counting (numba's _nrt=False): for the helpers a step loop calls many
@@ -78,7 +82,7 @@ def kernel(fn=None, *, fast=False, parallel=False, inline=False, lean=False, cou
     a prange, or calls one that does, is itself parallel: a cached serial kernel that calls a
     parallel one segfaults when loaded from the cache (numba issue #8578).
     """
-    opts = _options(fast, parallel, inline, lean, counted)
+    opts = _options(parallel, inline, lean, counted)
     if fn is None:
         return lambda f: _compiled(f, opts)
     return _compiled(fn, opts)
@@ -105,7 +109,7 @@ def _compiled(fn, opts):
     return disp
 
 
-def _options(fast=False, parallel=False, inline=False, lean=False, counted=False):
+def _options(parallel=False, inline=False, lean=False, counted=False):
     # only explicit prange loops become threaded: numba would also turn array expressions and
     # numpy calls (np.zeros, np.cumsum) into parallel regions, which wake the thread pool on
     # every call however small the scene, and stall for milliseconds when another process or
@@ -113,7 +117,7 @@ def _options(fast=False, parallel=False, inline=False, lean=False, counted=False
     if parallel:
         parallel = dict(PRANGE_ONLY)
     opts = dict(cache=True, nogil=True, error_model="numpy", parallel=parallel,
-                fastmath=set(FAST) if fast else False, inline="always" if inline else "never")
+                fastmath=False, inline="always" if inline else "never")
     if lean or counted:
         opts["_nrt"] = not lean
     return opts
@@ -157,6 +161,38 @@ def read(typingctx, table, arrays):
             values.append(value)
         return context.make_tuple(builder, out, values)
     return sig, codegen
+
+
+@intrinsic
+def stack_rows(typingctx, like, rows, cols):
+    """A (rows, cols) C-ordered array of like's type on the stack of the kernel that calls
+    it (rows and cols constants): scratch for a kernel that allocates nothing (lean) or for
+    each thread of a prange. Uninitialised; valid until that kernel returns, never to be
+    returned or kept."""
+    for n in (rows, cols):
+        if not isinstance(n, types.IntegerLiteral):
+            raise RequireLiteralValue(n)
+    shape = (rows.literal_value, cols.literal_value)
+    dtype = types.unliteral(like)
+    aryty = types.Array(dtype, 2, "C")
+
+    def codegen(context, builder, sig, args):
+        item = context.get_value_type(dtype)
+        size = context.get_abi_sizeof(item)
+        intp = context.get_value_type(types.intp)
+        # in the entry block of the function the call is compiled into
+        data = cgutils.alloca_once(builder, item, size=shape[0] * shape[1])
+        # numba's array struct, field by field (no meminfo, no parent: nothing to count)
+        model = context.data_model_manager[aryty]
+        value = cgutils.get_null_value(context.get_value_type(aryty))
+        for name, field in (("nitems", intp(shape[0] * shape[1])), ("itemsize", intp(size)),
+                            ("data", data),
+                            ("shape", cgutils.pack_array(builder, [intp(n) for n in shape])),
+                            ("strides", cgutils.pack_array(builder, [intp(shape[1] * size),
+                                                                     intp(size)]))):
+            value = builder.insert_value(value, field, model.get_field_position(name))
+        return value
+    return aryty(like, rows, cols), codegen
 
 
 def field_type(t, name):

@@ -17,7 +17,7 @@ from . import plans
 from .entities import G0_SI, ExplosionSpec, MissileSpec, ShipSpec
 from .kernels.codes import GUIDANCE
 from .events import EVENT_DTYPE
-from .kernels import control, seeds
+from .kernels import control, libm, seeds
 from .kernels.codes import EV_DESTROY, EV_DETONATION, EV_LAUNCH, EV_MERGE
 
 # per-body actor columns: name -> (shape, dtype, default)
@@ -64,8 +64,8 @@ def _heading(dim, heading):
         return np.array([1.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0, 0.0])
     if dim == 2 and np.ndim(heading) == 0:
         angle = check.scalar("heading", heading)
-        h = np.array([math.cos(angle), math.sin(angle), 0.0])
-        return h, np.array([math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)])
+        h = np.array([libm.py.cos(angle), libm.py.sin(angle), 0.0])
+        return h, np.array([libm.py.cos(angle / 2), 0.0, 0.0, libm.py.sin(angle / 2)])
     v = check.floats("heading", heading, (dim,))
     norm = float(np.linalg.norm(v))
     if norm == 0.0:
@@ -74,8 +74,8 @@ def _heading(dim, heading):
     if norm != 1.0:
         h /= norm
     if dim == 2:
-        angle = math.atan2(h[1], h[0])
-        return h, np.array([math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)])
+        angle = libm.py.atan2(h[1], h[0])
+        return h, np.array([libm.py.cos(angle / 2), 0.0, 0.0, libm.py.sin(angle / 2)])
     if h[0] < -1.0 + 1e-15:
         return h, np.array([0.0, 0.0, 0.0, 1.0])            # straight back: half a turn about z
     q = np.array([1.0 + h[0], 0.0, -h[2], h[1]])           # half-way quaternion from x to h
@@ -429,8 +429,9 @@ class Actors:
         norm = np.linalg.norm(direction, axis=1)
         norm[norm == 0] = 1.0
         direction /= norm[:, None]
-        speed = per([spec.speed for spec in specs]) * u[0] ** (1.0 / d)  # uniform over a disc
-        offset = per([blast[4] for blast in blasts]) * u[1] ** (1.0 / d)  # / ball
+        root = np.sqrt if d == 2 else lambda x: libm.each("cbrt", x)
+        speed = per([spec.speed for spec in specs]) * root(u[0])   # uniform over a disc
+        offset = per([blast[4] for blast in blasts]) * root(u[1])  # / ball
         life = per([spec.lifetime for spec in specs]) * \
             (1.0 + per([spec.lifetime_spread for spec in specs]) * (2.0 * u[2] - 1.0))
         p3 = np.repeat(np.array([blast[2] for blast in blasts]), counts, axis=0)

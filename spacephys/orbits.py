@@ -16,6 +16,7 @@ import numpy as np
 
 from . import _validate as check
 from .forces import MUTUAL
+from .kernels import libm
 
 
 def solve_kepler(M, e):
@@ -26,10 +27,10 @@ def solve_kepler(M, e):
     """
     if not -np.pi <= M <= np.pi:            # (M + pi) - pi would cost a small M its digits
         M = float(np.remainder(M + np.pi, 2 * np.pi) - np.pi)
-    E = M + 0.85 * e * np.sign(np.sin(M))
+    E = M + 0.85 * e * np.sign(libm.py.sin(M))
     for _ in range(50):
         f = mean_anomaly(E, e) - M
-        step = f / (1.0 - e * np.cos(E))
+        step = f / (1.0 - e * libm.py.cos(E))
         E -= step
         if abs(step) <= 4e-16 * max(1.0, abs(E)):
             break
@@ -45,12 +46,13 @@ def mean_anomaly(E, e):
             term *= -E2 / ((k - 1) * k) if k > 3 else E2 / 6.0
             rest += term
         return (1.0 - e) * E + e * rest
-    return E - e * math.sin(E)
+    return E - e * libm.py.sin(E)
 
 
 def _rotation(i, Omega, omega):
     """Columns: the unit vectors toward pericentre (P) and 90 degrees ahead in the plane (Q)."""
-    cO, sO, co, so, ci, si = np.cos(Omega), np.sin(Omega), np.cos(omega), np.sin(omega), np.cos(i), np.sin(i)
+    cos, sin = libm.py.cos, libm.py.sin
+    cO, sO, co, so, ci, si = cos(Omega), sin(Omega), cos(omega), sin(omega), cos(i), sin(i)
     P = np.array([cO * co - sO * so * ci, sO * co + cO * so * ci, so * si])
     Q = np.array([-cO * so - sO * co * ci, -sO * so + cO * co * ci, co * si])
     return P, Q
@@ -84,13 +86,13 @@ def elements_to_state(mu, a=None, e=0.0, i=0.0, Omega=0.0, omega=0.0, *, f=None,
     f = check.scalar("f", f)
     # a (1 - e^2) as before q existed: the scenes built on it keep their bits
     p = q * (1.0 + e) if a is None else a * (1.0 - e * e)
-    if e >= 1.0 and 1.0 + e * np.cos(f) <= 0.0:
-        limit = np.arccos(-1.0 / e)
+    if e >= 1.0 and 1.0 + e * libm.py.cos(f) <= 0.0:
+        limit = libm.py.acos(-1.0 / e)
         raise ValueError(f"f = {f}: an orbit of e = {e} has no point there (|f| < {limit:.6g})")
-    r = p / (1.0 + e * np.cos(f))
+    r = p / (1.0 + e * libm.py.cos(f))
     P, Q = _rotation(check.scalar("i", i), check.scalar("Omega", Omega), check.scalar("omega", omega))
-    pos = r * (np.cos(f) * P + np.sin(f) * Q)
-    vel = np.sqrt(mu / p) * (-np.sin(f) * P + (e + np.cos(f)) * Q)
+    pos = r * (libm.py.cos(f) * P + libm.py.sin(f) * Q)
+    vel = np.sqrt(mu / p) * (-libm.py.sin(f) * P + (e + libm.py.cos(f)) * Q)
     return pos, vel
 
 
@@ -101,21 +103,21 @@ def true_anomaly(M, e):
     """f from the mean anomaly M for any e >= 0 (see the module for M's definitions)."""
     if e < 1.0:
         E = solve_kepler(M, e)
-        return 2.0 * math.atan2(math.sqrt(1 + e) * math.sin(E / 2),
-                                math.sqrt(1 - e) * math.cos(E / 2))
+        return 2.0 * libm.py.atan2(math.sqrt(1 + e) * libm.py.sin(E / 2),
+                                   math.sqrt(1 - e) * libm.py.cos(E / 2))
     if e == 1.0:
         # Barker: D + D^3/3 = M, the real root of the cubic
-        w = math.cbrt(1.5 * M + math.sqrt(2.25 * M * M + 1.0))
-        return 2.0 * math.atan(w - 1.0 / w)
+        w = libm.py.cbrt(1.5 * M + math.sqrt(2.25 * M * M + 1.0))
+        return 2.0 * libm.py.atan(w - 1.0 / w)
     # e sinh F - F = M by Newton from asinh(M / e) (monotonic and convex on each side)
-    F = math.asinh(M / e)
+    F = libm.py.asinh(M / e)
     for _ in range(100):
-        step = (e * math.sinh(F) - F - M) / (e * math.cosh(F) - 1.0)
+        step = (e * libm.py.sinh(F) - F - M) / (e * libm.py.cosh(F) - 1.0)
         F -= step
         if abs(step) <= 4e-16 * max(1.0, abs(F)):
             break
-    return 2.0 * math.atan2(math.sqrt(e + 1) * math.sinh(F / 2),
-                            math.sqrt(e - 1) * math.cosh(F / 2))
+    return 2.0 * libm.py.atan2(math.sqrt(e + 1) * libm.py.sinh(F / 2),
+                               math.sqrt(e - 1) * libm.py.cosh(F / 2))
 
 
 @dataclass(frozen=True)
@@ -163,25 +165,26 @@ def state_to_elements(mu, pos, vel, about=None):
     p = hn * hn / mu
     energy = float(0.5 * (v @ v) - mu / rn)
     hat = h / hn
-    i = math.atan2(math.hypot(h[0], h[1]), h[2])      # not acos(h_z): exact near 0 and pi
+    i = libm.py.atan2(math.hypot(h[0], h[1]), h[2])      # not acos(h_z): exact near 0 and pi
     node = np.array([-h[1], h[0], 0.0])
     nn = float(np.linalg.norm(node))
     if nn <= 1e-15 * hn:                       # equatorial: the node is the x axis
         Omega, node = 0.0, np.array([1.0, 0.0, 0.0])
     else:
-        Omega = math.atan2(node[1], node[0]) % (2 * math.pi)
+        Omega = libm.py.atan2(node[1], node[0]) % (2 * math.pi)
         node /= nn
     ahead = np.cross(hat, node)                # 90 degrees ahead of the node, in the plane
     if e <= 1e-15:                             # circular: pericentre at the node
         omega, e, ev = 0.0, 0.0, node
     else:
-        omega = math.atan2(ev @ ahead, ev @ node) % (2 * math.pi)
+        omega = libm.py.atan2(ev @ ahead, ev @ node) % (2 * math.pi)
     ehat = ev / np.linalg.norm(ev)
-    f = math.atan2(r @ np.cross(hat, ehat), r @ ehat)
+    f = libm.py.atan2(r @ np.cross(hat, ehat), r @ ehat)
     q = p / (1.0 + e)
     if e < 1.0:
         a = -mu / (2.0 * energy)
-        E = 2.0 * math.atan2(math.sqrt(1 - e) * math.sin(f / 2), math.sqrt(1 + e) * math.cos(f / 2))
+        E = 2.0 * libm.py.atan2(math.sqrt(1 - e) * libm.py.sin(f / 2),
+                                math.sqrt(1 + e) * libm.py.cos(f / 2))
         M = mean_anomaly(E, e)            # in (-pi, pi]: wrapped to [0, 2 pi) it would
         n = math.sqrt(mu / a ** 3)        # lose digits just before pericentre
         period, apocentre = 2 * math.pi / n, a * (1.0 + e)
@@ -190,15 +193,15 @@ def state_to_elements(mu, pos, vel, about=None):
     else:
         if e == 1.0:
             a = math.inf
-            D = math.tan(f / 2)
+            D = libm.py.tan(f / 2)
             M = D + D ** 3 / 3
             n = math.sqrt(mu / (2.0 * q ** 3))
         else:
             a = -mu / (2.0 * energy) if energy > 0.0 else -q / (e - 1.0)
             # on a near-radial hyperbola rounding can put f a hair past the asymptote
-            x = math.sqrt((e - 1) / (e + 1)) * math.tan(f / 2)
-            F = 2.0 * math.atanh(math.copysign(min(abs(x), math.nextafter(1.0, 0.0)), x))
-            M = e * math.sinh(F) - F
+            x = math.sqrt((e - 1) / (e + 1)) * libm.py.tan(f / 2)
+            F = 2.0 * libm.py.atanh(math.copysign(min(abs(x), math.nextafter(1.0, 0.0)), x))
+            M = e * libm.py.sinh(F) - F
             n = math.sqrt(mu / (-a) ** 3)
         period = apocentre = to_apo = math.inf
         to_peri = -M / n

@@ -4,6 +4,7 @@ Each function returns a new World; keyword arguments not listed go to World (int
 """
 import numpy as np
 
+from .kernels import libm
 from .orbits import elements_to_state, period
 from .world import World
 
@@ -12,7 +13,7 @@ def uniform_sphere(n, *, seed=0, softening=1e-3, **world):
     """n equal masses 1/n at rest, uniform in the unit sphere, G = 1 (the gravity benchmark)."""
     rng = np.random.default_rng(seed)
     p = rng.normal(size=(n, 3))
-    p *= (rng.random(n) ** (1.0 / 3.0) / np.linalg.norm(p, axis=1))[:, None]
+    p *= (libm.each("cbrt", rng.random(n)) / np.linalg.norm(p, axis=1))[:, None]
     w = World(dim=3, softening=softening, **world)
     w.add_bodies(np.full(n, 1.0 / n), p, kind="asteroid")
     return w
@@ -34,14 +35,16 @@ def plummer_model(n, *, seed=0, r_max=20.0):
     r = np.empty(0)
     while r.size < n:
         x = rng.uniform(1e-12, 1.0, 2 * n)
-        cand = 1.0 / np.sqrt(x ** (-2.0 / 3.0) - 1.0)
+        c = libm.each("cbrt", x)                # x^(-2/3) = 1 / c^2
+        cand = 1.0 / np.sqrt(1.0 / (c * c) - 1.0)
         r = np.concatenate([r, cand[cand <= r_max]])
     r = r[:n]
     q = np.empty(0)
     while q.size < n:
         x, y = rng.uniform(0.0, 1.0, 2 * n), rng.uniform(0.0, 0.1, 2 * n)
-        q = np.concatenate([q, x[y < x * x * (1.0 - x * x) ** 3.5]])
-    speed = q[:n] * np.sqrt(2.0) * (1.0 + r * r) ** -0.25
+        t = 1.0 - x * x                        # (1 - x^2)^(7/2) = t^3 sqrt(t)
+        q = np.concatenate([q, x[y < x * x * (t * t * t * np.sqrt(t))]])
+    speed = q[:n] * np.sqrt(2.0) / np.sqrt(np.sqrt(1.0 + r * r))
     pos, vel = r[:, None] * directions(n), speed[:, None] * directions(n)
     pos -= pos.mean(axis=0)
     vel -= vel.mean(axis=0)
@@ -61,8 +64,9 @@ def cold_disc_model(n, *, seed=0, scale=0.3, r_max=1.5):
     th = rng.uniform(0.0, 2 * np.pi, n)
     inside = np.arange(n) / n
     speed = np.sqrt(inside / np.maximum(r, 1e-12))
-    pos = np.c_[r * np.cos(th), r * np.sin(th), np.zeros(n)]
-    vel = np.c_[-speed * np.sin(th), speed * np.cos(th), np.zeros(n)]
+    cos, sin = libm.each("cos", th), libm.each("sin", th)
+    pos = np.c_[r * cos, r * sin, np.zeros(n)]
+    vel = np.c_[-speed * sin, speed * cos, np.zeros(n)]
     return pos, vel, np.full(n, 1.0 / n)
 
 
@@ -225,9 +229,9 @@ def fleet_battle(*, ships=200, missiles=2000, debris=50_000, seed=0, **world):
         for k in range(ships // 2 + (side < ships % 2)):
             angle = rng.uniform(0.0, 0.6) + np.pi * side
             radius = r + rng.uniform(-60.0, 60.0)
-            pos = radius * np.array([np.cos(angle), np.sin(angle)])
+            pos = radius * np.array([libm.py.cos(angle), libm.py.sin(angle)])
             speed = np.sqrt(star_mass / radius)
-            vel = sense * speed * np.array([-np.sin(angle), np.cos(angle)])
+            vel = sense * speed * np.array([-libm.py.sin(angle), libm.py.cos(angle)])
             ship = w.add_ship(hull, pos, vel, heading=rng.uniform(-np.pi, np.pi))
             w.control(ship, throttle=rng.uniform(0.0, 0.3), turn=rng.uniform(-0.2, 0.2))
             ids.append(ship)
@@ -249,8 +253,8 @@ def fleet_battle(*, ships=200, missiles=2000, debris=50_000, seed=0, **world):
     for k in range(debris // cloud.count):
         angle = rng.uniform(0.0, 2.0 * np.pi)
         radius = rng.uniform(2700.0, 3300.0)
-        pos = radius * np.array([np.cos(angle), np.sin(angle)])
-        vel = np.sqrt(star_mass / radius) * np.array([-np.sin(angle), np.cos(angle)])
+        pos = radius * np.array([libm.py.cos(angle), libm.py.sin(angle)])
+        vel = np.sqrt(star_mass / radius) * np.array([-libm.py.sin(angle), libm.py.cos(angle)])
         w.explode(w.add_body(1.0, pos, vel, radius=5.0), cloud)
     return w
 

@@ -17,11 +17,16 @@ def _rebound_ias15(w, T):
 # ----------------------------------------------------------------------------- targets
 
 def test_outer_solar_system_energy_over_ten_thousand_years():
-    w = outer_solar_system(integrator="gauss_radau", dt=100.0)
-    E0 = w.energy()
-    w.step(100)
-    # the target was 1e-14 (REBOUND: 4.7e-15); measured 2.2e-16 with compensated substeps
-    assert abs(w.energy() / E0 - 1) <= 2e-15
+    # the target was 1e-14 (REBOUND: 4.7e-15). Round-off sets it, so one output interval's
+    # figure is luck: measured over six, 1.7e-15 .. 5.0e-15, median 2.5e-15 (the code before
+    # every sum ran in source order: 2.2e-16 .. 8.2e-15, median 1.8e-15)
+    errors = []
+    for dt in (90.0, 95.0, 100.0, 105.0, 110.0, 120.0):
+        w = outer_solar_system(integrator="gauss_radau", dt=dt)
+        E0 = w.energy()
+        w.step(round(1e4 / dt))
+        errors.append(abs(w.energy() / E0 - 1))
+    assert max(errors) <= 1e-14 and np.median(errors) <= 4e-15, errors
     # the predictor carries each step's polynomial to the next: about 3 corrector sweeps a
     # step (measured 3.07); without it, or with a wrong continuation, twice as many
     stats = w.integrator_stats
@@ -64,7 +69,10 @@ def test_pythagorean_escaper_against_rebound():
     assert np.linalg.norm(ref[0] - (6.93538, 20.26600)) < 1e-4       # REBOUND, as in the issue
     assert np.linalg.norm(w.pos[0] - ref[0]) < 2e-2
     assert w.pos[0, 1] > 20                                          # the mass-3 body escapes
-    assert abs(w.energy() / E0 - 1) < 3e-11                          # measured 1.1e-11
+    # round-off at the closest encounters, amplified by the chaos: measured 3.6e-11 (REBOUND
+    # 3.1e-11); over tolerances 0.8e-9 .. 1.5e-9, 5e-12 .. 1.4e-10 (with the fused
+    # multiply-adds of the code before every sum ran in source order: 1.1e-11 .. 4.8e-11)
+    assert abs(w.energy() / E0 - 1) < 1e-10
 
 
 # ----------------------------------------------------------------------------- controls

@@ -23,8 +23,7 @@ def _scene(rng, n, frac_pulling):
 def _model(model, ns, G=1.7, eps2=0.0, field=np.zeros(3), field_mass=0.0):
     """The gravity table of `model` (a name) for ns sources, as spacephys/forces.py builds it."""
     if model == "direct":
-        return gravity.Direct(G, eps2, np.empty((4, ns)),
-                              np.empty((3, ns)) if ns >= pairs.PAIRS_FROM else None)
+        return gravity.Direct(G, eps2, np.empty((4, ns)))
     if model == "central":
         return gravity.Central(G, eps2, field, field_mass, np.empty((4, 1)))
     if model == "uniform":
@@ -48,7 +47,7 @@ def _run(pos, mass, pulls, model, G=1.7, eps2=0.0, field=np.zeros(3), field_mass
 
 
 # n = 40 stays on the serial path, n = 400 crosses PARALLEL_MIN_PAIRS onto threads, n = 900
-# cuts its ~540 sources into 4 blocks of pairs.pull_pairs (rounds with tiles on threads)
+# has several chunks of pairs.CHUNK targets on each thread
 @pytest.mark.parametrize("n", [40, 400, 900])
 @pytest.mark.parametrize("eps", [0.0, 0.05])
 def test_direct_matches_numpy(rng, n, eps):
@@ -62,46 +61,35 @@ def test_direct_matches_numpy(rng, n, eps):
     assert abs(energy - ref_energy) <= 1e-12 * abs(ref_energy)
 
 
-@pytest.mark.parametrize("nb", range(1, 13))
-def test_the_rounds_of_block_pairs_take_each_pair_once(nb):
-    """pairs.round_pair: every pair of distinct blocks in exactly one round, and no block
-    twice in a round (the tiles of a round run on threads side by side)."""
-    seen = []
-    rounds = nb + nb % 2 - 1
-    for r in range(rounds):
-        used = []
-        for k in range((nb + nb % 2) // 2):
-            i, j = pairs.round_pair(r, k, nb)
-            if i >= 0:
-                assert 0 <= i < j < nb
-                used += [i, j]
-                seen.append((i, j))
-        assert len(used) == len(set(used)), (nb, r, used)
-    assert sorted(seen) == [(i, j) for i in range(nb) for j in range(i + 1, nb)]
-
-
-@pytest.mark.parametrize("ns", [2, 3, 200, 257, 1000, 4200])
-def test_pairs_both_ways_match_the_one_sided_sums(rng, ns):
-    """pairs.pull_pairs (each pair once, in blocks) against pull (every source on each body):
-    the same accelerations to rounding; the threaded version bit for bit the serial one."""
-    s = np.zeros((4, ns))
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+@pytest.mark.parametrize("nt, ns", [(1, 1), (3, 200), (64, 17), (100, 257)])
+def test_each_points_sum_runs_in_source_order(rng, dtype, nt, ns):
+    """pairs.pull_points: each point's sum is the plain sum over the sources in their order,
+    term by term as written, bit for bit (no partial sums by the vector width, no fused
+    multiply-add: the same bits on every x86-64 CPU); a coincident source pulls nothing."""
+    s = np.zeros((4, ns), dtype)
     s[:3] = rng.normal(size=(3, ns))
     s[3] = rng.uniform(0.1, 2.0, ns)
-    s[:3, -1] = s[:3, 0]                           # a coincident pair: no force between them
-    sums, threaded = np.zeros((3, ns)), np.zeros((3, ns))
-    pairs.pull_pairs(s, sums, ns, 0.0)
-    pairs.pull_pairs_threaded(s, threaded, ns, 0.0)
-    assert np.array_equal(sums, threaded)
-    ref = np.array([pairs.pull(*s[:3, i], s, ns, 0.0) for i in range(ns)]).T
-    assert np.all(np.isfinite(sums))
-    assert np.max(np.abs(sums - ref)) <= 1e-13 * np.max(np.abs(ref))
+    pts = rng.normal(size=(3, nt)).astype(dtype)
+    pts[:, 0] = s[:3, -1]                                  # a point on a source
+    eps2 = dtype(0.0)
+    acc = np.zeros((3, nt), dtype)
+    pairs.pull_points(pts[0], pts[1], pts[2], nt, s, ns, eps2, acc[0], acc[1], acc[2])
+    for t in range(nt):
+        want = [dtype(0.0)] * 3
+        for j in range(ns):
+            d = [s[c, j] - pts[c, t] for c in range(3)]
+            r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + eps2
+            d3 = r2 * np.sqrt(r2)
+            w = s[3, j] / d3 if d3 > 0 else dtype(0.0)
+            want = [want[c] + w * d[c] for c in range(3)]
+        assert [a.tobytes() for a in acc[:, t]] == [dtype(v).tobytes() for v in want], t
 
 
 def test_every_code_path_of_the_forces_gives_the_same_bits(rng):
     """accelerations on threads, on the calling thread in a table that may thread, and in a
     table without threads (its kernels compiled without the threaded loops): one result bit
-    for bit, with pairs both ways among the sources and pull on the passive; the same for the
-    sources when they alone are the targets."""
+    for bit; the same for the sources when they alone are the targets, or any of them."""
     pos, mass, pulls = _scene(rng, 700, 0.6)
     src = np.flatnonzero(pulls).astype(np.int64)
     n = len(mass)
@@ -114,19 +102,18 @@ def test_every_code_path_of_the_forces_gives_the_same_bits(rng):
         out = np.full((n, 3), np.nan)
         forces.accelerations_of(f, 0.0, pos, pos * 0, out, everyone, False)
         results.append(out)
-    assert src.size > 2 * pairs.TILE                      # more than one block
+    assert n > 4 * pairs.CHUNK                            # several chunks of targets
     for out in results[1:]:
         assert np.array_equal(out, results[0])
     # the sources alone as targets (an integrator moving only them): the same bits
     out = np.full((n, 3), np.nan)
     forces.accelerations_of(f, 0.0, pos, pos * 0, out, src, False)     # the table's own array
     assert np.array_equal(out[src], results[0][src])
-    # and a subset of targets (one-sided sums) agrees to rounding (of each row's largest term)
+    # and any subset of the targets: each row is its own sum
     out = np.full((n, 3), np.nan)
     some = src[::2]
     forces.accelerations_of(f, 0.0, pos, pos * 0, out, some, False)
-    scale = np.abs(results[0][some]).max(axis=1, keepdims=True)
-    assert np.all(np.abs(out[some] - results[0][some]) <= 1e-13 * scale)
+    assert np.array_equal(out[some], results[0][some])
 
 
 def test_passive_bodies_feel_but_do_not_pull(rng):

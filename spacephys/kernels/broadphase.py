@@ -16,6 +16,7 @@ import math
 import numpy as np
 
 from .._jit import kernel
+from . import libm
 from .arrays import grown_pairs, sort_in_place, stable_order
 from .codes import FOLLOWS, IGNORE, IN_GRID
 from .rules import allowed, periods, wrap
@@ -447,7 +448,7 @@ def grid_pairs(A, B, tb, alive, rules, lo, hi):
             biggest = max(biggest, volume)
             spread += widest
     # (the root of the largest volume: the largest root, without a root per body)
-    size = max(size, (biggest * (1.0 / 4096.0)) ** (1.0 / rules.dim))
+    size = max(size, libm.pow(biggest * (1.0 / 4096.0), 1.0 / rules.dim))
     # and no smaller than the mean box: small bodies swept many radii in a step (debris
     # thrown from a missile) would otherwise each cover a hundred cells of their diameter
     if members > 0:
@@ -463,7 +464,7 @@ def grid_pairs(A, B, tb, alive, rules, lo, hi):
         share = 1.0
         for c in range(rules.dim):
             share *= max(high[c] - low[c], size)
-        coarse = max(size, _SPARSE * (share / members) ** (1.0 / rules.dim))
+        coarse = max(size, _SPARSE * libm.pow(share / members, 1.0 / rules.dim))
     keys, bodies, single, origin, cell, ncell, total, low_bits, lead = _entries(
         lo, hi, alive, gridded, kind, coarse, low, high, rules, L)
     if coarse > size:

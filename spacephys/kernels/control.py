@@ -36,6 +36,7 @@ from .codes import (BURN_ANTINORMAL, BURN_NORMAL, BURN_PROGRADE, BURN_RADIAL_IN,
                     EV_FUEL_EMPTY, NO_GUIDANCE, PURSUIT)
 from .rules import wrap
 from .state import record
+from . import libm
 
 # pending events (the lean functions cannot grow the event buffer; flush records them): a row
 # each, [kind, row i, row j (-1: none), time into the step, point (3,), normal (3,), speed,
@@ -145,8 +146,8 @@ def _qexp(wx, wy, wz, t):
     if norm == 0.0:
         return 1.0, 0.0, 0.0, 0.0
     half = 0.5 * norm * t
-    s = math.sin(half) / norm
-    return math.cos(half), wx * s, wy * s, wz * s
+    s = libm.sin(half) / norm
+    return libm.cos(half), wx * s, wy * s, wz * s
 
 
 @kernel
@@ -232,7 +233,7 @@ def _turn_toward(q0, q1, q2, q3, hx, hy, hz, dx, dy, dz, max_angle, dim):
     az = hx * dy - hy * dx
     s = math.sqrt(ax * ax + ay * ay + az * az)
     c = hx * dx + hy * dy + hz * dz
-    angle = math.atan2(s, c)
+    angle = libm.atan2(s, c)
     if s < 1e-300:
         if c > 0.0:
             return 0.0, 0.0, 1.0, 0.0
@@ -253,7 +254,7 @@ def _g(x):
             s += p / (k * (k - 1))
             p *= x
         return s
-    return x + (1.0 - x) * math.log1p(-x)
+    return x + (1.0 - x) * libm.log1p(-x)
 
 
 @kernel
@@ -263,7 +264,7 @@ def thrust_dv(burn, q, tau):
     if s < 0.0 and burn[q, T_START] > 0.0:
         return 0.0                       # not started (a burn on from the step's start is
                                          # continued to the negative times of Yoshida's drifts)
-    return -burn[q, VE] * math.log1p(-burn[q, MDOT] * s / burn[q, M0])
+    return -burn[q, VE] * libm.log1p(-burn[q, MDOT] * s / burn[q, M0])
 
 
 @kernel

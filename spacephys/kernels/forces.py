@@ -27,6 +27,7 @@ from numba.experimental import structref
 
 from .._jit import TableType, field_type, implements, kernel, read
 from . import gravity
+from . import libm
 
 # the signature of a user force: (t [time], pos (n, 3), vel (n, 3), mass (n,), ids (n,) int64,
 # params (p,) float64, out (n, 3) accelerations to add to) -> None
@@ -237,7 +238,7 @@ def _kick(drag, vel, acc, h, rows):
     if drag is not None:
         k = drag[0]
         if k > 0.0:
-            E = math.exp(-k * h)
+            E = libm.exp(-k * h)
             for a in range(rows.size):
                 i = rows[a]
                 for c in range(3):

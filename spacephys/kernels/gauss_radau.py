@@ -18,6 +18,7 @@ from collections import namedtuple
 import numpy as np
 
 from .._jit import kernel
+from . import libm
 from . import step
 from .arrays import copy_into, zeroed
 from .control import add_thrust, next_stop, snap_stops
@@ -490,7 +491,7 @@ def _interval(method, carry, sa, burns, fx, t_start, dt_out, k, kicked, played):
     have_predictor = params[5] != 0.0
     everyone = control.size == n
     all_rows = fx.everyone
-    dt_scale = (5040.0 * tolerance) ** (1.0 / 7.0)     # (7! tolerance)^(1/7)
+    dt_scale = libm.pow(5040.0 * tolerance, 1.0 / 7.0)     # (7! tolerance)^(1/7)
     # the step was over 4x too long (b7 ~ dt^7); but never within the round-off of b7 / |a|,
     # or tiny tolerances would reject every step
     reject_above = max(tolerance / _SAFETY ** 7, _TRUNCATION_FLOOR)

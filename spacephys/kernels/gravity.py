@@ -22,15 +22,15 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 from numba import types
-from .._jit import implements, is_table, kernel
+from .._jit import implements, is_table, kernel, stack_rows
 from . import pairs
+from .pairs import CHUNK
 from . import tape as ktape
 from .diagnostics import add
 
 # G [length^3 / (mass time^2)]; eps2: softening squared [length^2]; sources (4, ns): the
-# pulling bodies' x, y, z, m, gathered per evaluation; sums None, or (3, ns) for their pulls on
-# each other with each pair evaluated once (pairs.pull_pairs: from pairs.PAIRS_FROM sources)
-Direct = namedtuple("Direct", ("G", "eps2", "sources", "sums"))
+# pulling bodies' x, y, z, m, gathered per evaluation
+Direct = namedtuple("Direct", ("G", "eps2", "sources"))
 # g (3,) [length / time^2]
 Uniform = namedtuple("Uniform", ("g",))
 # the fixed body: at (3,) [length], shared with the World (shift_origin moves it), mass
@@ -101,66 +101,50 @@ def threaded(threads, work):
 def _direct_pull(model, tape, src, passive, pos, mass, out, targets, threads):
     s = model.sources
     ktape.sources(tape, s, src, pos, mass)
-    left = _pairs_first(model.sums, s, src, pos, out, targets, model.G, model.eps2, threads)
-    if left == _NONE_LEFT:
-        return
-    rest = passive if left == _PASSIVE_LEFT else targets
-    if threaded(threads, rest.size * s.shape[1]):
-        _pull_threaded(rest, pos, s, model.G, model.eps2, out)
+    if threaded(threads, targets.size * s.shape[1]):
+        _pull_threaded(targets, pos, s, model.G, model.eps2, out)
     else:
-        _pull_each(rest, pos, s, model.G, model.eps2, out)
+        _pull_each(targets, pos, s, model.G, model.eps2, out)
 
 
-# what _pairs_first leaves to the one-sided sums
-_ALL_LEFT, _PASSIVE_LEFT, _NONE_LEFT = 0, 1, 2
-
-
-@kernel(parallel=True, lean=True)
-def _pairs_first(sums, s, src, pos, out, targets, G, eps2, threads):
-    """With sums (the scene has pairs.PAIRS_FROM sources or more) and the targets every body
-    or exactly the sources: the sources' pulls on each other, each pair once, into out.
-    Returns which targets are left: the passive ones, none, or (no pairs) all of them."""
-    if sums is None:
-        return _ALL_LEFT
-    if targets.size == pos.shape[0]:
-        left = _PASSIVE_LEFT
-    elif targets.size == src.size and targets.ctypes.data == src.ctypes.data:
-        left = _NONE_LEFT
-    else:
-        return _ALL_LEFT
-    ns = s.shape[1]
-    if threaded(threads, ns * (ns - 1) // 2):
-        pairs.pull_pairs_threaded(s, sums, ns, eps2)
-    else:
-        pairs.pull_pairs(s, sums, ns, eps2)
-    for a in range(src.size):
-        k = src[a]
-        out[k, 0] = G * sums[0, a]
-        out[k, 1] = G * sums[1, a]
-        out[k, 2] = G * sums[2, a]
-    return left
-
-
-@kernel(fast=True, parallel=True)
+@kernel(parallel=True)
 def _pull_threaded(targets, pos, s, G, eps2, out):
-    """out[k] = G * the pull of the sources s on pos[k], the targets on threads."""
-    for a in numba.prange(targets.size):
-        k = targets[a]
-        ax, ay, az = pairs.pull(pos[k, 0], pos[k, 1], pos[k, 2], s, s.shape[1], eps2)
-        out[k, 0] = G * ax
-        out[k, 1] = G * ay
-        out[k, 2] = G * az
+    """out[k] = G * the pull of the sources s on pos[k], the targets on threads, a chunk of
+    pairs.CHUNK each."""
+    nc = (targets.size + pairs.CHUNK - 1) // pairs.CHUNK
+    for c in numba.prange(nc):
+        # (a prange index is unsigned: as int64, _pull_chunk is compiled once)
+        _pull_chunk(targets, np.int64(c) * pairs.CHUNK, pos, s, G, eps2, out)
 
 
-@kernel(fast=True, lean=True)
+@kernel(lean=True)
 def _pull_each(targets, pos, s, G, eps2, out):
     """_pull_threaded on the calling thread, bit for bit the same."""
-    for a in range(targets.size):
-        k = targets[a]
-        ax, ay, az = pairs.pull(pos[k, 0], pos[k, 1], pos[k, 2], s, s.shape[1], eps2)
-        out[k, 0] = G * ax
-        out[k, 1] = G * ay
-        out[k, 2] = G * az
+    for a in range(0, targets.size, pairs.CHUNK):
+        _pull_chunk(targets, a, pos, s, G, eps2, out)
+
+
+@kernel(lean=True)
+def _pull_chunk(targets, a, pos, s, G, eps2, out):
+    """out[k] = G * the pull of the sources s on pos[k] for k in targets[a : a + CHUNK],
+    the chunk's points summed side by side (pairs.pull_points)."""
+    rows = stack_rows(G, 6, CHUNK)          # x, y, z, then the sums
+    nt = min(pairs.CHUNK, targets.size - a)
+    for t in range(nt):
+        k = targets[a + t]
+        rows[0, t] = pos[k, 0]
+        rows[1, t] = pos[k, 1]
+        rows[2, t] = pos[k, 2]
+        rows[3, t] = 0.0
+        rows[4, t] = 0.0
+        rows[5, t] = 0.0
+    pairs.pull_points(rows[0], rows[1], rows[2], nt, s, s.shape[1], eps2, rows[3], rows[4],
+                      rows[5])
+    for t in range(nt):
+        k = targets[a + t]
+        out[k, 0] = G * rows[3, t]
+        out[k, 1] = G * rows[4, t]
+        out[k, 2] = G * rows[5, t]
 
 
 @kernel
@@ -227,7 +211,7 @@ def _direct_energies(model, pos, vel, mass, src, out):
     mutual_body_energies(model.G, model.eps2, pos, vel, mass, src, out)
 
 
-register(Direct, Model("direct", _direct_potential, _direct_energies), _direct_pull, fast=True,
+register(Direct, Model("direct", _direct_potential, _direct_energies), _direct_pull,
          parallel=True, lean=True)
 
 
@@ -295,7 +279,7 @@ def _central_energies(model, pos, vel, mass, src, out):
 
 
 register(Central, Model("central", _central_potential, _central_energies), _central_pull,
-         fast=True, lean=True)
+         lean=True)
 
 
 def _no_potential(model, pos, mass, src, passive):

@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from .._jit import kernel
+from . import libm
 
 
 @kernel
@@ -202,22 +203,22 @@ def _conic(rp, rv, j, mu, peri):
     p = h2 / mu
     # the true anomaly: the angle from u to r about h
     cx, cy, cz = uy * rz - uz * ry, uz * rx - ux * rz, ux * ry - uy * rx
-    f = math.atan2((cx * hx + cy * hy + cz * hz) / math.sqrt(h2), ux * rx + uy * ry + uz * rz)
+    f = libm.atan2((cx * hx + cy * hy + cz * hz) / math.sqrt(h2), ux * rx + uy * ry + uz * rz)
     if e < 1.0:
-        E = 2.0 * math.atan2(math.sqrt(1.0 - e) * math.sin(0.5 * f),
-                             math.sqrt(1.0 + e) * math.cos(0.5 * f))
-        M = E - e * math.sin(E)
+        E = 2.0 * libm.atan2(math.sqrt(1.0 - e) * libm.sin(0.5 * f),
+                             math.sqrt(1.0 + e) * libm.cos(0.5 * f))
+        M = E - e * libm.sin(E)
         n = math.sqrt(mu / (p / (1.0 - e * e)) ** 3)
         if peri:
             dt = -M / n
         else:
             dt = ((math.pi if M >= 0.0 else -math.pi) - M) / n
     else:
-        x = math.sqrt((e - 1.0) / (e + 1.0)) * math.tan(0.5 * f)
+        x = math.sqrt((e - 1.0) / (e + 1.0)) * libm.tan(0.5 * f)
         x = min(max(x, -0.9999999999999999), 0.9999999999999999)   # rounding past the asymptote
-        F = 2.0 * math.atanh(x)
+        F = 2.0 * libm.atanh(x)
         n = math.sqrt(mu / (p / (e * e - 1.0)) ** 3)
-        dt = -(e * math.sinh(F) - F) / n
+        dt = -(e * libm.sinh(F) - F) / n
     d = p / (1.0 + e) if peri else -p / (1.0 - e)      # along u at pericentre, -u at apocentre
     return dt, d * ux, d * uy, d * uz
 

@@ -14,6 +14,7 @@ import numba
 import numpy as np
 
 from .._jit import kernel
+from . import libm
 from . import arrays
 
 MIN_PARALLEL = 256          # fewest queries answered on threads
@@ -74,7 +75,7 @@ def grid(pos, radius, rows, lo, period, hint):
         if hi[c] > origin[c]:
             spread += 1
             volume *= hi[c] - origin[c]
-    h = (volume / max(m, 1)) ** (1.0 / spread) if spread else 1.0
+    h = libm.pow(volume / max(m, 1), 1.0 / spread) if spread else 1.0
     h = max(h, hint)
     cell = np.empty(3)
     ncell = np.empty(3, np.int64)

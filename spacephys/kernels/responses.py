@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from .._jit import kernel
+from . import libm
 from .codes import (BODIES_GONE, BOUNCE, BREAK_A, DEFLECTED, DESTROY_A, DESTROY_B,
                     DESTROY_BOTH, ELASTIC, EV_BOUNCE, EV_DESTROY, EV_MERGE, EV_WALL, MERGE,
                     REFLECTING, SENSOR, UNTOUCHED)
@@ -160,7 +161,7 @@ def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rul
             A[o, c] = po[c] - B[o, c] * t
         tb[s] = t
         if rules.dim == 3:
-            radius[s] = (radius[s] ** 3 + radius[o] ** 3) ** (1.0 / 3.0)
+            radius[s] = libm.cbrt(radius[s] ** 3 + radius[o] ** 3)
         else:
             radius[s] = math.sqrt(radius[s] ** 2 + radius[o] ** 2)
         # the kinetic energy of the relative motion, m_s m_o / M |u_o - u_s|^2 / 2, is lost

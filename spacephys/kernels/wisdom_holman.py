@@ -26,6 +26,7 @@ from .arrays import zeroed
 from .control import F, thrust_dv
 from .forces import accelerations
 from .step import next_frame
+from . import libm
 
 # 1/n! for n = 0..25, for the Stumpff series
 _INV_FACTORIAL = tuple(1.0 / math.factorial(n) for n in range(26))
@@ -48,20 +49,20 @@ def _stumpff23(z):
         return c2, c3
     if z > 0.0:
         w = math.sqrt(z)
-        h = math.sin(0.5 * w)
-        return 2.0 * h * h / z, (w - math.sin(w)) / (z * w)
+        h = libm.sin(0.5 * w)
+        return 2.0 * h * h / z, (w - libm.sin(w)) / (z * w)
     w = math.sqrt(-z)
-    h = math.sinh(0.5 * w)
-    return -2.0 * h * h / z, (math.sinh(w) - w) / (-z * w)
+    h = libm.sinh(0.5 * w)
+    return -2.0 * h * h / z, (libm.sinh(w) - w) / (-z * w)
 
 
 @kernel
 def _eccentric_anomaly(M, e):
     """E with E - e sin E = M (0 <= e < 1): Newton from Danby's start M + 0.85 e sign(sin M)."""
     M = M - 2.0 * math.pi * math.floor(M / (2.0 * math.pi) + 0.5)      # to [-pi, pi)
-    E = M + 0.85 * e * (1.0 if math.sin(M) >= 0.0 else -1.0)
+    E = M + 0.85 * e * (1.0 if libm.sin(M) >= 0.0 else -1.0)
     for _ in range(30):
-        dE = (E - e * math.sin(E) - M) / (1.0 - e * math.cos(E))
+        dE = (E - e * libm.sin(E) - M) / (1.0 - e * libm.cos(E))
         E -= dE
         if abs(dE) <= 1e-15:
             break
@@ -82,13 +83,13 @@ def _initial_s(r0, eta0, v2sq, beta, mu, dt):
         # unbound, long step: r grows like exp(w s), w = sqrt(-beta), so dt ~ C exp(w |s|)
         w = math.sqrt(-beta) if beta < 0.0 else 1e-300
         zeta0 = mu - beta * r0
-        return math.copysign(math.log1p(2.0 * w * w * w * abs(dt) / (abs(eta0) * w + zeta0)) / w, dt)
+        return math.copysign(libm.log1p(2.0 * w * w * w * abs(dt) / (abs(eta0) * w + zeta0)) / w, dt)
     # bound orbit, long step: through the mean anomaly, s = (E1 - E0) / sqrt(beta)
     sqb = math.sqrt(beta)
     ecosE = 1.0 - r0 * beta / mu
     esinE = eta0 * sqb / mu
     e = math.hypot(ecosE, esinE)
-    E0 = math.atan2(esinE, ecosE)
+    E0 = libm.atan2(esinE, ecosE)
     dM = beta * sqb / mu * dt                                      # mean motion * dt
     E1 = _eccentric_anomaly(E0 - esinE + dM, e)
     dE = E1 - E0
@@ -353,7 +354,7 @@ def _drag_kick(vj, acc, order, drag, dt, first):
     k_drag = drag[0]
     if not k_drag > 0.0:
         return False
-    E = math.exp(-k_drag * dt)
+    E = libm.exp(-k_drag * dt)
     for k in range(order.size):
         i = order[k]
         for c in range(3):

@@ -1,0 +1,93 @@
+"""The golden digests (test_golden.py) compiled for other CPUs: in subprocesses whose kernels
+numba compiles for another target (NUMBA_CPU_NAME), the recorded digests, bit for bit. A
+change that made the rounding depend on the vector width (a fastmath flag letting LLVM split
+a sum into partial sums) or on fused multiply-adds fails here on any x86-64 machine.
+
+x86-64 (SSE2: two lanes, no FMA) differs from every host in both respects and runs the cases
+of each kind of sum and step; x86-64-v3 (AVX2, FMA: four lanes) and, where this CPU runs it,
+x86-64-v4 (AVX-512: eight) run the force sums. All 50 cases were compared under the three
+targets on an AVX-512 host when the digests were recorded: the same bits.
+"""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import llvmlite.binding as llvm
+import pytest
+
+import spacephys as sp
+from test_golden import _load, fingerprint
+
+# direct gravity with its test particles on threads, the tree, the collision pass, ships and
+# missiles with explosions, drag, and the two integrators with the most arithmetic of their own
+EVERY_KIND = ("gravity/leapfrog", "gravity/gauss_radau", "gravity/wisdom_holman_corrected",
+              "tree/leapfrog", "collisions/leapfrog", "actors/leapfrog", "drag/leapfrog")
+SUMS = ("gravity/leapfrog", "tree/leapfrog")
+
+RUN = """
+import json, sys
+sys.path.insert(0, sys.argv[1])
+import test_golden as g
+print(json.dumps({case: g.digest(*case.split("/"))[0] for case in sys.argv[2:]}))
+"""
+
+
+def targets():
+    """{target: its cases} besides the host's: x86-64, x86-64-v3, and x86-64-v4 when this
+    CPU can run its code. (Empty on another architecture: see the test below.)"""
+    features = llvm.get_host_cpu_features()
+    if not features.get("sse2"):
+        return {}
+    out = {"x86-64": EVERY_KIND, "x86-64-v3": SUMS}
+    if all(features.get(f) for f in ("avx512f", "avx512vl", "avx512bw", "avx512dq")):
+        out["x86-64-v4"] = SUMS
+    return out
+
+
+def test_the_machine_is_one_the_targets_cover():
+    assert targets(), f"{llvm.get_host_cpu_name()}: not x86-64, no other targets to check"
+
+
+def _compiled_for(cpu, tmp_path_factory):
+    """The environment of a process whose kernels numba compiles for `cpu`, in a cache folder
+    of its own (kept between runs of the suite)."""
+    from spacephys import cache
+    if cache.FOLDER is not None:
+        folder = Path(cache.FOLDER)
+    elif cache.ENABLED:                       # beside the package
+        folder = Path(sp.__file__).parent / "__pycache__"
+    else:
+        folder = tmp_path_factory.mktemp("cache")
+    return dict(os.environ, NUMBA_CPU_NAME=cpu, NUMBA_CPU_FEATURES="",
+                NUMBA_CACHE_DIR=str(folder / "targets" / cpu), SDL_VIDEODRIVER="dummy")
+
+
+@pytest.mark.parametrize("cpu", list(targets()))
+def test_the_digests_are_the_same_compiled_for_another_cpu(cpu, tmp_path_factory):
+    """The target's cases in a process that compiles for it: the recorded digests."""
+    env = _compiled_for(cpu, tmp_path_factory)
+    cases = targets()[cpu]
+    run = subprocess.run([sys.executable, "-c", RUN, str(Path(__file__).parent), *cases],
+                         env=env, capture_output=True, text=True, timeout=1800)
+    assert run.returncode == 0, run.stderr[-3000:]
+    got = json.loads(run.stdout.strip().splitlines()[-1])
+    recorded = _load()[fingerprint()]
+    assert got == {case: recorded[case] for case in cases}
+
+
+def test_a_match_recorded_on_one_cpu_replays_on_another(tmp_path, tmp_path_factory):
+    """A duel the computer flies on both sides (ships, missiles, explosions), recorded by a
+    process compiled for x86-64 (no FMA, two lanes), replays bit for bit on this CPU."""
+    path = tmp_path / "match.h5"
+    play = [sys.executable, "-m", "spacephys", "play"]
+    done = subprocess.run(play + ["duel", "--players", "0", "--frames", "300", "--headless",
+                                  "--record", str(path)], capture_output=True, text=True,
+                          env=_compiled_for("x86-64", tmp_path_factory), timeout=1800)
+    assert done.returncode == 0, done.stderr[-3000:]
+    again = subprocess.run(play + ["--replay", str(path), "--headless"], capture_output=True,
+                           text=True, env=dict(os.environ, SDL_VIDEODRIVER="dummy"),
+                           timeout=1800)
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert "300 frames drawn" in again.stdout and "bit for bit" in again.stdout
