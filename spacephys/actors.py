@@ -102,6 +102,7 @@ class Actors:
         self.w = world
         self.seed = seed
         self.specs = []                       # ExplosionSpecs, indexed by the explosion column
+        self._specs_hash = (None, 0, b"")     # (specs, their count, their repr): digest()
         self.curves = np.zeros((0, 2))        # thrust curve rows (speed, factor)
         self.queued = []                      # launch events waiting for the next step
         self.plans = {}                       # ship id -> plan rows (k, plans.PLAN_WIDTH)
@@ -113,12 +114,10 @@ class Actors:
 
     # ------------------------------------------------------------ columns
     def _actor_columns(self):
-        for name, (shape, dtype, default) in ACTOR_COLUMNS.items():
-            self.b.ensure_column(name, shape, dtype, default)
+        self.b.ensure_columns(ACTOR_COLUMNS)
 
     def _lifetime_columns(self):
-        for name, (shape, dtype, default) in LIFETIME_COLUMNS.items():
-            self.b.ensure_column(name, shape, dtype, default)
+        self.b.ensure_columns(LIFETIME_COLUMNS)
 
     def _actor_row(self, body, field="id"):
         i = self.w.index_of(body, field)
@@ -553,6 +552,34 @@ class Actors:
 
     def set_motion(self, queued):
         self.queued = list(queued)
+
+    def snapshot(self):
+        """What World.snapshot keeps of the actors: launches waiting, plans, explosion specs
+        and thrust curves (copies where they are changed in place)."""
+        queued = np.array(self.queued, EVENT_DTYPE).reshape(-1) if self.queued else None
+        plans_ = {ship: rows.copy() for ship, rows in self.plans.items()} if self.plans \
+            else None
+        return queued, plans_, list(self.specs), self.curves
+
+    def digest(self, h):
+        """Feed what snapshot() keeps into hashlib's h (the explosion specs' hash is kept
+        while their list is the same)."""
+        if self.queued:
+            h.update(np.array(self.queued, EVENT_DTYPE).tobytes())
+        for ship in sorted(self.plans):
+            h.update(b"%d" % ship + self.plans[ship].tobytes())
+        specs, count, text = self._specs_hash
+        if specs is not self.specs or count != len(specs):       # the list only grows
+            text = repr(self.specs).encode()
+            self._specs_hash = (self.specs, len(self.specs), text)
+        h.update(text)
+        h.update(self.curves.tobytes())
+
+    def restore(self, snap):
+        queued, plans_, specs, self.curves = snap
+        self.queued = [] if queued is None else list(queued.copy())
+        self.plans = {} if plans_ is None else {k: v.copy() for k, v in plans_.items()}
+        self.specs = list(specs)
 
     def state(self):
         live = [rows for ship, rows in sorted(self.plans.items()) if ship in self.w]

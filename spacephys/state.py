@@ -5,7 +5,11 @@ An id is (generation << 32) | slot. Removing a body bumps its slot's generation,
 turns stale and never names a later body; freed slots are reused first-in first-out, which keeps
 the slot table as large as the most bodies ever alive at once. First-generation ids are 0, 1, 2...
 """
+import struct
+
 import numpy as np
+
+from .kernels import digest as kdigest
 
 _SLOT_BITS = 32
 _SLOT_MASK = (1 << _SLOT_BITS) - 1
@@ -34,54 +38,73 @@ class Bodies:
 
     Columns: ids (int64), pos/vel/prev (cap, 3) float64, mass/radius float64, kind int16,
     active bool. Always 3 components: a 2D world keeps z = 0, so one set of kernels serves both.
+
+    Every column, and the id slots' generation and index, are views of one byte block
+    (`block`, laid out by `layout`), so a snapshot copies the bodies in one move and a restore
+    writes them back where the kernels' tables look (snapshot(), restore()).
     """
 
     def __init__(self, capacity=64):
-        capacity = max(int(capacity), 1)
         self.n = 0
         self.columns = dict(_COLUMNS)
         self.defaults = {}                # columns whose default is not 0
-        for name, (shape, dtype) in _COLUMNS.items():
-            setattr(self, name, np.zeros((capacity,) + shape, dtype=dtype))
-        self.generation = np.zeros(capacity, dtype=np.int64)   # per slot
-        self.index = np.full(capacity, -1, dtype=np.int64)     # per slot: row of its body, -1 free
-        self.slots_used = 0                                    # slots ever handed out
-        self.added = 0                                         # bodies ever added
-        self.free = np.zeros(0, dtype=np.int64)                # freed slots, oldest first
+        self.slots_used = 0               # slots ever handed out
+        self.added = 0                    # bodies ever added
+        self.free = np.zeros(0, dtype=np.int64)    # freed slots, oldest first; never written
+        self._lay_out(max(int(capacity), 1), keep=0)
 
     @property
     def capacity(self):
         return self.mass.shape[0]
 
+    def _lay_out(self, capacity, keep):
+        """Put every column (its first `keep` rows kept, the others their default) and the
+        slots (generation per slot, index: the row of its body, -1 free; slots_used kept) in
+        a new block of `capacity` rows. Every array is new: tables built before must be."""
+        fields = [(name, shape, dtype) for name, (shape, dtype) in self.columns.items()]
+        fields += [("generation", (), np.int64), ("index", (), np.int64)]
+        layout, size = [], 0
+        for name, shape, dtype in fields:
+            nbytes = capacity * np.dtype(dtype).itemsize * int(np.prod(shape))
+            layout.append((name, tuple(shape), np.dtype(dtype), size, nbytes))
+            size += -(-nbytes // 64) * 64          # every array starts 64-byte aligned
+        held = {f[0] for f in getattr(self, "layout", ())}
+        old = {name: getattr(self, name) if name in held else None       # None: new
+               for name, *_ in fields}
+        self._bind(tuple(layout), np.empty(size, np.uint8))
+        for name, *_ in fields:
+            arr, was = getattr(self, name), old[name]
+            rows = 0 if was is None else keep if name in self.columns else self.slots_used
+            arr[rows:] = -1 if name == "index" else self.defaults.get(name, 0)
+            if rows:
+                arr[:rows] = was[:rows]
+
+    def ensure_columns(self, columns):
+        """Add per-body columns, {name: (shape, dtype, default)}, that grow, compact and copy
+        with the others, holding `default` for every body that exists or is added without a
+        value for it (those already there are kept); integrators and ships keep per-body
+        state this way (Gauss-Radau's polynomial, fuel, heading). Adding one lays every column
+        out anew (tables built before must be)."""
+        new = {name: spec for name, spec in columns.items() if name not in self.columns}
+        if new:
+            self.columns = {**self.columns,
+                            **{name: (tuple(shape), dtype) for name, (shape, dtype, _) in
+                               new.items()}}
+            self.defaults = {**self.defaults,
+                             **{name: default for name, (_, _, default) in new.items()}}
+            self._lay_out(self.capacity, keep=self.n)
+
     def ensure_column(self, name, shape=(), dtype=np.float64, default=0):
-        """Add a per-body column that grows, compacts and copies with the others, holding
-        `default` for every body that exists or is added without a value for it; integrators
-        and ships keep per-body state this way (Gauss-Radau's polynomial, fuel, heading)."""
-        if name not in self.columns:
-            self.columns[name] = (tuple(shape), dtype)
-            self.defaults[name] = default
-            setattr(self, name, np.full((self.capacity,) + tuple(shape), default, dtype=dtype))
+        """ensure_columns for one column; returns it."""
+        self.ensure_columns({name: (shape, dtype, default)})
         return getattr(self, name)
 
     def _grow(self, need):
-        """Make room for `need` rows, doubling so that growth is amortised O(1) per body."""
+        """Make room for `need` rows (bodies and slots), doubling so that growth is amortised
+        O(1) per body."""
         cap = self.capacity
-        if need <= cap:
-            return
-        new = max(need, 2 * cap)
-        for name in self.columns:
-            old = getattr(self, name)
-            arr = np.full((new,) + old.shape[1:], self.defaults.get(name, 0), dtype=old.dtype)
-            arr[:self.n] = old[:self.n]
-            setattr(self, name, arr)
-
-    def _grow_slots(self, need):
-        cap = self.generation.shape[0]
-        if need <= cap:
-            return
-        new = max(need, 2 * cap)
-        self.generation = np.concatenate([self.generation, np.zeros(new - cap, np.int64)])
-        self.index = np.concatenate([self.index, np.full(new - cap, -1, np.int64)])
+        if need > cap:
+            self._lay_out(max(need, 2 * cap), keep=self.n)
 
     def add(self, columns):
         """Append k bodies; columns maps column names to (k, ...) arrays (ids and prev are set
@@ -94,7 +117,6 @@ class Bodies:
         reused = self.free[:k]
         fresh = np.arange(self.slots_used, self.slots_used + (k - reused.size), dtype=np.int64)
         slots = np.concatenate([reused, fresh])
-        self._grow_slots(self.slots_used + fresh.size)
         self.free = self.free[reused.size:]
         self.slots_used += fresh.size
         ids = (self.generation[slots] << _SLOT_BITS) | slots
@@ -181,20 +203,71 @@ class Bodies:
     @classmethod
     def from_state(cls, s):
         """Bodies as state() saw them."""
-        b = cls(max(int(s["capacity"]), 1))
-        n = int(s["n"])
-        for name, values in s["columns"].items():
-            values = np.asarray(values)
-            if name not in b.columns:
-                default = s["defaults"].get(name, 0)
-                b.ensure_column(name, values.shape[1:], values.dtype, default)
+        n, used = int(s["n"]), int(s["slots_used"])
+        b = cls(max(int(s["capacity"]), used, 1))
+        columns = {name: np.asarray(values) for name, values in s["columns"].items()}
+        b.ensure_columns({name: (values.shape[1:], values.dtype, s["defaults"].get(name, 0))
+                          for name, values in columns.items()})
+        for name, values in columns.items():
             getattr(b, name)[:n] = values
         b.n = n
-        used = int(s["slots_used"])
-        b._grow_slots(used)
         b.generation[:used] = s["generation"]
         b.index[:used] = s["index"]
         b.slots_used = used
         b.added = int(s["added"])
         b.free = np.array(s["free"], np.int64)
         return b
+
+    # ------------------------------------------------------------ snapshots
+    def snapshot(self):
+        """Everything these Bodies hold, for restore(): the block copied whole (the rows past
+        n included, so that a restore in place leaves every byte as it was)."""
+        return (self.layout, self.block.copy(), self.columns, self.defaults, self.n,
+                self.slots_used, self.added, self.free)
+
+    def restore(self, snap):
+        """Make these Bodies snapshot() `snap` again; True when it was written into the same
+        block (the arrays tables hold still hold the bodies), False when laid out anew."""
+        layout, block, self.columns, self.defaults, self.n, self.slots_used, self.added, \
+            self.free = snap
+        if layout is self.layout:
+            np.copyto(self.block, block)
+            return True
+        self._bind(layout, block.copy())
+        return False
+
+    def _bind(self, layout, block):
+        """Make `block`, laid out by `layout` (as _lay_out makes them; a layout is replaced,
+        never changed, so a snapshot knows its own), these Bodies'."""
+        names = {f[0] for f in layout}
+        for name, *_ in getattr(self, "layout", ()):
+            if name not in names:
+                delattr(self, name)                  # a column the new layout lacks
+        for name, shape, dtype, start, nbytes in layout:
+            capacity = nbytes // (dtype.itemsize * int(np.prod(shape)))
+            setattr(self, name, block[start:start + nbytes].view(dtype).reshape(
+                (capacity,) + shape))
+        self.block, self.layout = block, layout
+        self._words = block.view(np.uint64)
+        self._starts = np.array([f[3] for f in layout], np.int64)
+        self._row_bytes = np.array([f[4] // capacity for f in layout], np.int64)
+
+    def digest(self, h):
+        """The finished 64-bit hash (kernels/digest.py) of hashlib's h with the counters, the
+        free slots, then every live row of every column and the used id slots mixed in: the
+        rows past n are not part of it."""
+        h.update(struct.pack("<3q", self.n, self.slots_used, self.added))
+        h.update(self.free)
+        return kdigest.rows(np.frombuffer(h.digest(), np.uint64), self._words, self._starts,
+                            self._row_bytes, self.n, 2, self.slots_used)
+
+    def __getstate__(self):
+        return {k: self.__dict__[k] for k in _KEPT}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._bind(state["layout"], state["block"])
+
+
+# what a copy or pickle of Bodies keeps: the block and what lays it out, not its views
+_KEPT = ("n", "columns", "defaults", "slots_used", "added", "free", "block", "layout")

@@ -56,6 +56,8 @@ class Stepper:
 
     # why a family without pulling_actors cannot follow a pulling ship's mass change
     moving_mass = None
+    # per-body columns it carries, {name: (shape, dtype, default)}: World's bodies hold them
+    columns = {}
 
     def check(self, world, sources, actors):
         """Raise ValueError (naming the setting) when this family cannot run the scene, as
@@ -136,7 +138,8 @@ class RungeKutta(Stepper):
 
 
 # Gauss-Radau's per-body carried state: name -> trailing shape
-GR_COLUMNS = {"csx": (3,), "csv": (3,), "gr_b": (7, 3), "gr_e": (7, 3)}
+GR_COLUMNS = {"csx": ((3,), np.float64, 0.0), "csv": ((3,), np.float64, 0.0),
+              "gr_b": ((7, 3), np.float64, 0.0), "gr_e": ((7, 3), np.float64, 0.0)}
 
 
 class GaussRadau(Stepper):
@@ -146,6 +149,7 @@ class GaussRadau(Stepper):
     polynomials."""
     family = "gauss_radau"
     capabilities = Capabilities(models=("none", "direct", "uniform", "central"))
+    columns = GR_COLUMNS
 
     def __init__(self, spec):
         super().__init__(spec)
@@ -159,7 +163,7 @@ class GaussRadau(Stepper):
         src, passive, _ = sources
         b = world._b
         n = b.n
-        cols = [b.ensure_column(name, shape)[:n] for name, shape in GR_COLUMNS.items()]
+        cols = [getattr(b, name)[:n] for name in GR_COLUMNS]
         if world.step_control_rows(src):
             control, riders = src, passive
         else:

@@ -234,7 +234,7 @@ class World:
     @threads.setter
     def threads(self, mode):
         self._threads.set(mode)
-        self._plan = None               # "never": the tables hold no threaded loops
+        self._set_up()               # "never": the tables hold no threaded loops
 
     @property
     def integrator(self):
@@ -248,7 +248,7 @@ class World:
         self._spec = spec
         self._stepper = stepper_for(spec)
         self._stepper.reset(self)            # switching voids the old method's carried state
-        self._plan = None
+        self._set_up()
 
     @property
     def integrator_spec(self):
@@ -268,6 +268,7 @@ class World:
     @journaled_setter("max_substeps")
     def max_substeps(self, value):
         self._max_substeps = check.count("max_substeps", value, minimum=1)
+        self._setup = None
 
     @staticmethod
     def _checked_step_control(value):
@@ -285,7 +286,7 @@ class World:
     @journaled_setter("step_control")
     def step_control(self, value):
         self._step_control = self._checked_step_control(value)
-        self._plan = None
+        self._set_up()
 
     def step_control_rows(self, src):
         """Whether only the pulling bodies (src rows) set an adaptive step."""
@@ -367,7 +368,7 @@ class World:
     @journaled_setter("softening")
     def softening(self, value):
         self._forces.softening = check.scalar("softening", value, minimum=0.0)
-        self._plan = None
+        self._set_up()
 
     @property
     def theta(self):
@@ -380,7 +381,7 @@ class World:
         if self.gravity != "tree":
             raise ValueError(f"theta is only used with gravity='tree' (gravity={self.gravity!r})")
         self._forces.theta = self._forces.checked_theta(value)
-        self._plan = None
+        self._set_up()
 
     @property
     def quadrupole(self):
@@ -432,18 +433,18 @@ class World:
         set_force_params, remove_force). Save, load and replay find fn by its module and
         name: define it at the top level of an importable module."""
         k = self._forces.add(fn, params)
-        self._plan = None
+        self._set_up()
         return k
 
     def set_force_params(self, k, params):
         """Replace user force k's params (p,) float64."""
         self._forces.set_params(k, params)
-        self._plan = None
+        self._set_up()
 
     def remove_force(self, k):
         """Remove user force k (the later ones move down by one)."""
         self._forces.remove(k)
-        self._plan = None
+        self._set_up()
 
     @property
     def forces(self):
@@ -467,7 +468,7 @@ class World:
                 raise ValueError(f"kind {name!r}: too many kinds ({len(self._kinds)})")
             self._kinds.append(name)
             self._collisions.add_kind()
-            self._plan = None
+            self._set_up()
         return self._kinds.index(name)
 
     def kind_code(self, name):
@@ -585,6 +586,8 @@ class World:
         state["_plan"] = None                          # kernel tables: rebuilt on demand
         state["_scratch"] = None
         state["_log"] = None                           # a copy is not recorded
+        state["_setup"] = None                         # a copy's snapshots are its own
+        state["_token"] = None
         state.pop("_shadows", None)                    # predictions' copies (predict.py)
         for name in JOURNALED:
             state.pop(name, None)
@@ -592,12 +595,41 @@ class World:
 
     def __setstate__(self, state):
         self.__dict__.update(state)
+        self._token = object()
 
     def copy(self):
         """An independent deep copy (same ids, state, time and settings)."""
         # the integrator spec is immutable and shared: a copied (writeable) table would make
         # numba compile the kernels a second time for a different array type
         return copy.deepcopy(self, memo={id(self._spec): self._spec})
+
+    def snapshot(self):
+        """The whole World as it is now, in memory, for restore(): every bit of the bodies
+        (ids and their generations included), the clock, the events of the last call, the
+        pairs in touch, the integrator's carried state, launches waiting, plans, forces and
+        settings. Costs microseconds (the bodies are copied in one block; the settings are
+        taken once per change and shared): made for rollback, a snapshot per frame. A
+        snapshot restores only this World, in this process (World.state() is the state to
+        keep or send)."""
+        return worldstate.Snapshot.take(self)
+
+    def restore(self, snapshot):
+        """Make this World exactly as it was when `snapshot` (from its snapshot()) was
+        taken: stepping on gives the same bits as if it had never left. A snapshot of
+        another World, or taken by another spacephys, is a ValueError and nothing changes;
+        so is a World being recorded (its run log cannot jump back). The snapshot stays
+        valid: restore it as often as needed."""
+        if not isinstance(snapshot, worldstate.Snapshot):
+            raise ValueError(f"snapshot = {type(snapshot).__name__}: give what "
+                             f"World.snapshot() returned")
+        snapshot.put(self)
+
+    def digest(self):
+        """A 64-bit hash of the whole state (an int in [0, 2**64)): equal on two Worlds in
+        the same state, whatever machine, process or history brought them there (a World
+        restored, loaded with from_state or stepped alike); one bit changed anywhere changes
+        it. For peers comparing their Worlds, and tests."""
+        return worldstate.digest(self)
 
     # ---------------------------------------------------------------- run logs and files
     def record(self, path, *, every=1, every_time=None, checkpoint_every=None,
@@ -698,6 +730,8 @@ class World:
         self._plan = None                  # the kernels' tables for the bodies now (Plan)
         self._scratch = None               # per-body scratch kept at the capacity
         self._warning = None               # a warning to give once a call is booked
+        self._setup = None                 # the setup snapshots share (worldstate.Setup)
+        self._token = object()             # whose snapshots restore() takes: this World's
         self._driver = Driver(self)        # its step driver, and its extensions' interface
 
     # ---------------------------------------------------------------- collisions
@@ -718,7 +752,7 @@ class World:
         """
         self._collisions.set(self._kind_list(kind_a, "kind_a"),
                              self._kind_list(kind_b, "kind_b"), response, restitution)
-        self._plan = None
+        self._set_up()
 
     def collision(self, kind_a, kind_b):
         """The response set for (kind_a, kind_b), and its restitution."""
@@ -728,7 +762,7 @@ class World:
         """An immovable wall: the plane (a line in 2D) through point, bodies on the side the
         normal points to. Returns its index in w.walls."""
         k = self._collisions.plane(point, normal, restitution, self._dim)
-        self._plan = None
+        self._set_up()
         return k
 
     def add_segment(self, a, b, restitution=1.0):
@@ -736,7 +770,7 @@ class World:
         *Basic Game Physics*.
         Returns its index in w.walls."""
         k = self._collisions.segment(a, b, restitution, self._dim)
-        self._plan = None
+        self._set_up()
         return k
 
     @property
@@ -746,14 +780,14 @@ class World:
 
     def clear_walls(self):
         self._collisions.walls = np.zeros((0, 8))
-        self._plan = None
+        self._set_up()
 
     def set_boundary(self, mode, lo=None, hi=None, restitution=1.0):
         """The world's edge: "open" (none), "reflect" (walls of the box lo..hi) or "periodic"
         (Asteroids-style: leaving one side enters the opposite one; contacts across the seam
         count; gravity itself is not periodic)."""
         self._collisions.set_boundary(mode, lo, hi, restitution, self._dim)
-        self._plan = None
+        self._set_up()
 
     @property
     def boundary(self):
@@ -769,7 +803,7 @@ class World:
     @journaled_setter("collision_cell")
     def collision_cell(self, value):
         self._collisions.set_cell(value)
-        self._plan = None
+        self._set_up()
 
     @property
     def collides(self):
@@ -892,6 +926,12 @@ class World:
         self._plan = None
         measures.rewatch(self)
 
+    def _set_up(self):
+        """A setting changed: the tables are built anew, and the next snapshot takes the
+        setup again (worldstate.Setup)."""
+        self._plan = None
+        self._setup = None
+
     def _sources(self):
         """(src, passive, still): the bodies that pull, the others, the immovable ones."""
         b = self._b
@@ -944,6 +984,7 @@ class World:
         sources = self._sources()
         actors = self._actors.rows()
         self._stepper.check(self, sources, actors)
+        b.ensure_columns(self._stepper.columns)     # before any table takes a column
         scratch = self._scratch_rows(n)
         alive = scratch["alive"]
         alive[:] = True
@@ -1068,7 +1109,7 @@ class World:
         self._collisions.shift(delta, d)
         self._actors.shift(delta)
         self._origin[:d] += delta
-        self._plan = None
+        self._set_up()
         measures.rewatch(self)       # a uniform field's potential has no natural zero
 
     # ---------------------------------------------------------------- spatial queries

@@ -10,17 +10,25 @@ user forces and plans, the integrator, the seed...): changing one rebuilds the t
     Motion.take(w) / put(w) the moving pieces, into a World with the same setup: the copies a
                             prediction runs (predict.py) take them before each run, instead
                             of a new copy of the World
+    Snapshot.take(w) / put  every piece, in memory, back into the same World (World.snapshot,
+                            restore: rollback); the setup is taken once per change of a
+                            setting (Setup) and shared by the snapshots taken until the next
+    digest(w)               a 64-bit hash of every piece (World.digest)
 
 A piece of World's own is one entry of WORLD (its key, whether it moves, how to read and set
 it); a part of World (Bodies, ForceField, CollisionRules, Actors, the stepper) keeps its own
 state and says which of it moves (`motion`, `set_motion`). World.copy() copies everything.
 """
+import hashlib
+import struct
 from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
 
 from .collisions import CollisionRules
+from .kernels import digest as kdigest
+from .kernels import rules as krules
 from .events import EVENT_DTYPE
 from .forces import ForceField
 from .integrators import get_integrator
@@ -33,11 +41,14 @@ STATE_VERSION = 2          # the version of World.state(), and of the files that
 
 @dataclass(frozen=True)
 class Piece:
-    """One piece of World's own state: get(w) -> its value (a copy), set(w, value)."""
+    """One piece of World's own state: get(w) -> its value (a copy), set(w, value); attr:
+    the World's attribute that holds it, when it is one: a number, or an array (array)."""
     key: str
     moves: bool
     get: Callable[[Any], Any]
     set: Callable[[Any, Any], None]
+    attr: str = None
+    array: bool = False
 
 
 def _events(w):
@@ -57,8 +68,9 @@ def _set_integrator(w, name):
 
 
 def _attr(name, convert):
-    """get and set of the attribute `name`, set through `convert`."""
-    return (lambda w: getattr(w, name)), (lambda w, v: setattr(w, name, convert(v)))
+    """get and set of the attribute `name`, set through `convert`; name."""
+    return (lambda w: getattr(w, name)), (lambda w, v: setattr(w, name, convert(v))), name, \
+        False
 
 
 def _array(name):
@@ -70,7 +82,7 @@ def _array(name):
             setattr(w, name, np.array(value, np.float64))
         else:
             held[:] = value
-    return (lambda w: getattr(w, name).copy()), set_
+    return (lambda w: getattr(w, name).copy()), set_, name, True
 
 
 # World's own pieces, in the order from_state sets them (the integrator before the stepper's
@@ -179,3 +191,192 @@ class Motion:
             w._stepper.reset(w)
         else:
             w._stepper.load(self.carried)
+
+
+# ---------------------------------------------------------------- snapshots
+MOVING = tuple(p for p in WORLD if p.moves)
+# the moving numbers and arrays as World's attributes, for digest
+_NUMBERS = tuple(p.attr for p in MOVING if p.attr and not p.array)
+_NUMBERS_FORMAT = "<%dd" % len(_NUMBERS)
+_ARRAYS = tuple(p.attr for p in MOVING if p.array)
+_OTHERS = tuple(p for p in MOVING if not p.attr)
+# the settings a Setup keeps: the events are the last call's report, which a snapshot keeps
+SETTINGS = tuple(p for p in WORLD if not p.moves and p.key != "events")
+
+
+class Setup:
+    """A World's setup (its settings, forces and collision rules but for their moving parts)
+    as it was when taken: what snapshots share until a setting changes (World._set_up)."""
+
+    __slots__ = ("world", "forces", "user", "collisions", "hash")
+
+    def __init__(self, w):
+        self.world = {p.key: p.get(w) for p in SETTINGS}
+        self.forces = w._forces.state()
+        self.user = [(fn, params.copy()) for fn, params in w._forces.user]
+        self.collisions = w._collisions.state()
+        self.hash = None
+
+    @classmethod
+    def of(cls, w):
+        """w's setup now: the one taken before if no setting changed since."""
+        if w._setup is None:
+            w._setup = cls(w)
+        return w._setup
+
+    def put(self, w):
+        """Make w's settings, forces and collision rules these (their moving parts are the
+        snapshot's to set); the tables will be built anew."""
+        for p in SETTINGS:
+            p.set(w, self.world[p.key])
+        forces = ForceField.from_state(w._dim, dict(self.forces, user_functions=[],
+                                                    user_params=[]))
+        forces.user = [(fn, params.copy()) for fn, params in self.user]
+        w._forces = forces
+        w._collisions = CollisionRules.from_state(self.collisions)
+        w._setup = self
+        w._plan = None
+
+    def digest(self):
+        """8 bytes hashing the setup (function forces by module and name), computed once."""
+        if self.hash is None:
+            h = hashlib.blake2b(digest_size=8)
+            _feed(h, (self.world, self.forces, self.collisions))
+            self.hash = h.digest()
+        return self.hash
+
+
+def _feed(h, value):
+    """Hash `value` (dicts, sequences, arrays, numbers, text) into h, the same bytes on every
+    machine."""
+    if isinstance(value, dict):
+        h.update(b"d%d" % len(value))
+        for key in sorted(value):
+            _feed(h, key)
+            _feed(h, value[key])
+    elif isinstance(value, (list, tuple)):
+        h.update(b"l%d" % len(value))
+        for item in value:
+            _feed(h, item)
+    elif isinstance(value, np.ndarray):
+        h.update(b"a" + value.dtype.str.encode() + repr(value.shape).encode())
+        h.update(np.ascontiguousarray(value).tobytes())
+    elif isinstance(value, str):
+        h.update(b"s%d:" % len(value) + value.encode())
+    elif isinstance(value, (bool, np.bool_)):
+        h.update(b"b1" if value else b"b0")
+    elif isinstance(value, (int, np.integer)):
+        h.update(b"i" + str(int(value)).encode())
+    elif isinstance(value, (float, np.floating)):
+        h.update(b"f" + struct.pack("<d", float(value)))
+    elif value is None:
+        h.update(b"n")
+    else:                                   # a spec: its fields' exact repr
+        h.update(b"r" + repr(value).encode())
+
+
+_VERSION = []
+
+
+def _version():
+    if not _VERSION:
+        from . import __version__   # the package's, set after its modules are imported
+        _VERSION.append(__version__)
+    return _VERSION[0]
+
+
+class Snapshot:
+    """World.snapshot(): every piece of one World's state, in memory, for World.restore.
+    Opaque but for `t` (the World's time when taken) and `version` (spacephys's)."""
+
+    __slots__ = ("owner", "version", "t", "setup", "plan", "events_buffer", "touch_buffer",
+                 "bodies", "world", "events", "drag", "touch", "owners", "actors", "carried",
+                 "watch")
+
+    def __reduce__(self):
+        raise TypeError("a snapshot lives in memory, for the World it was taken of: "
+                        "World.state() or World.save(path) give a state to keep or send")
+
+    @classmethod
+    def take(cls, w):
+        s = cls.__new__(cls)
+        s.owner, s.version, s.t = w._token, _version(), w.t
+        s.setup = Setup.of(w)
+        plan = s.plan = w._plan
+        s.events_buffer, s.touch_buffer = w._events, w._collisions.touch
+        s.bodies = w._b.snapshot()
+        s.world = [p.get(w) for p in MOVING]
+        s.events = w._events[:w._event_count[0]].copy()
+        s.drag = w._forces.motion()
+        s.touch = w._collisions.touching()
+        s.owners = None if plan is None or plan.rules is None else \
+            krules.owners_of(plan.rules).copy()
+        s.actors = w._actors.snapshot()
+        s.carried = w._stepper.state()
+        s.watch = w._watch
+        return s
+
+    def put(self, w):
+        """Make World w (the one taken from) as it was; checked before anything changes."""
+        if self.version != _version():
+            raise ValueError(f"restore: the snapshot was taken by spacephys "
+                             f"{self.version}, this is {_version()}")
+        if self.owner is not w._token:
+            raise ValueError("restore: the snapshot was taken of another World (a snapshot "
+                             "restores only the World it came from; copies and loaded "
+                             "Worlds are others)")
+        if w._log is not None:
+            raise ValueError(f"restore: this World is being recorded into "
+                             f"{w._log.path!r}, whose replay cannot jump back; record after "
+                             f"the session, or record its inputs")
+        same_setup = w._setup is self.setup
+        if not same_setup:
+            self.setup.put(w)
+        in_place = w._b.restore(self.bodies)
+        for p, value in zip(MOVING, self.world):
+            p.set(w, value)
+        k = self.events.size
+        if k <= w._events.size:
+            w._events[:k] = self.events
+            w._event_count[0] = k
+        else:
+            WORLD[-1].set(w, self.events)
+        w._forces.set_motion(self.drag)
+        fits = w._collisions.set_touching(self.touch)
+        w._actors.restore(self.actors)
+        w._stepper.load(self.carried)
+        w._watch = self.watch
+        plan = self.plan
+        # the tables taken with the snapshot hold views of these very arrays, unless the
+        # bodies, the events or the pairs in touch moved to new ones since
+        if plan is not None and same_setup and in_place and fits and \
+                w._events is self.events_buffer and w._collisions.touch is self.touch_buffer:
+            plan.alive[:] = True
+            if self.owners is not None:
+                krules.owners_of(plan.rules)[:] = self.owners
+            w._plan = plan
+        else:
+            w._plan = None
+
+
+def digest(w):
+    """A 64-bit hash of World w's whole state (an int in [0, 2**64)): the setup, the moving
+    pieces, the events, the pairs in touch, the actors', the carried state, then the bodies'
+    live rows and id slots (kernels/digest.py); equal states give equal digests on every
+    machine."""
+    h = hashlib.blake2b(Setup.of(w).digest(), digest_size=8)
+    h.update(struct.pack(_NUMBERS_FORMAT, *[getattr(w, a) for a in _NUMBERS]))
+    for a in _ARRAYS:
+        h.update(getattr(w, a))
+    for p in _OTHERS:
+        _feed(h, p.get(w))
+    h.update(w._events[:w._event_count[0]])
+    h.update(w._forces.drag)
+    h.update(w._collisions.touch[:w._collisions.ntouch[0]])
+    w._actors.digest(h)
+    carried = w._stepper.state()
+    if carried:
+        _feed(h, carried)
+    if w._watch is not None:
+        _feed(h, w._watch)
+    return int(w._b.digest(h))

@@ -1,7 +1,7 @@
 """`spacephys bench overhead`, its per-call part: every case timed on both sides."""
 import math
 
-from spacephys.study.overhead import _calls
+from spacephys.study.overhead import _calls, _snapshots
 
 
 def test_per_call_cases_run_beside_rebound():
@@ -16,3 +16,15 @@ def test_per_call_cases_run_beside_rebound():
         if r["case"] != "duel control()":
             assert 0.0 < r["rebound_s"] < 1e-3
             assert math.isclose(r["ratio"], r["spacephys_s"] / r["rebound_s"])
+
+
+def test_snapshot_cases_run_beside_rebounds_copy():
+    """A duel (the game's, with torpedoes and debris) and 10 000 bodies: snapshot + restore,
+    restore alone and digest() timed, REBOUND's sim.copy() beside them."""
+    rows = _snapshots(quick=True)
+    assert [r["world"] for r in rows] == ["duel", "10 000 bodies"]
+    assert 5 <= rows[0]["bodies"] <= 50 and rows[1]["bodies"] == 10_000
+    for r in rows:
+        for key in ("snapshot_restore_s", "restore_s", "digest_s", "rebound_copy_s"):
+            assert 0.0 < r[key] < 0.1
+        assert math.isclose(r["ratio"], r["snapshot_restore_s"] / r["rebound_copy_s"])

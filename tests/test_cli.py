@@ -94,6 +94,13 @@ def test_the_benchmarked_spacewar_loop_is_the_guides_word_for_word():
     assert (ROOT / "spacephys" / "study" / "spacewar_loop.py").read_text() == block
 
 
+def test_netplay_page_examples_run_as_pasted():
+    assert _doc_example("docs/netplay.md", "snapshot") == [
+        "the same bits as never having burned: True"]
+    assert _doc_example("docs/netplay.md", "rollback") == [
+        "rolled back and stepped again: True"]
+
+
 def test_runlog_page_example_runs_as_pasted():
     lines = _doc_example("docs/runlog.md", "runlog")
     # 300 steps / 5 + 100 / 5 + the first = 81 frames; 1 fuel at 1/3 per time: empty at 3

@@ -64,6 +64,7 @@ class WorldMachine(RuleBasedStateMachine):
         self.broken = False          # an InstabilityError was raised: the World is done
         self.seen, self.dead = set(), set()
         self.saved = False
+        self.snap = None             # (snapshot, copy, digest, seen, dead) when one is taken
 
     @property
     def tmp(self):
@@ -264,7 +265,39 @@ class WorldMachine(RuleBasedStateMachine):
     @precondition(lambda m: not m.broken)
     @rule(k=st.integers(1, 5))
     def state_round_trip(self, k):
-        self._continue_alike(sp.World.from_state(self.w.state()), k, "from_state(state())")
+        loaded = sp.World.from_state(self.w.state())
+        assert loaded.digest() == self.w.digest()
+        self._continue_alike(loaded, k, "from_state(state())")
+
+    @precondition(lambda m: not m.broken and m.log is None)
+    @rule()
+    def snapshot(self):
+        """A snapshot, with a copy of the World and the model as they were."""
+        self.snap = (self.w.snapshot(), self.w.copy(), self.w.digest(), set(self.seen),
+                     set(self.dead))
+
+    @precondition(lambda m: not m.broken and m.log is None and m.snap is not None)
+    @rule(k=st.integers(1, 5))
+    def restore(self, k):
+        """restore -> the World as it was, bit for bit, digest and all; then it steps as the
+        copy taken at the snapshot does."""
+        snap, ref, digest, seen, dead = self.snap
+        self.w.restore(snap)
+        self.seen, self.dead = set(seen), set(dead)
+        assert self.w.digest() == digest
+        ref = ref.copy()
+        _same(ref.state(), self.w.state(), "restored")
+        errors = []
+        for world in (ref, self.w):
+            try:
+                world.step(k)
+                errors.append(None)
+            except FloatingPointError as e:
+                errors.append(str(e))
+        assert errors[0] == errors[1]
+        self.broken = errors[0] is not None
+        _same(ref.state(), self.w.state(), "restored, then stepped")
+        assert ref.digest() == self.w.digest()
 
     @precondition(lambda m: not m.broken and m.files and not m.saved)
     @rule(k=st.integers(1, 5))

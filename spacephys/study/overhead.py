@@ -2,7 +2,9 @@
 
 Per-call costs (best of alternating repeats of many calls): step(1) and advance(1/60) on two
 bodies against REBOUND's sim.steps(1); a duel (a fixed star, two ships with held controls,
-collisions on): step(1) and control(); leapfrog batched in one call on 2 to 5 bodies; the
+collisions on): step(1) and control(); leapfrog batched in one call on 2 to 5 bodies;
+snapshot + restore and digest of the game's duel and of 10 000 bodies (against REBOUND's
+sim.copy()); the
 Spacewar! loop of docs/guide/game-loop.md, run as pasted; threads beside two busy processes; a jitted user force
 against REBOUND's Python callback. The start and what it compiles: `spacephys bench compile`.
 """
@@ -201,11 +203,51 @@ def _user_force(quick):
             "ratio": theirs / ours, "max_position_difference": diff}
 
 
+def _game_duel(frames):
+    """The Spacewar! duel of `spacephys play duel`, the computer flying both ships, after
+    `frames` frames (torpedoes, debris in flight)."""
+    from ..game.duel import Duel
+    mode = Duel(players=0, seed=5)
+    w = mode.world
+    for _ in range(frames):
+        mode.controls(set(), set())
+        w.advance(mode.frame_time)
+        mode.after(w.events)
+    return w
+
+
+def _snapshots(quick):
+    """World.snapshot() + restore() and digest() of a duel and of 10 000 bodies, beside
+    REBOUND's sim.copy() of the same bodies (its nearest call: a new simulation, no
+    restore in place)."""
+    from ..scenes import uniform_sphere
+    repeats, count = (3, 300) if quick else (7, 3000)
+    rows = []
+    worlds = (("duel", _game_duel(400), 20e-6, 5e-6),
+              ("10 000 bodies", uniform_sphere(10_000, seed=2, dt=1e-4), 1e-3, None))
+    for name, w, target, digest_target in worlds:
+        w.step(1)
+        sim = peer.simulation(w, "leapfrog", gravity="basic")
+        snap = w.snapshot()
+        k = count if w.n < 1000 else max(count // 100, 5)
+        best = _per_call({"both": lambda: w.restore(w.snapshot()),
+                          "restore": lambda: w.restore(snap),
+                          "digest": w.digest,
+                          "copy": lambda: sim.copy()}, repeats, k)
+        rows.append({"world": name, "bodies": w.n, "snapshot_restore_s": best["both"],
+                     "restore_s": best["restore"], "digest_s": best["digest"],
+                     "rebound_copy_s": best["copy"], "target_s": target,
+                     "digest_target_s": digest_target,
+                     "ratio": best["both"] / best["copy"]})
+    return rows
+
+
 def overhead(quick=False):
     """The per-call benchmark (see the module)."""
     rebound = peer.load()
     return {**header("overhead", quick, rebound),
-            "calls": _calls(quick), "batched": _batched(quick), "spacewar": _spacewar(),
+            "calls": _calls(quick), "batched": _batched(quick),
+            "snapshots": _snapshots(quick), "spacewar": _spacewar(),
             "threads": _threads(quick), "user_force": _user_force(quick)}
 
 
@@ -224,6 +266,14 @@ def format_overhead(r):
     for b in r["batched"]:
         lines.append(f"| N = {b['bodies']} | {us(b['spacephys_s_per_step'])} | "
                      f"{us(b['rebound_s_per_step'])} | {b['ratio']:.2f}x |")
+    lines += ["", "| snapshot + restore | bodies | spacephys | restore alone | digest() | "
+              "REBOUND sim.copy() | ours / copy | target |", "|---|---|---|---|---|---|---|---|"]
+    for c in r["snapshots"]:
+        aim = f"<= {us(c['target_s'])}" + (f", digest <= {us(c['digest_target_s'])}"
+                                           if c["digest_target_s"] else "")
+        lines.append(f"| {c['world']} | {c['bodies']} | {us(c['snapshot_restore_s'])} | "
+                     f"{us(c['restore_s'])} | {us(c['digest_s'])} | "
+                     f"{us(c['rebound_copy_s'])} | {c['ratio']:.2f}x | {aim} |")
     sw = r["spacewar"]
     lines.append("")
     lines.append(f"Spacewar! loop (docs/guide/game-loop.md): {sw['ms_per_frame']:.3f} ms per "
