@@ -99,6 +99,8 @@ def test_netplay_page_examples_run_as_pasted():
         "the same bits as never having burned: True"]
     assert _doc_example("docs/netplay.md", "rollback") == [
         "rolled back and stepped again: True"]
+    assert _doc_example("docs/netplay.md", "netplay") == [
+        "the same World on both sides: True", "rolled back: True desync: None"]
 
 
 def test_runlog_page_example_runs_as_pasted():

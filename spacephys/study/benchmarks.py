@@ -64,6 +64,8 @@ BENCHMARKS = {b.name: b for b in [
               "playbench", "play_bench", "format_play", needs=("pygame",)),
     Benchmark("threads", "the default thread choice beside busy processes, against one "
               "thread and all", "threadbench", "threads", "format_threads", needs=()),
+    Benchmark("netplay", "rolling back 8 frames of the duel and the arena; frame times at "
+              "100 ms", "netplaybench", "netplay_bench", "format_netplay", needs=()),
     Benchmark("compile", "each scenario's cold start and what it compiles; the warm start",
               "compilebench", "compile_bench", "format_compile", needs=()),
 ]}

@@ -1,0 +1,260 @@
+"""spacephys.netplay: two real processes on 127.0.0.1 play scripted inputs through the
+rollback session over UDP, under latency, jitter and loss, and end on the bits of one
+process given the same inputs; a planted desync is named with its frame; bad packets and
+inputs are dropped and counted."""
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import spacephys as sp
+from spacephys import netplay
+from spacephys.netplay import Channel, Conditions, Inputs, Packet, Session
+
+HERE = Path(__file__).parent
+sys.path.insert(0, str(HERE))
+from test_snapshot import TORPEDO, _duel  # noqa: E402
+
+SPECS = (TORPEDO,)
+
+
+def _pair(tmp_path, name, frames, latency=0.0, jitter=0.0, loss=0.0, **extra):
+    """Start the two peers (tests/netplay_peer.py); returns a function that waits for them
+    and gives their two reports."""
+    opts = ["--frames", str(frames), "--latency", str(latency), "--jitter", str(jitter),
+            "--loss", str(loss)]
+    for key, value in extra.items():
+        opts += [f"--{key.replace('_', '-')}", str(value)]
+    outs = [tmp_path / f"{name}-{p}.json" for p in (0, 1)]
+    host = subprocess.Popen([sys.executable, str(HERE / "netplay_peer.py"), "0", str(outs[0]),
+                             *opts], stdout=subprocess.PIPE, text=True)
+    port = int(host.stdout.readline())
+    join = subprocess.Popen([sys.executable, str(HERE / "netplay_peer.py"), "1", str(outs[1]),
+                             "--peer", f"127.0.0.1:{port}", *opts])
+
+    def wait():
+        try:
+            for p in (host, join):
+                assert p.wait(timeout=90 + frames / 20) == 0
+        finally:
+            for p in (host, join):
+                p.kill()
+        return [json.loads(o.read_text()) for o in outs]
+    return wait
+
+
+def _one_process(history):
+    """The duel stepped in one process with the inputs the peers confirmed."""
+    w, _ = _duel()
+    for _, mine, theirs in history:
+        for data in (mine, theirs):
+            Inputs.decode(bytes.fromhex(data), SPECS).apply(w)
+        w.step(2)
+    return w.digest()
+
+
+def test_two_processes_end_on_the_bits_of_one(tmp_path):
+    # 3 600 frames (a minute at 60 Hz) at 0, 50 and 150 ms one way, 20 ms jitter, 10 % of
+    # the datagrams lost, the three pairs side by side
+    cases = {"0 ms": (0.0, 0.0), "50 ms": (0.05, 0.02), "150 ms": (0.15, 0.02)}
+    waits = {name: _pair(tmp_path, name.replace(" ", ""), 3600, latency, jitter, 0.1)
+             for name, (latency, jitter) in cases.items()}
+    for name, wait in waits.items():
+        a, b = wait()
+        assert a["frames"] == b["frames"] == 3600, name
+        assert a["desync"] is None and b["desync"] is None, name
+        assert a["history"] == b["history"] and len(a["history"]) == 3600, name
+        assert [h[1] for h in a["history"]] == a["mine"], name      # player 0's own inputs
+        assert [h[2] for h in b["history"]] == b["mine"], name
+        assert a["digest"] == b["digest"] == _one_process(a["history"]), name
+        for r in (a, b):
+            lost = r["stats"]["dropped"].get("lost on the way (test conditions)", 0)
+            assert 0.05 < lost / r["stats"]["packets_out"] < 0.15, name
+            if name != "0 ms":
+                assert r["stats"]["rollbacks"] > 50, (name, r["stats"])
+        if name == "150 ms":
+            # one way beyond the 8-frame window (133 ms): the sessions waited, and the minute
+            # took longer than a minute
+            assert a["stats"]["waits"] > 100 and a["seconds"] > 62, a["stats"]
+            assert 280 < a["stats"]["ping_ms"] < 400
+
+
+def test_a_desync_is_named_with_its_frame(tmp_path):
+    a, b = _pair(tmp_path, "tamper", 400, 0.02, 0.01, 0.0, tamper=250, digest_every=1)()
+    assert a["desync"] == b["desync"] == 250
+    assert a["digest"] != b["digest"]
+
+
+def test_no_desync_is_reported_without_one(tmp_path):
+    # the same run as above but for the planted change: the check is not merely noisy
+    a, b = _pair(tmp_path, "clean", 400, 0.02, 0.01, 0.0, digest_every=1)()
+    assert a["desync"] is None and b["desync"] is None and a["digest"] == b["digest"]
+
+
+# ----------------------------------------------------------------------------- in one process
+
+def _sessions(conditions=(None, None), **kw):
+    """Two sessions on two loopback sockets of this process."""
+    a_world, _ = _duel()
+    b_world, _ = _duel()
+    ca = Channel(0, None, conditions=conditions[0])
+    cb = Channel(0, ("127.0.0.1", ca.port), conditions=conditions[1])
+    return (Session(a_world, 0, ca, specs=SPECS, **kw),
+            Session(b_world, 1, cb, specs=SPECS, **kw))
+
+
+def _idle(*sessions, seconds=0.05):
+    until = time.perf_counter() + seconds
+    while time.perf_counter() < until:
+        for s in sessions:
+            s.poll()
+        time.sleep(0.001)
+
+
+def test_beyond_the_window_a_session_waits_and_says_so():
+    a, b = _sessions(window=4)
+    try:
+        for f in range(4):
+            assert a.advance(a.input())
+        assert not a.advance(a.input()) and a.waiting and a.stats["waits"] == 1
+        assert b.advance(b.input())          # the other player catches up by one frame
+        _idle(a, b)
+        assert a.advance(a.input()) and not a.waiting
+    finally:
+        a.channel.close()
+        b.channel.close()
+
+
+def test_a_silent_peer_is_an_error_not_a_hang():
+    w, _ = _duel()
+    c = Channel(0, ("127.0.0.1", 9))           # nobody answers there
+    s = Session(w, 0, c, specs=SPECS, window=2, silence=0.3)
+    try:
+        with pytest.raises(ConnectionError, match="nothing heard from the other player"):
+            for _ in range(1000):
+                s.advance(s.input())
+                time.sleep(0.01)
+        assert s.frame == 2
+    finally:
+        c.close()
+
+
+def test_a_late_input_rolls_back_and_steps_again():
+    a, b = _sessions()
+    try:
+        ship = 2
+        for f in range(6):
+            a.advance(a.input())
+        inp = b.input()
+        inp.control(ship, throttle=1.0)      # b's frame 0: a guessed "nothing"
+        b.advance(inp)
+        _idle(a, b)
+        assert a.stats["rollbacks"] == 1 and a.stats["frames_resimulated"] == 6
+        w, _ = _duel()
+        w.control(ship, throttle=1.0)
+        w.step(12)
+        assert a.world.digest() == w.digest()
+    finally:
+        a.channel.close()
+        b.channel.close()
+
+
+@pytest.mark.parametrize("data, why", [
+    (b"", "short"),
+    (b"XXXX" + bytes(60), "not a spacephys packet"),
+    (bytes(netplay.link.MAX_PACKET + 1), "oversized"),
+    (None, "malformed"),
+], ids=["empty", "magic", "oversized", "truncated"])
+def test_bad_packets_are_dropped_and_counted(data, why):
+    a, b = _sessions()
+    try:
+        a.advance(a.input())
+        b.advance(b.input())
+        _idle(a, b)
+        if data is None:                      # a real packet, cut short
+            inp = b.input()
+            inp.control(2, throttle=0.5)
+            data = Packet(0, 1, 1, 0, [inp.encode()], [], 0.0, 0.0, 0.0).encode()[:-3]
+        state = a.world.digest()
+        b.channel.sock.sendto(data, ("127.0.0.1", a.channel.port))
+        _idle(a)
+        assert any(k.startswith(why) for k in a.channel.dropped), a.channel.dropped
+        assert a.world.digest() == state and a.frame == 1
+    finally:
+        a.channel.close()
+        b.channel.close()
+
+
+def test_a_packet_from_an_unknown_peer_is_dropped():
+    a, b = _sessions()
+    stranger = Channel(0, ("127.0.0.1", a.channel.port))
+    try:
+        a.advance(a.input())
+        b.advance(b.input())
+        _idle(a, b)
+        inp = Inputs(SPECS)
+        inp.control(2, throttle=1.0)
+        stranger.send(Packet(0, 1, 0, 0, [inp.encode()], [], 0.0, 0.0, 0.0).encode())
+        _idle(a)
+        assert a.channel.dropped.get("from an unknown peer") == 1
+        assert a.stats["rollbacks"] == 0
+    finally:
+        for c in (a.channel, b.channel, stranger):
+            c.close()
+
+
+def test_inputs_encode_compactly_and_refuse_what_is_malformed():
+    inp = Inputs(SPECS)
+    inp.control(3, throttle=0.5, turn=-1.0)
+    inp.launch(3, TORPEDO, target=4, heading=(1.0, 0.0))
+    data = inp.encode()
+    assert len(data) == 2 + 57 + 42
+    back = Inputs.decode(data, SPECS)
+    assert back == inp and back.encode() == data
+    assert back.held().calls == inp.calls[:1]          # a guess holds controls, not launches
+    for bad, why in ((data[:-1], "malformed"), (data + b"x", "past its calls"),
+                     (b"\xff\xff", "calls, more than")):
+        with pytest.raises(ValueError, match=why):
+            Inputs.decode(bad, SPECS)
+    with pytest.raises(ValueError, match="spec 0, the session has 0"):
+        Inputs.decode(data, ())
+    with pytest.raises(ValueError, match="not one of the session"):
+        Inputs(SPECS).launch(3, sp.MissileSpec(mass=2.0))
+    with pytest.raises(ValueError, match="throttle|turn"):
+        Inputs(SPECS).control(3, turn=np.nan)
+    with pytest.raises(ValueError, match="body id"):
+        Inputs(SPECS).control(-1, throttle=1.0)
+
+
+def test_bad_settings_are_refused():
+    w, _ = _duel()
+    c = Channel(0)
+    try:
+        with pytest.raises(ValueError, match="player = 2"):
+            Session(w, 2, c)
+        with pytest.raises(ValueError, match="window = 0"):
+            Session(w, 0, c, window=0)
+        with pytest.raises(ValueError, match="loss = 1.5"):
+            Conditions(loss=1.5)
+        with pytest.raises(ValueError, match="jitter = 0.2 exceeds"):
+            Conditions(latency=0.1, jitter=0.2)
+        with pytest.raises(ValueError, match="port = "):
+            Channel(c.port)                    # taken
+    finally:
+        c.close()
+
+
+def test_the_benchmark_times_a_rollback_and_frames_at_100_ms():
+    from spacephys.study.netplaybench import format_netplay, netplay_bench
+    r = netplay_bench(quick=True)
+    assert [c["mode"] for c in r["rollback"]] == ["duel", "arena"]
+    for c in r["rollback"]:
+        assert 0.0 < c["frames_s"] < 1.0 and 0.0 < c["rollback_s"] < 1.0
+    lat = r["latency"]
+    assert lat["same_digest"] and lat["rollbacks"] > 0 and lat["latency_ms"] == 100.0
+    assert 0.0 < lat["median_ms"] <= lat["p95_ms"] <= lat["max_ms"]
+    assert "a rollback" in format_netplay(r)
