@@ -566,8 +566,9 @@ class Actors:
         while their list is the same)."""
         if self.queued:
             h.update(np.array(self.queued, EVENT_DTYPE).tobytes())
-        for ship in sorted(self.plans):
-            h.update(b"%d" % ship + self.plans[ship].tobytes())
+        if self.plans:
+            for ship in sorted(self.plans):
+                h.update(b"%d" % ship + self.plans[ship].tobytes())
         specs, count, text = self._specs_hash
         if specs is not self.specs or count != len(specs):       # the list only grows
             text = repr(self.specs).encode()

@@ -93,10 +93,21 @@ def _play(args):
             return 0
         print(f"replay of {args.replay}: {frames} frames drawn; {result.message}")
         return 0 if result.ok else 1
-    mode = make_mode(args.mode, players=args.players, seed=args.seed)
-    done = loop.play(mode, frames=args.frames, headless=args.headless, record=args.record,
-                     screenshot=args.screenshot)
+    session = None
+    if args.host is not None or args.join is not None:
+        mode, session = _net_game(args)
+    else:
+        mode = make_mode(args.mode, players=args.players, seed=args.seed)
+    try:
+        done = loop.play(mode, frames=args.frames, headless=args.headless,
+                         record=args.record, screenshot=args.screenshot, session=session)
+    finally:
+        if session is not None:
+            session.channel.close()
     print("\n".join(line for line in mode.hud() if line))
+    if done.digest is not None:
+        print(f"final digest {done.digest:016x} after {done.frames} frames "
+              f"({session.stats['rollbacks']} rollbacks)")
     import numpy as np
     physics, frame = (float(np.median(ms)) if ms.size else 0.0
                       for ms in (done.physics_ms, done.frame_ms))
@@ -104,6 +115,36 @@ def _play(args):
           f"the whole frame {frame:.2f} ms a frame (median)"
           + (f"; recorded in {args.record}" if args.record else ""))
     return 0
+
+
+def _net_game(args):
+    """(the duel, its netplay Session) for --host PORT or --join HOST:PORT: this side flies
+    ship 0 (host) or 1, with the keys (--players 1) or the computer (--players 0)."""
+    from .game import make_mode
+    from .netplay import Channel, Session
+    if args.host is not None and args.join is not None:
+        raise SystemExit("spacephys play: --host and --join: give one")
+    if args.mode != "duel":
+        raise SystemExit(f"spacephys play: {args.mode} over the network: only the duel is "
+                         f"played over the network")
+    if args.record is not None or args.players not in (0, 1):
+        raise SystemExit("spacephys play: over the network one player sits at each machine "
+                         "(--players 1, or 0 for the computer), and the match is not "
+                         "recorded (--record)")
+    if args.host is not None:
+        player, channel = 0, Channel(args.host, host="0.0.0.0")
+    else:
+        where, _, port = args.join.rpartition(":")
+        if not where or not port.isdigit():
+            raise SystemExit(f"spacephys play: --join {args.join!r}: give HOST:PORT")
+        player, channel = 1, Channel(0, (where, int(port)), host="0.0.0.0")
+    mode = make_mode("duel", players=2, seed=args.seed)
+    if args.players == 0:
+        mode.pilots[player] = mode.make_pilot(player)
+    session = Session(mode.world, player, channel, specs=mode.specs, frame=mode.net_frame,
+                      save=mode.save, load=mode.load, session_id=args.seed)
+    mode.net = session
+    return mode, session
 
 
 def _bench(args):
@@ -268,6 +309,12 @@ def main(argv=None):
     pl.add_argument("--headless", action="store_true",
                     help="no window (SDL's dummy video driver), fixed frame time, no waiting")
     pl.add_argument("--screenshot", metavar="PNG", help="save the last frame")
+    pl.add_argument("--host", type=int, metavar="PORT",
+                    help="a duel over the network: wait for the other player on PORT "
+                         "(UDP); this side flies the needle")
+    pl.add_argument("--join", metavar="HOST:PORT",
+                    help="a duel over the network: join the game hosted at HOST:PORT; this "
+                         "side flies the wedge (both sides give the same --seed)")
     pl.set_defaults(func=_play)
 
     val = sub.add_parser("validate", help="every integrator on the reference problems, "

@@ -5,8 +5,6 @@ An id is (generation << 32) | slot. Removing a body bumps its slot's generation,
 turns stale and never names a later body; freed slots are reused first-in first-out, which keeps
 the slot table as large as the most bodies ever alive at once. First-generation ids are 0, 1, 2...
 """
-import struct
-
 import numpy as np
 
 from .kernels import digest as kdigest
@@ -249,17 +247,20 @@ class Bodies:
                 (capacity,) + shape))
         self.block, self.layout = block, layout
         self._words = block.view(np.uint64)
-        self._starts = np.array([f[3] for f in layout], np.int64)
-        self._row_bytes = np.array([f[4] // capacity for f in layout], np.int64)
+        # the digest's order: the columns by name (a loaded World may list them in another
+        # order), then the slots' two arrays
+        order = sorted(layout[:-2], key=lambda f: f[0]) + list(layout[-2:])
+        self._starts = np.array([f[3] for f in order], np.int64)
+        self._row_bytes = np.array([f[4] // capacity for f in order], np.int64)
+        self._names = ",".join(f[0] for f in order).encode()
 
     def digest(self, h):
-        """The finished 64-bit hash (kernels/digest.py) of hashlib's h with the counters, the
-        free slots, then every live row of every column and the used id slots mixed in: the
-        rows past n are not part of it."""
-        h.update(struct.pack("<3q", self.n, self.slots_used, self.added))
-        h.update(self.free)
-        return kdigest.rows(np.frombuffer(h.digest(), np.uint64), self._words, self._starts,
-                            self._row_bytes, self.n, 2, self.slots_used)
+        """The finished 64-bit hash (kernels/digest.py) of hashlib's h with the columns' names,
+        then every live row of every column (in the names' order), the used id slots, the
+        counters and the free slots mixed in: the rows past n are not part of it."""
+        h.update(self._names)
+        return _rows(np.frombuffer(h.digest(), np.uint64), self._words, self._starts,
+                     self._row_bytes, self.n, 2, self.slots_used, self.added, self.free)
 
     def __getstate__(self):
         return {k: self.__dict__[k] for k in _KEPT}
@@ -268,6 +269,18 @@ class Bodies:
         self.__dict__.update(state)
         self._bind(state["layout"], state["block"])
 
+
+def _rows(*args):
+    """kdigest.rows(*args), past numba's dispatch once compiled (its argument types never
+    change: the dispatch would cost a third of a duel's digest)."""
+    if not _ENTRY:
+        result = kdigest.rows(*args)
+        _ENTRY.append(kdigest.rows.overloads[kdigest.rows.signatures[-1]].entry_point)
+        return result
+    return _ENTRY[0](*args)
+
+
+_ENTRY = []
 
 # what a copy or pickle of Bodies keeps: the block and what lays it out, not its views
 _KEPT = ("n", "columns", "defaults", "slots_used", "added", "free", "block", "layout")

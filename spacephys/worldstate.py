@@ -20,6 +20,7 @@ it); a part of World (Bodies, ForceField, CollisionRules, Actors, the stepper) k
 state and says which of it moves (`motion`, `set_motion`). World.copy() copies everything.
 """
 import hashlib
+import operator
 import struct
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -198,6 +199,7 @@ MOVING = tuple(p for p in WORLD if p.moves)
 # the moving numbers and arrays as World's attributes, for digest
 _NUMBERS = tuple(p.attr for p in MOVING if p.attr and not p.array)
 _NUMBERS_FORMAT = "<%dd" % len(_NUMBERS)
+_numbers = operator.attrgetter(*_NUMBERS)
 _ARRAYS = tuple(p.attr for p in MOVING if p.array)
 _OTHERS = tuple(p for p in MOVING if not p.attr)
 # the settings a Setup keeps: the events are the last call's report, which a snapshot keeps
@@ -205,16 +207,18 @@ SETTINGS = tuple(p for p in WORLD if not p.moves and p.key != "events")
 
 
 class Setup:
-    """A World's setup (its settings, forces and collision rules but for their moving parts)
-    as it was when taken: what snapshots share until a setting changes (World._set_up)."""
+    """A World's setup (its settings, forces and collision rules but for their moving parts:
+    drag and the pairs in touch) as it was when taken: what snapshots share until a setting
+    changes (World._set_up)."""
 
     __slots__ = ("world", "forces", "user", "collisions", "hash")
 
     def __init__(self, w):
         self.world = {p.key: p.get(w) for p in SETTINGS}
-        self.forces = w._forces.state()
+        # the parts' states but for what moves (drag, the pairs in touch): a snapshot's own
+        self.forces = {k: v for k, v in w._forces.state().items() if k != "drag"}
         self.user = [(fn, params.copy()) for fn, params in w._forces.user]
-        self.collisions = w._collisions.state()
+        self.collisions = {k: v for k, v in w._collisions.state().items() if k != "touching"}
         self.hash = None
 
     @classmethod
@@ -229,8 +233,8 @@ class Setup:
         snapshot's to set); the tables will be built anew."""
         for p in SETTINGS:
             p.set(w, self.world[p.key])
-        forces = ForceField.from_state(w._dim, dict(self.forces, user_functions=[],
-                                                    user_params=[]))
+        forces = ForceField.from_state(w._dim, dict(self.forces, drag=np.zeros(4),
+                                                    user_functions=[], user_params=[]))
         forces.user = [(fn, params.copy()) for fn, params in self.user]
         w._forces = forces
         w._collisions = CollisionRules.from_state(self.collisions)
@@ -290,7 +294,7 @@ class Snapshot:
     Opaque but for `t` (the World's time when taken) and `version` (spacephys's)."""
 
     __slots__ = ("owner", "version", "t", "setup", "plan", "events_buffer", "touch_buffer",
-                 "bodies", "world", "events", "drag", "touch", "owners", "actors", "carried",
+                 "block", "bodies", "world", "events", "drag", "touch", "owners", "actors", "carried",
                  "watch")
 
     def __reduce__(self):
@@ -304,6 +308,7 @@ class Snapshot:
         s.setup = Setup.of(w)
         plan = s.plan = w._plan
         s.events_buffer, s.touch_buffer = w._events, w._collisions.touch
+        s.block = w._b.block                 # the arrays the tables taken here point into
         s.bodies = w._b.snapshot()
         s.world = [p.get(w) for p in MOVING]
         s.events = w._events[:w._event_count[0]].copy()
@@ -348,9 +353,11 @@ class Snapshot:
         w._watch = self.watch
         plan = self.plan
         # the tables taken with the snapshot hold views of these very arrays, unless the
-        # bodies, the events or the pairs in touch moved to new ones since
+        # bodies, the events or the pairs in touch moved to new ones since (a restore that
+        # laid the bodies out anew gives them a new block, even in the snapshot's layout)
         if plan is not None and same_setup and in_place and fits and \
-                w._events is self.events_buffer and w._collisions.touch is self.touch_buffer:
+                w._b.block is self.block and w._events is self.events_buffer and \
+                w._collisions.touch is self.touch_buffer:
             plan.alive[:] = True
             if self.owners is not None:
                 krules.owners_of(plan.rules)[:] = self.owners
@@ -365,7 +372,7 @@ def digest(w):
     live rows and id slots (kernels/digest.py); equal states give equal digests on every
     machine."""
     h = hashlib.blake2b(Setup.of(w).digest(), digest_size=8)
-    h.update(struct.pack(_NUMBERS_FORMAT, *[getattr(w, a) for a in _NUMBERS]))
+    h.update(struct.pack(_NUMBERS_FORMAT, *_numbers(w)))
     for a in _ARRAYS:
         h.update(getattr(w, a))
     for p in _OTHERS:

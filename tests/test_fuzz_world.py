@@ -247,10 +247,11 @@ class WorldMachine(RuleBasedStateMachine):
         self._advance("advance", frame)
 
     # ------------------------------------------------------------------ files
-    def _continue_alike(self, other, k, what):
-        """An unrecorded copy of the World and `other` step k alike (recording splits a
-        Wisdom-Holman run at frames, which changes its rounding)."""
-        ref = self.w.copy()
+    def _continue_alike(self, other, k, what, ref=None):
+        """`ref` (default: an unrecorded copy of the World; recording splits a Wisdom-Holman
+        run at frames, which changes its rounding) and `other` step k alike, digests too;
+        returns the error both raised, or None."""
+        ref = self.w.copy() if ref is None else ref
         _same(ref.state(), other.state(), what)
         errors = []
         for world in (ref, other):
@@ -261,6 +262,8 @@ class WorldMachine(RuleBasedStateMachine):
                 errors.append(str(e))
         assert errors[0] == errors[1]
         _same(ref.state(), other.state(), f"{what}, then stepped")
+        assert ref.digest() == other.digest()
+        return errors[0]
 
     @precondition(lambda m: not m.broken)
     @rule(k=st.integers(1, 5))
@@ -285,19 +288,7 @@ class WorldMachine(RuleBasedStateMachine):
         self.w.restore(snap)
         self.seen, self.dead = set(seen), set(dead)
         assert self.w.digest() == digest
-        ref = ref.copy()
-        _same(ref.state(), self.w.state(), "restored")
-        errors = []
-        for world in (ref, self.w):
-            try:
-                world.step(k)
-                errors.append(None)
-            except FloatingPointError as e:
-                errors.append(str(e))
-        assert errors[0] == errors[1]
-        self.broken = errors[0] is not None
-        _same(ref.state(), self.w.state(), "restored, then stepped")
-        assert ref.digest() == self.w.digest()
+        self.broken = self._continue_alike(self.w, k, "restored", ref=ref.copy()) is not None
 
     @precondition(lambda m: not m.broken and m.files and not m.saved)
     @rule(k=st.integers(1, 5))

@@ -22,6 +22,24 @@ from test_snapshot import TORPEDO, _duel  # noqa: E402
 SPECS = (TORPEDO,)
 
 
+@pytest.fixture(scope="module", autouse=True)
+def compiled():
+    """The duel's kernels compiled (or loaded) here first, as a game warms up before it
+    connects: a peer compiling a kernel for the first time on this machine is silent to the
+    other for as long (a clean clone's first run)."""
+    w, _ = _duel()
+    for frame in range(600):
+        for p in (0, 1):
+            inp = Inputs(SPECS)
+            inp.control(1 + p, throttle=(frame // (5 + p)) % 2 * 0.8, turn=0.3 - p * 0.6)
+            if frame % 9 == 4 * p:
+                inp.launch(1 + p, 0, target=2 - p)
+            inp.apply(w)
+        w.step(2)
+    from spacephys.game.modes import autoplay
+    autoplay("duel", 600)
+
+
 def _pair(tmp_path, name, frames, latency=0.0, jitter=0.0, loss=0.0, **extra):
     """Start the two peers (tests/netplay_peer.py); returns a function that waits for them
     and gives their two reports."""
@@ -129,16 +147,29 @@ def test_beyond_the_window_a_session_waits_and_says_so():
         b.channel.close()
 
 
-def test_a_silent_peer_is_an_error_not_a_hang():
-    w, _ = _duel()
-    c = Channel(0, ("127.0.0.1", 9))           # nobody answers there
-    s = Session(w, 0, c, specs=SPECS, window=2, silence=0.3)
+def test_a_peer_that_falls_silent_is_an_error_not_a_hang():
+    a, b = _sessions(window=2, silence=0.3)
     try:
+        b.advance(b.input())                 # heard once...
+        b.channel.close()                    # ...then gone
         with pytest.raises(ConnectionError, match="nothing heard from the other player"):
             for _ in range(1000):
-                s.advance(s.input())
+                a.advance(a.input())
                 time.sleep(0.01)
-        assert s.frame == 2
+        assert a.frame == 3                  # its window past b's one frame
+    finally:
+        a.channel.close()
+
+
+def test_a_host_waits_for_its_player_to_come():
+    w, _ = _duel()
+    c = Channel(0)
+    s = Session(w, 0, c, specs=SPECS, window=2, silence=0.1)
+    try:
+        for _ in range(30):                  # 0.3 s, three times the silence: nobody yet
+            s.advance(s.input())
+            time.sleep(0.01)
+        assert s.frame == 2 and s.waiting
     finally:
         c.close()
 
@@ -258,3 +289,47 @@ def test_the_benchmark_times_a_rollback_and_frames_at_100_ms():
     assert lat["same_digest"] and lat["rollbacks"] > 0 and lat["latency_ms"] == 100.0
     assert 0.0 < lat["median_ms"] <= lat["p95_ms"] <= lat["max_ms"]
     assert "a rollback" in format_netplay(r)
+
+
+# ----------------------------------------------------------------------------- the game
+
+def _free_port():
+    import socket
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_play_duel_host_and_join_end_on_one_digest():
+    # the game's duel over loopback, the computer flying each side, headless: both print the
+    # same final digest and the same score
+    port = _free_port()
+    cmd = [sys.executable, "-m", "spacephys", "play", "duel", "--headless", "--frames", "400",
+           "--players", "0"]
+    host = subprocess.Popen(cmd + ["--host", str(port)], stdout=subprocess.PIPE, text=True)
+    join = subprocess.run(cmd + ["--join", f"127.0.0.1:{port}"], capture_output=True,
+                          text=True, timeout=300)
+    out = host.communicate(timeout=300)[0]
+    assert host.returncode == 0 and join.returncode == 0, join.stderr
+    finals = [next(line for line in text.splitlines() if line.startswith("final digest"))
+              for text in (out, join.stdout)]
+    assert finals[0].split()[2] == finals[1].split()[2]
+    assert "after 400 frames" in finals[0]
+    scores = [text.splitlines()[0] for text in (out, join.stdout)]
+    assert scores[0] == scores[1] and scores[0].startswith("Spacewar!")
+    assert "the other player" in out and "ping" in join.stdout
+
+
+@pytest.mark.parametrize("args, said", [
+    (["--join", "127.0.0.1"], "give HOST:PORT"),
+    (["--host", "0", "--join", "127.0.0.1:1"], "give one"),
+    (["orbit", "--host", "0"], "only the duel"),
+    (["--host", "0", "--record", "x.h5"], "not recorded"),
+])
+def test_play_over_the_network_refuses_what_it_cannot_do(args, said, tmp_path):
+    mode = [] if args[0] == "orbit" else ["duel"]
+    res = subprocess.run([sys.executable, "-m", "spacephys", "play", *mode, "--headless",
+                          "--frames", "1", *args], capture_output=True, text=True,
+                         cwd=tmp_path, timeout=120)
+    assert res.returncode != 0 and said in res.stderr, res.stderr
+    assert not (tmp_path / "x.h5").exists()

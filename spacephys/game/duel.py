@@ -45,28 +45,67 @@ class Duel(Mode):
     def start(self):
         self.pilots = [None, None]
         for k in range(self.players, 2):                      # the computer flies the rest
-            self.pilots[k] = self._pilot(k)
+            self.pilots[k] = self.make_pilot(k)
 
-    def _pilot(self, k):
+    def make_pilot(self, k):
+        """The computer's pilot of side k."""
         return Pilot(self, self.ships[k], self.torpedo, hazards=("star",), reload=0.4,
                      range=450.0)
 
     def controls(self, held, pressed):
-        w = self.world
+        fresh = self.respawn()
         for k in range(2):
-            ship = self.ships[k]
-            if ship not in w:
-                if self.dead_since[k] is not None and w.t - self.dead_since[k] >= RESPAWN:
-                    self.ships[k] = w.add_ship(self.hull, *self.starts[k])
-                    self.dead_since[k] = None
-                    if self.pilots[k] is not None:
-                        self.pilots[k] = self._pilot(k)
-                continue
-            if self.pilots[k] is not None:
-                self.pilots[k].fly(self.ships[1 - k])
-            elif self.human(k, ship, held) and w.t >= self.next_fire[k]:
-                w.launch(ship, self.torpedo)
-                self.next_fire[k] = w.t + 0.25
+            if k not in fresh:
+                self.fly(k, held)
+
+    def respawn(self):
+        """Bring back the ships destroyed RESPAWN ago; returns their sides."""
+        w = self.world
+        fresh = set()
+        for k in range(2):
+            if self.ships[k] not in w and self.dead_since[k] is not None and \
+                    w.t - self.dead_since[k] >= RESPAWN:
+                self.ships[k] = w.add_ship(self.hull, *self.starts[k])
+                self.dead_since[k] = None
+                fresh.add(k)
+                if self.pilots[k] is not None:
+                    self.pilots[k] = self.make_pilot(k)
+        return fresh
+
+    def fly(self, k, held, keys=None):
+        """Side k's controls this frame: its pilot's, or the keys held (its player's, or
+        `keys`)."""
+        w = self.world
+        ship = self.ships[k]
+        if ship not in w:
+            return
+        if self.pilots[k] is not None:
+            self.pilots[k].fly(self.ships[1 - k])
+        elif self.human(k, ship, held, keys) and w.t >= self.next_fire[k]:
+            self.fire(ship, self.torpedo)
+            self.next_fire[k] = w.t + 0.25
+
+    # ------------------------------------------------------------------ over the network
+    specs = property(lambda self: (self.torpedo,))
+
+    def net_frame(self, world, number, inputs):
+        """A frame of a networked duel (netplay.Session's frame): ships back, both sides'
+        inputs, two steps, the events scored."""
+        self.respawn()
+        for inp in inputs:
+            inp.apply(world)
+        world.step(round(self.frame_time / world.dt))
+        self.after(world.events)
+
+    def save(self):
+        """The duel's own state, which a rollback restores with the World."""
+        return (list(self.ships), list(self.score), list(self.dead_since), self.message,
+                list(self.pilots))
+
+    def load(self, saved):
+        ships, score, dead, self.message, pilots = saved
+        self.ships, self.score, self.dead_since, self.pilots = (list(ships), list(score),
+                                                                list(dead), list(pilots))
 
     def after(self, events):
         for e in events:
@@ -81,9 +120,21 @@ class Duel(Mode):
     def hud(self):
         who = ["computer" if p is not None else f"keys {KEYS[k]['thrust']}"
                for k, p in enumerate(self.pilots)]
-        return [f"Spacewar!  needle {self.score[0]} : {self.score[1]} wedge    "
-                f"t = {self.world.t:6.2f}", f"needle: {who[0]}   wedge: {who[1]}",
-                self.message]
+        net = self.net
+        if net is not None:
+            who[net.other] = "the other player"
+            who[net.player] = "computer" if self.pilots[net.player] is not None else \
+                f"keys {KEYS[0]['thrust']}"
+        lines = [f"Spacewar!  needle {self.score[0]} : {self.score[1]} wedge    "
+                 f"t = {self.world.t:6.2f}", f"needle: {who[0]}   wedge: {who[1]}"]
+        if net is not None:
+            ping = net.stats["ping_ms"]
+            lines.append(f"ping {'-' if ping is None else f'{ping:.0f}'} ms   rollbacks "
+                         f"{net.stats['rollbacks']}" +
+                         ("   waiting for the other player" if net.waiting else "") +
+                         (f"   DESYNC at frame {net.desync}" if net.desync is not None
+                          else ""))
+        return lines + [self.message]
 
     def colour(self, body_id):
         if body_id in self.ships:

@@ -43,6 +43,7 @@ class Played:
     frame_ms: np.ndarray
     quit: bool = False
     alpha: float = 0.0            # the last frame's (World.advance's), as it was drawn
+    digest: int = None            # a network game's final World.digest()
 
 
 def _watched(mode):
@@ -54,7 +55,7 @@ def _watched(mode):
 
 
 def play(mode, *, frames=None, script=None, headless=False, record=None, record_every=None,
-         screenshot=None, size=(960, 720), realtime=None):
+         screenshot=None, size=(960, 720), realtime=None, session=None):
     """Run `mode` (a game Mode) for `frames` frames (None: until the window closes or escape).
 
     script : {frame: key names held from that frame on} in place of the keyboard (a name
@@ -62,7 +63,11 @@ def play(mode, *, frames=None, script=None, headless=False, record=None, record_
     frame advances the World by the time the last one took and waits for 60 frames a second;
     otherwise by the mode's frame_time. record : a run log path (World.record) of the whole
     match, a frame of positions every `record_every` steps (default: about 10 a second).
-    screenshot : a PNG of the last frame. Returns Played."""
+    screenshot : a PNG of the last frame. session : a netplay.Session of mode.world, whose
+    frame is mode.net_frame: a game over the network, this side flying session.player's ship
+    with the first player's keys (or its pilot), each frame one frame of the session (frames
+    counts those stepped), the session finished at the end (Played.digest). Returns
+    Played."""
     pygame, screen, view, clock = _window(headless, size, f"spacephys play {mode.name}")
     realtime = (not headless) if realtime is None else realtime
     w = mode.world
@@ -99,10 +104,18 @@ def play(mode, *, frames=None, script=None, headless=False, record=None, record_
             else:
                 state = pygame.key.get_pressed()
                 held = {name for name, code in codes.items() if state[code]}
-            step = min(clock.get_time() / 1000.0, 0.1) if realtime and frame else 0.0
-            mode.controls(held, pressed)
-            alpha = w.advance(float(step or mode.frame_time) * mode.warp)
-            mode.after(w.events)
+            if session is not None:
+                alpha = 1.0
+                if not _net_frame(mode, session, held):     # waiting for the other player
+                    view.draw(mode, alpha)
+                    pygame.display.flip()
+                    clock.tick(60) if realtime else time.sleep(0.001)
+                    continue
+            else:
+                step = min(clock.get_time() / 1000.0, 0.1) if realtime and frame else 0.0
+                mode.controls(held, pressed)
+                alpha = w.advance(float(step or mode.frame_time) * mode.warp)
+                mode.after(w.events)
             mode.frame += 1
             mid = time.perf_counter()
             view.draw(mode, alpha)
@@ -112,6 +125,7 @@ def play(mode, *, frames=None, script=None, headless=False, record=None, record_
             frame += 1
             if realtime:
                 clock.tick(60)
+        digest = session.finish(timeout=30.0) if session is not None and not quit else None
     finally:
         if log is not None:
             log.close()
@@ -119,7 +133,20 @@ def play(mode, *, frames=None, script=None, headless=False, record=None, record_
             pygame.image.save(screen, str(screenshot))
         pygame.display.quit()
     t = 1e3 * np.array(times).reshape(-1, 3)
-    return Played(frame, t[:, 0], t[:, 1], t[:, 2], quit, alpha)
+    return Played(frame, t[:, 0], t[:, 1], t[:, 2], quit, alpha, digest)
+
+
+def _net_frame(mode, session, held):
+    """One frame over the network: this side's input (its pilot's calls, or the keys held),
+    given to the session; False when the session waits for the other player."""
+    k = session.player
+    mode.outbox = session.input()
+    try:
+        if mode.ships[k] in mode.world:
+            mode.fly(k, held, keys=KEYS[0])
+        return session.advance(mode.outbox)
+    finally:
+        mode.outbox = None
 
 
 class _Stop(Exception):

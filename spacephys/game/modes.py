@@ -78,16 +78,33 @@ class Mode:
         return held is not None and held[0] > 0
 
     # ------------------------------------------------------------------ helpers
+    # a netplay.Inputs that takes this frame's control() and launch() calls instead of the
+    # World, in a game played over the network (loop.play with a session)
+    outbox = None
+    net = None                          # the netplay Session, in a game over the network
+
     def steer(self, ship, throttle, turn):
         """w.control(ship, ...) only when the command changes (each call is a journal entry
         when recorded, and costs a microsecond or two)."""
         if self._held.get(ship) != (throttle, turn):
-            self.world.control(ship, throttle=throttle, turn=turn)
+            if self.outbox is None:
+                self.world.control(ship, throttle=throttle, turn=turn)
+            else:
+                self.outbox.control(ship, throttle=throttle, turn=turn)
             self._held[ship] = (throttle, turn)
 
-    def human(self, player, ship, held):
-        """Player's keys (KEYS[player]) to the ship's controls; True if fire is held."""
-        k = KEYS[player]
+    def fire(self, ship, spec, target=None, heading=None):
+        """w.launch(ship, spec, ...): the missile's id, or None when it goes into the
+        outbox (over the network it is launched when the frame is stepped)."""
+        if self.outbox is not None:
+            self.outbox.launch(ship, spec, target, heading)
+            return None
+        return self.world.launch(ship, spec, target=target, heading=heading)
+
+    def human(self, player, ship, held, keys=None):
+        """Player's keys (KEYS[player], or `keys`) to the ship's controls; True if fire is
+        held."""
+        k = KEYS[player] if keys is None else keys
         turn = (1.0 if k["left"] in held else 0.0) - (1.0 if k["right"] in held else 0.0)
         self.steer(ship, 1.0 if k["thrust"] in held else 0.0, turn)
         return k["fire"] in held
@@ -131,3 +148,15 @@ def make_mode(name, players=1, seed=0):
 
 
 MODES = {"duel": ("duel", "Duel"), "orbit": ("orbit", "Orbit"), "arena": ("arena", "Arena")}
+
+
+def autoplay(name, frames, seed=0):
+    """The mode `name` with the computer flying every ship, played `frames` frames of its
+    frame_time (no window, no pygame): for benchmarks that want a game in full swing."""
+    mode = make_mode(name, players=0, seed=seed)
+    w = mode.world
+    for _ in range(frames):
+        mode.controls(set(), set())
+        w.advance(mode.frame_time)
+        mode.after(w.events)
+    return mode

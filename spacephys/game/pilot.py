@@ -117,9 +117,10 @@ class Pilot:
                     len(self.missiles) + self.salvo <= self.magazine:
                 for k in range(self.salvo):
                     fan = heading + (k - (self.salvo - 1) / 2) * self.spread
-                    launched.append(w.launch(ship, self.weapon,
-                                             target=target if self.guided else None,
-                                             heading=fan))
+                    launched.append(self.mode.fire(ship, self.weapon,
+                                                   target=target if self.guided else None,
+                                                   heading=fan))
+                launched = [m for m in launched if m is not None]   # None: sent, not yet made
                 self.missiles += launched
                 self.next_launch = w.t + self.reload
         if aim is None:

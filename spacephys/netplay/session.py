@@ -26,10 +26,11 @@ class Session:
     the session runs ahead of the other player's last input (beyond it, advance() waits,
     and says so: `waiting`); digest_every : frames between digests compared; session_id :
     both peers' (packets of another session are dropped); silence : seconds without a
-    packet from the peer after which advance() and tick() raise ConnectionError."""
+    packet from the peer, once it has been heard, after which advance() and tick() raise
+    ConnectionError (before that, the session waits for the other player to come)."""
 
     def __init__(self, world, player, channel, *, specs=(), frame=None, steps=2, save=None,
-                 load=None, window=8, digest_every=10, session_id=0, silence=10.0):
+                 load=None, window=8, digest_every=10, session_id=0, silence=30.0):
         if player not in (0, 1):
             raise ValueError(f"player = {player!r}: must be 0 or 1")
         for name, value in (("window", window), ("digest_every", digest_every),
@@ -56,7 +57,7 @@ class Session:
                       "packets_out": 0, "ping_ms": None, "dropped": channel.dropped}
         self._echo = (0.0, 0.0)           # (peer's send time, our clock when it came)
         self.silence = float(silence)
-        self._heard = time.perf_counter()   # when the peer last sent a valid packet
+        self._heard = None                # when the peer last sent a valid packet
         self._confirmed = 0               # frames [0, this) are confirmed
 
     @property
@@ -193,7 +194,7 @@ class Session:
         if earliest is not None and earliest >= self._confirmed:
             self._rollback(earliest)
         self._confirm()
-        quiet = time.perf_counter() - self._heard
+        quiet = 0.0 if self._heard is None else time.perf_counter() - self._heard
         if quiet > self.silence:
             raise ConnectionError(f"netplay: nothing heard from the other player for "
                                   f"{quiet:.1f} s (frame {self.frame}; they may have left)")

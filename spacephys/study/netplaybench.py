@@ -16,23 +16,12 @@ from . import header, title
 ROLLBACK = 8                 # frames re-stepped: the session's default window
 
 
-def _played(name, frames):
-    """The game's mode `name` played by the computer for `frames` frames."""
-    from ..game import make_mode
-    mode = make_mode(name, players=0, seed=7)
-    w = mode.world
-    for _ in range(frames):
-        mode.controls(set(), set())
-        w.advance(mode.frame_time)
-        mode.after(w.events)
-    return mode
-
-
 def _rollback(name, quick):
     """Best seconds of: 8 frames stepped (inputs, steps, a snapshot each), and a restore
     followed by the same 8 frames (a rollback), alternated."""
+    from ..game.modes import autoplay
     from ..netplay import Inputs
-    mode = _played(name, 120 if quick else 600)
+    mode = autoplay(name, 120 if quick else 400, seed=5)   # torpedoes and debris flying
     w = mode.world
     steps = max(1, round(mode.frame_time / w.dt))
     ships = [int(i) for i in w.actor_ids if w.is_ship(i)][:2]

@@ -203,27 +203,15 @@ def _user_force(quick):
             "ratio": theirs / ours, "max_position_difference": diff}
 
 
-def _game_duel(frames):
-    """The Spacewar! duel of `spacephys play duel`, the computer flying both ships, after
-    `frames` frames (torpedoes, debris in flight)."""
-    from ..game.duel import Duel
-    mode = Duel(players=0, seed=5)
-    w = mode.world
-    for _ in range(frames):
-        mode.controls(set(), set())
-        w.advance(mode.frame_time)
-        mode.after(w.events)
-    return w
-
-
 def _snapshots(quick):
     """World.snapshot() + restore() and digest() of a duel and of 10 000 bodies, beside
     REBOUND's sim.copy() of the same bodies (its nearest call: a new simulation, no
     restore in place)."""
+    from ..game.modes import autoplay
     from ..scenes import uniform_sphere
     repeats, count = (3, 300) if quick else (7, 3000)
     rows = []
-    worlds = (("duel", _game_duel(400), 20e-6, 5e-6),
+    worlds = (("duel", autoplay("duel", 400, seed=5).world, 20e-6, 5e-6),
               ("10 000 bodies", uniform_sphere(10_000, seed=2, dt=1e-4), 1e-3, None))
     for name, w, target, digest_target in worlds:
         w.step(1)
