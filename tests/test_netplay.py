@@ -243,7 +243,7 @@ def test_inputs_encode_compactly_and_refuse_what_is_malformed():
     inp.control(3, throttle=0.5, turn=-1.0)
     inp.launch(3, TORPEDO, target=4, heading=(1.0, 0.0))
     data = inp.encode()
-    assert len(data) == 2 + 57 + 42
+    assert len(data) == 2 + 26 + 35        # header + throttle and turn; + target, heading
     back = Inputs.decode(data, SPECS)
     assert back == inp and back.encode() == data
     assert back.held().calls == inp.calls[:1]          # a guess holds controls, not launches

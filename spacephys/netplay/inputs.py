@@ -1,19 +1,20 @@
 """One player's input for one frame: the control() and launch() calls it makes, in order,
 encoded in a few bytes each (what peers send each other), and applied to a World.
 
-Numbers go as float64 (as given: the peer applies the very same bits); a launch names its
-MissileSpec by its index in the session's `specs`, which both peers hold.
+A call is a header (its op, the body, and a bit per optional number saying it is given)
+followed by the given numbers as float64: as given, so the peer applies the very same bits
+(a control of throttle and a 2D turn: 26 bytes). A launch names its MissileSpec by its index
+in the session's `specs`, which both peers hold.
 """
-import math
 import struct
 
 import numpy as np
 
-_OPS = {b"C"[0]: "control", b"L"[0]: "launch"}
-_C = struct.Struct("<Bq6d")             # op, body, throttle, turn x3, strafe x2
-_L = struct.Struct("<BqBq3d")           # op, parent, spec, target (-1: none), heading x3
+_C = struct.Struct("<BqB")              # op, body, which of throttle, turn x3, strafe x2
+_L = struct.Struct("<BqBqB")            # op, parent, spec, target (-1: none), which of heading x3
+_F = struct.Struct("<d")
+_OPS = {b"C"[0]: ("control", _C, 6), b"L"[0]: ("launch", _L, 3)}
 _COUNT = struct.Struct("<H")
-NONE = math.nan                         # a field not given (None) travels as NaN
 MAX_CALLS = 64                          # calls one input may hold
 
 
@@ -31,10 +32,10 @@ class Inputs:
     def control(self, body, *, throttle=None, turn=None, strafe=None):
         """World.control(body, throttle=, turn=, strafe=), checked when applied; turn and
         strafe: a number (2D) or (3,) / (2,) (3D)."""
-        turn3 = _floats("turn", turn, 3)
-        strafe2 = _floats("strafe", strafe, 2)
-        thr = NONE if throttle is None else float(throttle)
-        self._add(_C.pack(b"C"[0], _id("body", body), thr, *turn3, *strafe2))
+        values = [None if throttle is None else _floats("throttle", throttle, 1)[0]]
+        values += _floats("turn", turn, 3) + _floats("strafe", strafe, 2)
+        mask, numbers = _packed(values)
+        self._add(_C.pack(b"C"[0], _id("body", body), mask) + numbers)
 
     def launch(self, parent, spec, target=None, heading=None):
         """World.launch(parent, specs[spec], target, heading): spec is a MissileSpec of the
@@ -46,9 +47,9 @@ class Inputs:
         if not 0 <= k < len(self.specs):
             raise ValueError(f"spec = {spec!r}: not one of the session's {len(self.specs)} "
                              f"missile specs")
-        heading3 = _floats("heading", heading, 3)
+        mask, numbers = _packed(_floats("heading", heading, 3))
         self._add(_L.pack(b"L"[0], _id("parent", parent), k,
-                          -1 if target is None else _id("target", target), *heading3))
+                          -1 if target is None else _id("target", target), mask) + numbers)
 
     def _add(self, packed):
         if len(self.calls) >= MAX_CALLS:
@@ -77,8 +78,16 @@ class Inputs:
         out = cls(specs)
         for _ in range(count):
             op = data[at] if at < len(data) else None
-            size = _C.size if op == b"C"[0] else _L.size if op == b"L"[0] else None
-            if size is None or at + size > len(data):
+            if op not in _OPS:
+                raise ValueError(f"input: call {len(out.calls)} is malformed")
+            _, head, most = _OPS[op]
+            if at + head.size > len(data):
+                raise ValueError(f"input: call {len(out.calls)} is malformed")
+            mask = data[at + head.size - 1]
+            if mask >> most:
+                raise ValueError(f"input: call {len(out.calls)} is malformed")
+            size = head.size + 8 * bin(mask).count("1")
+            if at + size > len(data):
                 raise ValueError(f"input: call {len(out.calls)} is malformed")
             if op == b"L"[0] and data[at + 9] >= len(specs):
                 raise ValueError(f"input: launch of spec {data[at + 9]}, the session has "
@@ -95,17 +104,19 @@ class Inputs:
         were refused."""
         refused = 0
         for c in self.calls:
+            name, head, most = _OPS[c[0]]
+            fields = head.unpack_from(c)
+            values = _unpacked(fields[-1], c[head.size:], most)
             try:
-                if c[0] == b"C"[0]:
-                    _, body, thr, t0, t1, t2, s0, s1 = _C.unpack(c)
-                    world.control(body, throttle=_back(thr),
-                                  turn=_vector(world.dim, (t0, t1, t2), 3),
-                                  strafe=_vector(world.dim, (s0, s1), 2))
+                if name == "control":
+                    world.control(fields[1], throttle=values[0],
+                                  turn=_vector(world.dim, values[1:4]),
+                                  strafe=_vector(world.dim, values[4:6]))
                 else:
-                    _, parent, k, target, h0, h1, h2 = _L.unpack(c)
-                    heading = None if math.isnan(h0) else (h0, h1, h2)[:world.dim]
-                    world.launch(parent, self.specs[k], None if target < 0 else target,
-                                 heading)
+                    heading = None if values[0] is None else \
+                        tuple(v for v in values if v is not None)
+                    world.launch(fields[1], self.specs[fields[2]],
+                                 None if fields[3] < 0 else fields[3], heading)
             except ValueError:
                 refused += 1
         return refused
@@ -114,7 +125,7 @@ class Inputs:
         return isinstance(other, Inputs) and self.calls == other.calls
 
     def __repr__(self):
-        return f"Inputs({len(self.calls)} calls: {', '.join(_OPS[c[0]] for c in self.calls)})"
+        return f"Inputs({len(self.calls)} calls: {', '.join(_OPS[c[0]][0] for c in self.calls)})"
 
 
 def _id(field, value):
@@ -124,22 +135,36 @@ def _id(field, value):
 
 
 def _floats(field, value, k):
-    """value (None, a number or up to k numbers) as k floats, NaN-padded."""
+    """value (None, a number or up to k numbers) as a list of k floats or None."""
     if value is None:
-        return (NONE,) * k
+        return [None] * k
     v = np.atleast_1d(np.asarray(value, np.float64)).reshape(-1)
     if v.size > k or not np.all(np.isfinite(v)):
         raise ValueError(f"{field} = {value!r}: a number or up to {k} finite numbers")
-    return tuple(v.tolist()) + (NONE,) * (k - v.size)
+    return v.tolist() + [None] * (k - v.size)
 
 
-def _back(x):
-    return None if math.isnan(x) else x
+def _packed(values):
+    """(a bit per value given, the given ones as float64 bytes)."""
+    mask = sum(1 << i for i, v in enumerate(values) if v is not None)
+    return mask, b"".join(_F.pack(v) for v in values if v is not None)
 
 
-def _vector(dim, values, k):
-    """A control's turn/strafe back: None, a number (2D) or dim-1 / 3 numbers (3D)."""
-    if math.isnan(values[0]):
+def _unpacked(mask, data, k):
+    """The k values _packed gave (None where not given)."""
+    out, at = [], 0
+    for i in range(k):
+        if mask >> i & 1:
+            out.append(_F.unpack_from(data, at)[0])
+            at += 8
+        else:
+            out.append(None)
+    return out
+
+
+def _vector(dim, values):
+    """A control's turn/strafe back: None, a number (2D) or a tuple (3D)."""
+    given = [v for v in values if v is not None]
+    if not given:
         return None
-    given = [v for v in values if not math.isnan(v)]
     return given[0] if dim == 2 and len(given) == 1 else tuple(given)
