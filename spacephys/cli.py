@@ -138,6 +138,10 @@ def _net_game(args):
         if not where or not port.isdigit():
             raise SystemExit(f"spacephys play: --join {args.join!r}: give HOST:PORT")
         player, channel = 1, Channel(0, (where, int(port)), host="0.0.0.0")
+    # a peer compiling is silent to the other: compile (or load) what a duel runs first, by
+    # playing one here with the computer on both sides (a fraction of a second once cached)
+    from .game.modes import autoplay
+    autoplay("duel", 600, seed=args.seed)
     mode = make_mode("duel", players=2, seed=args.seed)
     if args.players == 0:
         mode.pilots[player] = mode.make_pilot(player)

@@ -325,6 +325,7 @@ def test_play_duel_host_and_join_end_on_one_digest():
     (["--host", "0", "--join", "127.0.0.1:1"], "give one"),
     (["orbit", "--host", "0"], "only the duel"),
     (["--host", "0", "--record", "x.h5"], "not recorded"),
+    (["--join", "no.such.host.invalid:4000"], "not a reachable"),
 ])
 def test_play_over_the_network_refuses_what_it_cannot_do(args, said, tmp_path):
     mode = [] if args[0] == "orbit" else ["duel"]

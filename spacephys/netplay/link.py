@@ -112,7 +112,12 @@ class Channel:
             raise ValueError(f"port = {port!r}: cannot listen there ({e})") from None
         self.sock.setblocking(False)
         self.port = self.sock.getsockname()[1]
-        self.peer = None if peer is None else (socket.gethostbyname(peer[0]), int(peer[1]))
+        try:
+            self.peer = None if peer is None else (socket.gethostbyname(peer[0]),
+                                                   int(peer[1]))
+        except (OSError, ValueError, TypeError, IndexError) as e:
+            self.sock.close()
+            raise ValueError(f"peer = {peer!r}: not a reachable (host, port) ({e})") from None
         self.conditions = conditions
         self.waiting = []                    # (due, sequence, bytes): delayed by conditions
         self.sequence = 0
