@@ -39,19 +39,37 @@ _INV_LN2 = 1.4426950408889634
 _SQRT_HALF = 0.7071067811865476
 
 
+# Taylor coefficients, highest power first (Horner's order): sin's -1/19!, 1/17!, ... -1/3!;
+# cos's 1/20!, ... 1/4!; exp's 1/14!, ... 1/2!; atanh's 2/23, 2/21, ... 2/3; atan's -1/39,
+# 1/37, ... -1/3 (each the double nearest the fraction, as the literal would be)
+_SIN = (-1.0 / 121645100408832000.0, 1.0 / 355687428096000.0, -1.0 / 1307674368000.0,
+        1.0 / 6227020800.0, -1.0 / 39916800.0, 1.0 / 362880.0, -1.0 / 5040.0, 1.0 / 120.0,
+        -1.0 / 6.0)
+_COS = (1.0 / 2432902008176640000.0, -1.0 / 6402373705728000.0, 1.0 / 20922789888000.0,
+        -1.0 / 87178291200.0, 1.0 / 479001600.0, -1.0 / 3628800.0, 1.0 / 40320.0,
+        -1.0 / 720.0, 1.0 / 24.0)
+_EXP = (1.0 / 87178291200.0, 1.0 / 6227020800.0, 1.0 / 479001600.0, 1.0 / 39916800.0,
+        1.0 / 3628800.0, 1.0 / 362880.0, 1.0 / 40320.0, 1.0 / 5040.0, 1.0 / 720.0,
+        1.0 / 120.0, 1.0 / 24.0, 1.0 / 6.0, 0.5)
+_ATANH = tuple(2.0 / k for k in range(23, 1, -2))
+_ATAN = tuple((1.0 if k % 4 == 1 else -1.0) / k for k in range(39, 1, -2))
+
+
+@kernel
+def _horner(p, z, c):
+    """p carried on through Horner's rule with the coefficients c (a tuple): p <- p z + c[i]
+    for each in turn, the operations of the written-out chain in its order. (LLVM unrolls a
+    run of 13 or fewer into that chain; atan's 18 go in two runs.)"""
+    for i in range(len(c)):
+        p = p * z + c[i]
+    return p
+
+
 @kernel
 def _sin_poly(r):
     """sin r for |r| <= pi/4: r - r^3/3! + ... - r^19/19! (truncation below 1e-19 of r)."""
     z = r * r
-    p = -1.0 / 121645100408832000.0          # -1/19!
-    p = p * z + 1.0 / 355687428096000.0       # 1/17!
-    p = p * z - 1.0 / 1307674368000.0         # -1/15!
-    p = p * z + 1.0 / 6227020800.0            # 1/13!
-    p = p * z - 1.0 / 39916800.0              # -1/11!
-    p = p * z + 1.0 / 362880.0                # 1/9!
-    p = p * z - 1.0 / 5040.0                  # -1/7!
-    p = p * z + 1.0 / 120.0                   # 1/5!
-    p = p * z - 1.0 / 6.0                     # -1/3!
+    p = _horner(_SIN[0], z, _SIN[1:])
     return r + r * z * p
 
 
@@ -60,15 +78,7 @@ def _cos_poly(r):
     """cos r for |r| <= pi/4: 1 - r^2/2 + ... + r^20/20!, the leading 1 - r^2/2 summed last
     so that its rounding is the result's only large one."""
     z = r * r
-    p = 1.0 / 2432902008176640000.0           # 1/20!
-    p = p * z - 1.0 / 6402373705728000.0      # -1/18!
-    p = p * z + 1.0 / 20922789888000.0        # 1/16!
-    p = p * z - 1.0 / 87178291200.0           # -1/14!
-    p = p * z + 1.0 / 479001600.0             # 1/12!
-    p = p * z - 1.0 / 3628800.0               # -1/10!
-    p = p * z + 1.0 / 40320.0                 # 1/8!
-    p = p * z - 1.0 / 720.0                   # -1/6!
-    p = p * z + 1.0 / 24.0                    # 1/4!
+    p = _horner(_COS[0], z, _COS[1:])
     hz = 0.5 * z
     w = 1.0 - hz
     # 1 - hz rounds; its error (1 - w) - hz is added back with the tail
@@ -149,19 +159,7 @@ def exp(x):
         return 0.0
     n = math.floor(x * _INV_LN2 + 0.5)
     r = (x - n * _LN2_HI) - n * _LN2_LO
-    p = 1.0 / 87178291200.0                   # 1/14!
-    p = p * r + 1.0 / 6227020800.0
-    p = p * r + 1.0 / 479001600.0
-    p = p * r + 1.0 / 39916800.0
-    p = p * r + 1.0 / 3628800.0
-    p = p * r + 1.0 / 362880.0
-    p = p * r + 1.0 / 40320.0
-    p = p * r + 1.0 / 5040.0
-    p = p * r + 1.0 / 720.0
-    p = p * r + 1.0 / 120.0
-    p = p * r + 1.0 / 24.0
-    p = p * r + 1.0 / 6.0
-    p = p * r + 0.5
+    p = _horner(_EXP[0], r, _EXP[1:])
     er = 1.0 + (r + r * r * p)
     return _scale(er, int(n))
 
@@ -200,18 +198,7 @@ def _log1p_reduced(f):
     s^22)."""
     s = f / (2.0 + f)
     z = s * s
-    R = 2.0 / 23.0
-    R = R * z + 2.0 / 21.0
-    R = R * z + 2.0 / 19.0
-    R = R * z + 2.0 / 17.0
-    R = R * z + 2.0 / 15.0
-    R = R * z + 2.0 / 13.0
-    R = R * z + 2.0 / 11.0
-    R = R * z + 2.0 / 9.0
-    R = R * z + 2.0 / 7.0
-    R = R * z + 2.0 / 5.0
-    R = R * z + 2.0 / 3.0
-    R = R * z
+    R = _horner(_ATANH[0], z, _ATANH[1:]) * z
     hfsq = 0.5 * f * f
     return f - (hfsq - s * (hfsq + R))
 
@@ -254,25 +241,7 @@ def _atan_small(x):
     """atan x for |x| <= tan(pi/8) ~ 0.414: x - x^3/3 + ..., to x^39 (the next term is
     below 1e-17 of x)."""
     z = x * x
-    p = -1.0 / 39.0
-    p = p * z + 1.0 / 37.0
-    p = p * z - 1.0 / 35.0
-    p = p * z + 1.0 / 33.0
-    p = p * z - 1.0 / 31.0
-    p = p * z + 1.0 / 29.0
-    p = p * z - 1.0 / 27.0
-    p = p * z + 1.0 / 25.0
-    p = p * z - 1.0 / 23.0
-    p = p * z + 1.0 / 21.0
-    p = p * z - 1.0 / 19.0
-    p = p * z + 1.0 / 17.0
-    p = p * z - 1.0 / 15.0
-    p = p * z + 1.0 / 13.0
-    p = p * z - 1.0 / 11.0
-    p = p * z + 1.0 / 9.0
-    p = p * z - 1.0 / 7.0
-    p = p * z + 1.0 / 5.0
-    p = p * z - 1.0 / 3.0
+    p = _horner(_horner(_ATAN[0], z, _ATAN[1:10]), z, _ATAN[10:])
     return x + x * z * p
 
 
@@ -511,6 +480,6 @@ def _twins(names):
     return types.SimpleNamespace(**{name: space[name] for name in names})
 
 
-py = _twins(["_sin_poly", "_cos_poly", "_floor", "_reduce", "sin", "cos", "tan", "exp", "_scale", "_pow2",
+py = _twins(["_horner", "_sin_poly", "_cos_poly", "_floor", "_reduce", "sin", "cos", "tan", "exp", "_scale", "_pow2",
              "_log1p_reduced", "log", "log1p", "_atan_small", "atan", "atan2", "asin", "acos",
              "sinh", "cosh", "atanh", "asinh", "cbrt", "_split", "_times", "pow"])
