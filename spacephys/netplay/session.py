@@ -47,6 +47,7 @@ class Session:
         self.inputs = ({}, {})            # player -> {frame: encoded input}, as known
         self.used = {}                    # frame -> the other player's input it was stepped with
         self.saved = {}                   # frame -> (World snapshot, game state) before it
+        self.stepped = {}                 # checked frame -> our digest after it, as stepped
         self.digests = {}                 # confirmed frame -> our digest after it
         self.peer_digests = {}            # frame -> the peer's digest after it
         self.remote_next = 0              # the other player's first input not yet here
@@ -106,6 +107,10 @@ class Session:
         pair[self.player] = Inputs.decode(self.inputs[self.player][f], self.specs)
         pair[self.other] = Inputs.decode(theirs, self.specs)
         self.frame_fn(w, f, pair)
+        if (f + 1) % self.digest_every == 0:
+            # the state after f, as stepped now: final once f is confirmed (a later input
+            # that differs from the one used steps f again, and this is taken again)
+            self.stepped[f] = w.digest()
 
     def _rollback(self, f):
         """Restore the World (and the game) to before frame f and step again to now."""
@@ -119,20 +124,13 @@ class Session:
             self.stats["frames_resimulated"] += 1
 
     def _confirm(self):
-        """Frames both inputs of which are known and were stepped with: digest the checked
-        ones (after the frame: the state before the next, or now), forget old snapshots."""
+        """Frames both inputs of which are known and were stepped with: their digests (taken
+        when they were last stepped) become final and go to the peer; old snapshots go."""
         top = min(self.frame, self.remote_next)
         while self._confirmed < top:
             f = self._confirmed
-            if (f + 1) % self.digest_every == 0:
-                after = self.saved[f + 1][0] if f + 1 < self.frame else None
-                if after is None:
-                    self.digests[f] = self.world.digest()
-                else:                               # the state after f, then back to now
-                    now = self.world.snapshot()
-                    self.world.restore(after)
-                    self.digests[f] = self.world.digest()
-                    self.world.restore(now)
+            if f in self.stepped:
+                self.digests[f] = self.stepped.pop(f)
                 self._compare(f)
             self._confirmed += 1
         for g in [g for g in self.saved if g < self._confirmed - 1]:
