@@ -574,7 +574,7 @@ class Actors:
             text = repr(self.specs).encode()
             self._specs_hash = (self.specs, len(self.specs), text)
         h.update(text)
-        h.update(self.curves.tobytes())
+        h.update(self.curves)
 
     def restore(self, snap):
         queued, plans_, specs, self.curves = snap

@@ -259,7 +259,7 @@ class Bodies:
         then every live row of every column (in the names' order), the used id slots, the
         counters and the free slots mixed in: the rows past n are not part of it."""
         h.update(self._names)
-        return _rows(np.frombuffer(h.digest(), np.uint64), self._words, self._starts,
+        return _rows(int.from_bytes(h.digest(), "little"), self._words, self._starts,
                      self._row_bytes, self.n, 2, self.slots_used, self.added, self.free)
 
     def __getstate__(self):
@@ -274,7 +274,7 @@ def _rows(*args):
     """kdigest.rows(*args), past numba's dispatch once compiled (its argument types never
     change: the dispatch would cost a third of a duel's digest)."""
     if not _ENTRY:
-        result = kdigest.rows(*args)
+        result = kdigest.rows(np.uint64(args[0]), *args[1:])     # typed uint64 from here on
         _ENTRY.append(kdigest.rows.overloads[kdigest.rows.signatures[-1]].entry_point)
         return result
     return _ENTRY[0](*args)

@@ -28,7 +28,6 @@ from typing import Any, Callable
 import numpy as np
 
 from .collisions import CollisionRules
-from .kernels import digest as kdigest
 from .kernels import rules as krules
 from .events import EVENT_DTYPE
 from .forces import ForceField

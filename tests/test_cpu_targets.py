@@ -91,3 +91,26 @@ def test_a_match_recorded_on_one_cpu_replays_on_another(tmp_path, tmp_path_facto
                            timeout=1800)
     assert again.returncode == 0, again.stderr[-3000:]
     assert "300 frames drawn" in again.stdout and "bit for bit" in again.stdout
+
+
+
+def _words_hash():
+    """kernels/digest.rows of 5 000 random words in two spans, with id slots and free ids."""
+    import numpy as np
+    from spacephys.kernels import digest as kd
+    words = np.random.default_rng(1).integers(0, 2**63, 5000, dtype=np.int64).view(np.uint64)
+    return int(kd.rows(np.uint64(7), words, np.array([0, 800], np.int64),
+                       np.array([3, 80], np.int64), 211, 1, 37, 5, np.arange(9, dtype=np.int64)))
+
+
+@pytest.mark.parametrize("cpu", list(targets()))
+def test_the_state_hash_is_the_same_compiled_for_another_cpu(cpu, tmp_path_factory):
+    """World.digest's kernel (integer sums the compiler spreads over as many vector lanes as
+    the target has) gives this process's number for the same words."""
+    code = "import sys; sys.path.insert(0, sys.argv[1]); import test_cpu_targets as t; " \
+           "print(t._words_hash())"
+    run = subprocess.run([sys.executable, "-c", code, str(Path(__file__).parent)],
+                         capture_output=True, text=True,
+                         env=_compiled_for(cpu, tmp_path_factory), timeout=600)
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert int(run.stdout.split()[-1]) == _words_hash()

@@ -358,6 +358,39 @@ def test_one_changed_bit_changes_the_digest(where):
     assert w.digest() != d
 
 
+def _hash_words(words):
+    """kernels/digest.rows of one span holding `words` ((W,) uint64)."""
+    from spacephys.kernels import digest as kd
+    return int(kd.rows(np.uint64(7), words, np.zeros(1, np.int64),
+                       np.array([8 * words.size], np.int64), 1, 0, 0, 0,
+                       np.zeros(0, np.int64)))
+
+
+def test_the_hash_sees_every_bit_of_every_word_and_every_place():
+    """Each bit of each word of three blocks and a part (the last one alone in a block), and
+    two words swapped within a block; a word whose high half keys to zero (its product is 0
+    whatever the low half) still counts by itself."""
+    from spacephys.kernels import digest as kd
+    words = np.random.default_rng(1).integers(0, 2**63, 3 * kd.BLOCK + 1,
+                                              dtype=np.int64).view(np.uint64)
+    base = _hash_words(words)
+    seen = {base}
+    for j in range(words.size):
+        for bit in range(64):
+            flipped = words.copy()
+            flipped[j] ^= np.uint64(1 << bit)
+            seen.add(_hash_words(flipped))
+    assert len(seen) == 1 + 64 * words.size
+    swapped = words.copy()
+    swapped[[3, 40]] = words[[40, 3]]
+    assert _hash_words(swapped) != base
+    zero_high = words.copy()
+    zero_high[5] = kd.KEY[5] & np.uint64(0xFFFFFFFF00000000)
+    flipped = zero_high.copy()
+    flipped[5] ^= np.uint64(1)
+    assert _hash_words(flipped) != _hash_words(zero_high)
+
+
 def test_the_rows_past_the_live_bodies_are_not_part_of_the_digest():
     w, ships = _duel()
     _play(w, ships, 0, 8)
