@@ -17,6 +17,7 @@ from . import _validate as check
 from ._jit import PARALLEL_MIN_PAIRS
 from .kernels import forces as kforces
 from .kernels import gravity as kgravity
+from .kernels.pairs import PAIRS_FROM
 
 # the gravity models by name, each with a code (kernels/gravity.py has their tables and
 # functions)
@@ -178,7 +179,8 @@ class ForceField:
         gravity); exact: a tree's sum made directly."""
         g, eps2 = self.G, self.softening ** 2
         if self.gravity == "direct" or (exact and self.gravity == "tree"):
-            return kgravity.Direct(g, eps2, np.empty((4, ns)))
+            return kgravity.Direct(g, eps2, np.empty((4, ns)),
+                                   np.empty((3, ns if ns >= PAIRS_FROM else 0)))
         if self.gravity == "tree":
             from .kernels.tree import Tree
             return Tree(g, eps2, self.theta, int(self.quadrupole), np.empty((4, ns)))

@@ -6,7 +6,8 @@ a sum into partial sums) or on fused multiply-adds fails here on any x86-64 mach
 x86-64 (SSE2: two lanes, no FMA) differs from every host in both respects and runs the cases
 of each kind of sum and step; x86-64-v3 (AVX2, FMA: four lanes) and, where this CPU runs it,
 x86-64-v4 (AVX-512: eight) run the force sums. All 50 cases were compared under the three
-targets on an AVX-512 host when the digests were recorded: the same bits.
+targets on an AVX-512 host when the digests were recorded: the same bits; the cluster
+scene's (pairs taken once) were added later and compared under the three as well.
 """
 import json
 import os
@@ -20,11 +21,13 @@ import pytest
 import spacephys as sp
 from test_golden import _load, fingerprint
 
-# direct gravity with its test particles on threads, the tree, the collision pass, ships and
-# missiles with explosions, drag, and the two integrators with the most arithmetic of their own
+# direct gravity with its test particles on threads, pairs taken once, the tree, the collision
+# pass, ships and missiles with explosions, drag, and the two integrators with the most
+# arithmetic of their own
 EVERY_KIND = ("gravity/leapfrog", "gravity/gauss_radau", "gravity/wisdom_holman_corrected",
-              "tree/leapfrog", "collisions/leapfrog", "actors/leapfrog", "drag/leapfrog")
-SUMS = ("gravity/leapfrog", "tree/leapfrog")
+              "cluster/leapfrog", "tree/leapfrog", "collisions/leapfrog", "actors/leapfrog",
+              "drag/leapfrog")
+SUMS = ("gravity/leapfrog", "cluster/leapfrog", "tree/leapfrog")
 
 RUN = """
 import json, sys

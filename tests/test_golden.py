@@ -1,4 +1,4 @@
-"""Golden determinism: a SHA-256 of the final state of every integrator on five scenes,
+"""Golden determinism: a SHA-256 of the final state of every integrator on six scenes,
 stored in tests/golden.json and checked here, on one and on every thread.
 
 No kernel is compiled with a value-changing fastmath flag and every force sum runs in source
@@ -138,8 +138,22 @@ def tree_scene(integrator):
     return w, [w.step(10)]
 
 
+def cluster_scene(integrator):
+    """A star and 450 planetesimals pulling each other (their pairs taken once, in rounds of
+    tiles on threads: kernels/pairs.py), 3D, 20 steps."""
+    rng = np.random.default_rng(15)
+    w = World(dim=3, integrator=integrator, dt=0.01)
+    w.add_body(1.0, (0.0, 0.0, 0.0), kind="star")
+    pos, vel = _ring(rng, 450, 1.0, 2.0, 3)
+    pos[:, 2] = rng.normal(scale=0.05, size=450)
+    w.add_bodies(rng.uniform(1e-7, 1e-5, 450), pos, vel * rng.uniform(0.95, 1.05, (450, 1)),
+                 kind="planet")
+    w.move_to_center_of_mass()
+    return w, [w.step(20)]
+
+
 SCENES = {"gravity": gravity_scene, "collisions": collision_scene, "actors": actor_scene,
-          "drag": drag_scene, "tree": tree_scene}
+          "drag": drag_scene, "tree": tree_scene, "cluster": cluster_scene}
 
 
 # what the integrators refuse, with a reason in their error (tested in their own files)

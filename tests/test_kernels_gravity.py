@@ -23,7 +23,8 @@ def _scene(rng, n, frac_pulling):
 def _model(model, ns, G=1.7, eps2=0.0, field=np.zeros(3), field_mass=0.0):
     """The gravity table of `model` (a name) for ns sources, as spacephys/forces.py builds it."""
     if model == "direct":
-        return gravity.Direct(G, eps2, np.empty((4, ns)))
+        return gravity.Direct(G, eps2, np.empty((4, ns)),
+                              np.empty((3, ns if ns >= pairs.PAIRS_FROM else 0)))
     if model == "central":
         return gravity.Central(G, eps2, field, field_mass, np.empty((4, 1)))
     if model == "uniform":
@@ -47,7 +48,8 @@ def _run(pos, mass, pulls, model, G=1.7, eps2=0.0, field=np.zeros(3), field_mass
 
 
 # n = 40 stays on the serial path, n = 400 crosses PARALLEL_MIN_PAIRS onto threads, n = 900
-# has several chunks of pairs.CHUNK targets on each thread
+# has several chunks of pairs.CHUNK targets on each thread and ~430 sources, whose pairs are
+# taken once (pairs.PAIRS_FROM: rounds of tiles on threads)
 @pytest.mark.parametrize("n", [40, 400, 900])
 @pytest.mark.parametrize("eps", [0.0, 0.05])
 def test_direct_matches_numpy(rng, n, eps):
@@ -86,12 +88,105 @@ def test_each_points_sum_runs_in_source_order(rng, dtype, nt, ns):
         assert [a.tobytes() for a in acc[:, t]] == [dtype(v).tobytes() for v in want], t
 
 
+@pytest.mark.parametrize("nb", range(1, 13))
+def test_the_rounds_of_block_pairs_take_each_pair_once(nb):
+    """pairs.round_pair: every pair of distinct blocks in exactly one round, and no block
+    twice in a round (the tiles of a round run on threads side by side)."""
+    seen = []
+    rounds = nb + nb % 2 - 1
+    for r in range(rounds):
+        used = []
+        for k in range((nb + nb % 2) // 2):
+            i, j = pairs.round_pair(r, k, nb)
+            if i >= 0:
+                assert 0 <= i < j < nb
+                used += [i, j]
+                seen.append((i, j))
+        assert len(used) == len(set(used)), (nb, r, used)
+    assert sorted(seen) == [(i, j) for i in range(nb) for j in range(i + 1, nb)]
+
+
+def _pairs_as_written(s, ns, eps2):
+    """pairs.pull_pairs in plain Python floats, operation by operation in the order its
+    source fixes: the blocks' own tiles, then the rounds; in a tile, sweep r pairs lane l
+    with body (l + r) mod q of the other block (see kernels/pairs.py)."""
+    nb, B = pairs.blocks(ns)
+    sums = [[0.0] * ns for _ in range(3)]
+    x = [[float(v) for v in s[c, :ns]] for c in range(4)]
+
+    def inverse_cube(d):
+        r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + eps2
+        d3 = r2 * math.sqrt(r2)
+        return 1.0 / d3 if d3 > 0.0 else 0.0
+
+    def tile(I, J):
+        if min(B, ns - I * B) > min(B, ns - J * B):
+            I, J = J, I
+        i0, j0 = I * B, J * B
+        p, q = min(B, ns - i0), min(B, ns - j0)
+        lane = [[0.0] * p for _ in range(3)]
+        row = [[0.0] * (2 * q) for _ in range(3)]
+        for r in range(1 if I == J else 0, q):
+            for l in range(p):
+                k = l + r
+                j = j0 + k % q
+                d = [x[c][j] - x[c][i0 + l] for c in range(3)]
+                inv = inverse_cube(d)
+                wj = x[3][j] * inv
+                for c in range(3):
+                    lane[c][l] += wj * d[c]
+                if I != J:
+                    wi = x[3][i0 + l] * inv
+                    for c in range(3):
+                        row[c][k] -= wi * d[c]
+        if I != J:
+            for k in range(q):
+                for c in range(3):
+                    sums[c][j0 + k] += row[c][k] + row[c][k + q]
+        for l in range(p):
+            for c in range(3):
+                sums[c][i0 + l] += lane[c][l]
+
+    for b in range(nb):
+        tile(b, b)
+    R, T = pairs.rounds(nb)
+    for r in range(R):
+        for k in range(T):
+            i, j = pairs.round_pair(r, k, nb)
+            if i >= 0:
+                tile(i, j)
+    return np.array(sums)
+
+
+@pytest.mark.parametrize("ns", [2, 3, 130, 300, 517])
+def test_the_pairs_once_run_in_the_order_their_source_fixes(rng, ns):
+    """pairs.pull_pairs, each pair once in tiles: bit for bit the plain-Python sums in the
+    order kernels/pairs.py writes them (no partial sums by the vector width, no fused
+    multiply-add), on one thread or on threads; to rounding the one-sided sums; a coincident
+    pair pulls nothing. 300 and 517 bodies make blocks of unequal size (a short last one)."""
+    s = np.zeros((4, ns))
+    s[:3] = rng.normal(size=(3, ns))
+    s[3] = rng.uniform(0.1, 2.0, ns)
+    s[:3, -1] = s[:3, 0]
+    eps2 = 0.0 if ns != 300 else 1e-4
+    sums, threaded = np.zeros((3, ns)), np.zeros((3, ns))
+    pairs.pull_pairs(s, sums, ns, eps2)
+    pairs.pull_pairs_threaded(s, threaded, ns, eps2)
+    assert sums.tobytes() == _pairs_as_written(s, ns, eps2).tobytes()
+    assert threaded.tobytes() == sums.tobytes()
+    ref = np.zeros((3, ns))
+    pairs.pull_points(s[0].copy(), s[1].copy(), s[2].copy(), ns, s, ns, eps2, *ref)
+    assert np.all(np.isfinite(sums))
+    assert np.max(np.abs(sums - ref)) <= 1e-13 * np.max(np.abs(ref))
+
+
 def test_every_code_path_of_the_forces_gives_the_same_bits(rng):
     """accelerations on threads, on the calling thread in a table that may thread, and in a
     table without threads (its kernels compiled without the threaded loops): one result bit
     for bit; the same for the sources when they alone are the targets, or any of them."""
-    pos, mass, pulls = _scene(rng, 700, 0.6)
+    pos, mass, pulls = _scene(rng, 1000, 0.6)
     src = np.flatnonzero(pulls).astype(np.int64)
+    assert src.size >= pairs.PAIRS_FROM                   # the pairs once, in rounds
     n = len(mass)
     everyone = np.arange(n, dtype=np.int64)
     results = []
@@ -109,11 +204,13 @@ def test_every_code_path_of_the_forces_gives_the_same_bits(rng):
     out = np.full((n, 3), np.nan)
     forces.accelerations_of(f, 0.0, pos, pos * 0, out, src, False)     # the table's own array
     assert np.array_equal(out[src], results[0][src])
-    # and any subset of the targets: each row is its own sum
+    # and a subset of the targets (one-sided sums, in source order) agrees to rounding
     out = np.full((n, 3), np.nan)
     some = src[::2]
     forces.accelerations_of(f, 0.0, pos, pos * 0, out, some, False)
-    assert np.array_equal(out[some], results[0][some])
+    scale = np.abs(results[0][some]).max(axis=1, keepdims=True)
+    assert np.all(np.abs(out[some] - results[0][some]) <= 1e-13 * scale)
+    assert not np.array_equal(out[some], results[0][some])     # it took the other path
 
 
 def test_passive_bodies_feel_but_do_not_pull(rng):

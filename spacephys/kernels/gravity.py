@@ -29,8 +29,9 @@ from . import tape as ktape
 from .diagnostics import add
 
 # G [length^3 / (mass time^2)]; eps2: softening squared [length^2]; sources (4, ns): the
-# pulling bodies' x, y, z, m, gathered per evaluation
-Direct = namedtuple("Direct", ("G", "eps2", "sources"))
+# pulling bodies' x, y, z, m, gathered per evaluation; sums (3, ns) their pulls on each other
+# with each pair evaluated once (pairs.pull_pairs), or (3, 0) below pairs.PAIRS_FROM sources
+Direct = namedtuple("Direct", ("G", "eps2", "sources", "sums"))
 # g (3,) [length / time^2]
 Uniform = namedtuple("Uniform", ("g",))
 # the fixed body: at (3,) [length], shared with the World (shift_origin moves it), mass
@@ -101,10 +102,44 @@ def threaded(threads, work):
 def _direct_pull(model, tape, src, passive, pos, mass, out, targets, threads):
     s = model.sources
     ktape.sources(tape, s, src, pos, mass)
-    if threaded(threads, targets.size * s.shape[1]):
-        _pull_threaded(targets, pos, s, model.G, model.eps2, out)
+    left = _pairs_first(model.sums, s, src, pos, out, targets, model.G, model.eps2, threads)
+    if left == _NONE_LEFT:
+        return
+    rest = passive if left == _PASSIVE_LEFT else targets
+    if threaded(threads, rest.size * s.shape[1]):
+        _pull_threaded(rest, pos, s, model.G, model.eps2, out)
     else:
-        _pull_each(targets, pos, s, model.G, model.eps2, out)
+        _pull_each(rest, pos, s, model.G, model.eps2, out)
+
+
+# what _pairs_first leaves to the one-sided sums
+_ALL_LEFT, _PASSIVE_LEFT, _NONE_LEFT = 0, 1, 2
+
+
+@kernel(parallel=True, lean=True)
+def _pairs_first(sums, s, src, pos, out, targets, G, eps2, threads):
+    """With sums (the scene has pairs.PAIRS_FROM sources or more) and the targets every body
+    or exactly the sources: the sources' pulls on each other, each pair once, into out.
+    Returns which targets are left: the passive ones, none, or (no pairs) all of them."""
+    if sums.shape[1] == 0:
+        return _ALL_LEFT
+    if targets.size == pos.shape[0]:
+        left = _PASSIVE_LEFT
+    elif targets.size == src.size and targets.ctypes.data == src.ctypes.data:
+        left = _NONE_LEFT
+    else:
+        return _ALL_LEFT
+    ns = s.shape[1]
+    if threaded(threads, ns * (ns - 1) // 2):
+        pairs.pull_pairs_threaded(s, sums, ns, eps2)
+    else:
+        pairs.pull_pairs(s, sums, ns, eps2)
+    for a in range(src.size):
+        k = src[a]
+        out[k, 0] = G * sums[0, a]
+        out[k, 1] = G * sums[1, a]
+        out[k, 2] = G * sums[2, a]
+    return left
 
 
 @kernel(parallel=True)

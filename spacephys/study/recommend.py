@@ -44,9 +44,8 @@ MAX_STEPS = 2_000_000                 # the most steps one trial run may take
 SAFETY = 0.5                          # aim the step at half the target error
 DOMINANCE = 0.1                       # a body dominates if the next heaviest has < 1/10
 # the tree (docs/tree.md, measured by `spacephys bench tree`): one force evaluation is cheaper
-# than direct summation from about this many pulling bodies (theta 0.5, one `--quick` run:
-# 500, and 1.3x faster at 1 000, since direct summation sums each pair for both bodies in
-# source order; 2 030 and 2 250 while it took each pair once), and
+# than direct summation from about this many pulling bodies (theta 0.5, two runs of its
+# crossover: 930 and 950, direct 0.65 ms and the tree 0.64 at 1 000), and
 # its RMS relative force error on a Plummer sphere at each opening angle, quadrupole on
 TREE_CROSSOVER = 1000
 TREE_RMS = {0.3: 5.2e-5, 0.5: 3.3e-4, 0.7: 1.1e-3, 1.0: 3.9e-3}
