@@ -35,14 +35,13 @@ def fire(ship):
     """One shot along the ship's heading: (body id or "wall", distance, point), or None."""
     angle = w.heading(ship)                               # 2D: an angle (3D: a unit vector)
     aim = np.array([math.cos(angle), math.sin(angle)])
-    # Start the ray at the nose, just outside the hull: a ray that starts inside a body hits
-    # it at distance 0, so one from the ship's centre would hit the ship itself.
-    nose = w.pos[w.index_of(ship)] + aim * (w.get(ship).radius + 1e-9)
-    hit = w.raycast(nose, aim, RANGE)[0]                  # ray 0 of a batch of one
-    if len(hit.distances) == 0:
+    # from the ship's centre: a ray that starts inside a body meets it at distance 0, so the
+    # ship leaves itself out
+    ray = w.raycast(w.pos[w.index_of(ship)], aim, RANGE, ignore=ship)   # a batch of one ray
+    if not ray.hit[0]:
         return None
-    what = "wall" if hit.ids[0] == -1 else int(hit.ids[0])   # a wall: hit.walls[0] says which
-    return what, float(hit.distances[0]), hit.points[0]
+    what = int(ray.body[0]) if ray.body[0] >= 0 else "wall"   # a wall: ray.wall[0] says which
+    return what, float(ray.distance[0]), ray[0].points[0]
 
 
 for shot in range(1, 6):

@@ -30,6 +30,7 @@ _LAZY = {
     "Scenario": "scenario", "ScenarioError": "scenario", "load_scenario": "scenario",
     "Recommendation": "study.recommend", "recommend": "study.recommend",
     "lambert": "lambert", "Prediction": "predict", "Hits": "queries", "RayHits": "queries",
+    "Filter": "queries",
     "sweep": "sweeps", "read_sweep": "sweeps", "Sweep": "sweeps", "SweepRun": "sweeps",
     "compile": "precompile", "Compiled": "precompile",
 }
@@ -46,7 +47,7 @@ __all__ = [
     "recommend", "Recommendation",
     "Elements", "elements_to_state", "state_from_elements", "state_to_elements",
     "true_anomaly", "kepler_state", "period", "solve_kepler",
-    "Burn", "hohmann", "lambert", "Prediction", "Hits", "RayHits",
+    "Burn", "hohmann", "lambert", "Prediction", "Hits", "RayHits", "Filter",
     "sweep", "read_sweep", "Sweep", "SweepRun",
     "set_threads", "get_threads",
     "__version__",

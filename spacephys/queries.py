@@ -1,6 +1,7 @@
-"""Spatial queries a game asks between steps (World.query_radius, query_box, nearest): checked
-input, the candidate bodies (kinds, category mask), the periodic box, and the answer in body
-ids. The grid and the searches are kernels/queries.py.
+"""Spatial queries a game asks between steps (World.query_radius, query_box, nearest, raycast,
+shapecast): checked input, the candidate bodies (kinds, category mask, a Filter, ids left
+out), the periodic box, and the answer in body ids. The grid and the searches are
+kernels/queries.py.
 
 A body is a disc (2D) or sphere (3D) of its radius; a distance is the gap between a point
 and its surface (0 inside it). Each query's answers are sorted by distance, then id.
@@ -10,7 +11,28 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _validate as check
+from . import editing
 from .kernels import queries as kq
+
+_INT64 = np.iinfo(np.int64)
+
+
+@dataclass(frozen=True)
+class Filter:
+    """The collision rule applied to a query, as if it were a body with these bits: it finds
+    a body whose category shares a bit with `mask` and whose own mask shares a bit with
+    `category` (World.add_body's category and mask). Filter(category=PLAYER_SHOTS,
+    mask=ENEMIES) finds the enemies that let player shots hit them."""
+    category: int = 1
+    mask: int = -1
+
+    def __post_init__(self):
+        for name in ("category", "mask"):
+            v = getattr(self, name)
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) \
+                    or not _INT64.min <= v <= _INT64.max:
+                raise ValueError(f"filter {name} = {v!r}: expected an integer of category "
+                                 f"bits (int64)")
 
 
 @dataclass(frozen=True)
@@ -44,13 +66,31 @@ def _points(name, value, dim):
     return out
 
 
-def _candidates(world, kinds, mask):
+def _filter(value):
+    """A Filter from filter= (a Filter or (category, mask)), or None."""
+    if value is None or isinstance(value, Filter):
+        return value
+    if isinstance(value, tuple) and len(value) == 2:
+        return Filter(*value)
+    raise ValueError(f"filter = {value!r}: expected sp.Filter(category, mask) or a pair "
+                     f"(category, mask)")
+
+
+def _candidates(world, kinds, mask, ignore=None, filter=None):
     """int64 rows of the bodies a query may find: of one of the kind codes `kinds` (None:
-    every kind; World checks them) and whose category shares a bit with `mask` (None:
-    every body)."""
-    if kinds is None and mask is None:
+    every kind; World checks them), whose category shares a bit with `mask` (None: every
+    body), that pass `filter` (a Filter or (category, mask)) and are not among the ids
+    `ignore` (an id or ids of live bodies)."""
+    filter = _filter(filter)
+    if ignore is not None:
+        ignore = editing.index_of(world, ignore, "ignore")
+    if kinds is None and mask is None and filter is None and ignore is None:
         return np.arange(world.n, dtype=np.int64)
     ok = np.ones(world.n, bool)
+    if ignore is not None:
+        ok[ignore] = False
+    if filter is not None:
+        ok &= ((world.category & filter.mask) != 0) & ((world.mask & filter.category) != 0)
     if kinds is not None:                  # a table by code: np.isin sorts, 10x the time
         wanted = np.zeros(len(world.kinds), bool)
         wanted[np.asarray(kinds, dtype=np.int64)] = True
@@ -78,12 +118,12 @@ def _state(world):
     return world.driver.view("pos", "radius", "ids")
 
 
-def query_radius(world, centers, r, kinds=None, mask=None):
+def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=None):
     """Bodies within distance r of each center (their surface: a body of radius R counts
     from |d| <= r + R): a Hits. centers (dim,) or (Q, dim); r >= 0, a number or (Q,)."""
     c = _points("centers", centers, world.dim)
     reach = check.per_body("r", r, c.shape[0], minimum=0.0)
-    rows = _candidates(world, kinds, mask)
+    rows = _candidates(world, kinds, mask, ignore, filter)
     pos, radius, ids = _state(world)
     lo, period = _box(world)
     offsets, hits, dist = kq.overlaps(pos, radius, ids, rows, lo, period, c,
@@ -92,7 +132,7 @@ def query_radius(world, centers, r, kinds=None, mask=None):
     return Hits(offsets, ids[hits], dist)
 
 
-def query_box(world, lo, hi, kinds=None, mask=None):
+def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
     """Bodies overlapping each box lo..hi (axis-aligned; (dim,) or (Q, dim) each): a Hits,
     sorted by the distance of their centres from the box's centre."""
     a = _points("lo", lo, world.dim)
@@ -103,7 +143,7 @@ def query_box(world, lo, hi, kinds=None, mask=None):
     if bad.size:
         q, c = bad[0]
         raise ValueError(f"box {q}: lo[{c}] = {a[q, c]} is above hi[{c}] = {b[q, c]}")
-    rows = _candidates(world, kinds, mask)
+    rows = _candidates(world, kinds, mask, ignore, filter)
     pos, radius, ids = _state(world)
     box_lo, period = _box(world)
     offsets, hits, dist = kq.overlaps(pos, radius, ids, rows, box_lo, period, 0.5 * (a + b),
@@ -111,12 +151,12 @@ def query_box(world, lo, hi, kinds=None, mask=None):
     return Hits(offsets, ids[hits], dist)
 
 
-def nearest(world, points, k=1, kinds=None, mask=None):
+def nearest(world, points, k=1, kinds=None, mask=None, ignore=None, filter=None):
     """The k bodies nearest each point (by the gap to their surface): (ids (Q, k) int64,
     distances (Q, k)); -1 and inf past the bodies there are."""
     p = _points("points", points, world.dim)
     k = check.count("k", k, minimum=1)
-    rows = _candidates(world, kinds, mask)
+    rows = _candidates(world, kinds, mask, ignore, filter)
     pos, radius, ids = _state(world)
     lo, period = _box(world)
     hits, dist = kq.nearest(pos, radius, ids, rows, lo, period, p, k)
@@ -128,7 +168,9 @@ def nearest(world, points, k=1, kinds=None, mask=None):
 class RayHits:
     """What a batch of Q rays hit: those of ray q are the rows offsets[q]:offsets[q+1] (at
     most one with first=True), nearest first; ray_hits[q] gives them as a RayHits of one
-    ray's rows (offsets [0, m])."""
+    ray's rows (offsets [0, m]). Per ray, its nearest hit: `hit` (Q,) whether it met
+    anything, `body` its id or -1, `wall` its wall index or -1, `distance` or inf: a miss
+    is hit False, never a wall."""
     offsets: np.ndarray        # (Q + 1,) int64
     ids: np.ndarray            # (H,) int64 body ids, -1 where a wall was hit
     walls: np.ndarray          # (H,) int64 wall indices (w.walls), -1 where a body was hit
@@ -147,6 +189,36 @@ class RayHits:
     def counts(self):
         """(Q,) int64: how many hits each ray has."""
         return np.diff(self.offsets)
+
+    # each ray's nearest hit, one row per ray whether it met something or not
+    @property
+    def hit(self):
+        """(Q,) bool: whether each ray met anything, a body or a wall."""
+        return self.offsets[1:] > self.offsets[:-1]
+
+    def _first(self, column, missing):
+        out = np.full((len(self),) + column.shape[1:], missing, column.dtype)
+        hit = self.hit
+        out[hit] = column[self.offsets[:-1][hit]]
+        return out
+
+    @property
+    def body(self):
+        """(Q,) int64: the id of the body each ray met first; -1 where its nearest hit is a
+        wall, or it met nothing (see hit)."""
+        return self._first(self.ids, -1)
+
+    @property
+    def wall(self):
+        """(Q,) int64: the index (w.walls) of the wall each ray met first; -1 where its
+        nearest hit is a body, or it met nothing."""
+        return self._first(self.walls, -1)
+
+    @property
+    def distance(self):
+        """(Q,) how far along each ray its nearest hit is [length]; inf where it met
+        nothing."""
+        return self._first(self.distances, np.inf)
 
 
 def _ray_circle(o, d, c, r):
@@ -221,13 +293,14 @@ def _unit(v):
 
 
 def raycast(world, origins, directions, max_distance, kinds=None, mask=None, first=True,
-            walls=True):
+            walls=True, ignore=None, filter=None):
     """Rays from origins along directions ((dim,) or (Q, dim) each; directions non-zero, made
     unit) up to max_distance (> 0, finite; a number or (Q,)): the bodies (of `kinds` /
     `mask`) and walls they meet, as a RayHits: the nearest per ray (first=True) or every
     one, nearest first (ties: bodies by id, then walls by index). A ray that starts inside
-    a body meets it at distance 0 with the normal against the ray. Periodic boundaries: the
-    ray runs on through the opposite side (bodies); walls do not repeat."""
+    a body meets it at distance 0 with the normal against the ray, unless the body is in
+    `ignore`. Periodic boundaries: the ray runs on through the opposite side (bodies); walls
+    do not repeat."""
     o = _points("origins", origins, world.dim)
     d = _points("directions", directions, world.dim)
     if d.shape[0] != o.shape[0]:
@@ -240,13 +313,12 @@ def raycast(world, origins, directions, max_distance, kinds=None, mask=None, fir
     tmax = check.per_body("max_distance", max_distance, o.shape[0], minimum=0.0)
     tmax = np.ascontiguousarray(tmax, np.float64)
     return _cast(world, o, d, tmax, np.zeros(o.shape[0]), np.full(o.shape[0], -1),
-                 kinds, mask, first, walls)
+                 _candidates(world, kinds, mask, ignore, filter), first, walls)
 
 
-def _cast(world, o, d, tmax, extra, skip, kinds, mask, first, walls):
+def _cast(world, o, d, tmax, extra, skip, rows, first, walls):
     """raycast's work, for rays (extra 0) and moving circles (extra: their radii, skip:
-    their own rows): o, d (Q, 3), d unit; tmax (Q,)."""
-    rows = _candidates(world, kinds, mask)
+    their own rows) against the candidate rows: o, d (Q, 3), d unit; tmax (Q,)."""
     pos, radius, ids = _state(world)
     lo, period = _box(world)
     offsets, hits, t = kq.raycasts(pos, radius, ids, rows, lo, period, o, d, tmax, extra,
@@ -282,7 +354,8 @@ def _cast(world, o, d, tmax, extra, skip, kinds, mask, first, walls):
                    point[:, :dim], normal[:, :dim])
 
 
-def shapecast(world, shape, displacement, kinds=None, mask=None, walls=True):
+def shapecast(world, shape, displacement, kinds=None, mask=None, walls=True, ignore=None,
+              filter=None):
     """The first body or wall a circle (2D) or sphere (3D) meets moving by displacement
     ((dim,) or (Q, dim), not zero): shape is a body id (or (Q,) ids: their own pos and
     radius, the body itself ignored) or (pos (dim,) or (Q, dim), radius >= 0: a number or
@@ -311,4 +384,5 @@ def shapecast(world, shape, displacement, kinds=None, mask=None, walls=True):
         q = int(np.flatnonzero(length == 0.0)[0])
         raise ValueError(f"displacement[{q}] is zero: a shape cast needs a move")
     return _cast(world, o, unit, length, np.ascontiguousarray(extra, float),
-                 np.ascontiguousarray(skip, np.int64), kinds, mask, True, walls)
+                 np.ascontiguousarray(skip, np.int64),
+                 _candidates(world, kinds, mask, ignore, filter), True, walls)

@@ -519,6 +519,12 @@ class World:
         return _readonly(self._b.category[:self._b.n])
 
     @property
+    def mask(self):
+        """(n,) int64 collision-filter bits: the categories each body meets (a query's
+        filter= tests them with its category)."""
+        return _readonly(self._b.mask[:self._b.n])
+
+    @property
     def active(self):
         """(n,) bool: the bodies allowed to pull (by default all but ships, missiles and
         debris); w.pulls says which actually do."""
@@ -1124,45 +1130,51 @@ class World:
             raise ValueError("kinds = []: give at least one kind, or None for every kind")
         return editing.kind_codes(self, kinds, k, "kinds")
 
-    def query_radius(self, centers, r, kinds=None, mask=None):
+    # every query takes kinds= (names), mask= (bodies with a category bit in it), filter=
+    # (sp.Filter(category, mask): the collision rule, as if the query were a body with these
+    # bits) and ignore= (an id or ids left out)
+    def query_radius(self, centers, r, kinds=None, mask=None, ignore=None, filter=None):
         """The bodies within distance r of each center (the gap to their surface: a body of
-        radius R counts from |d| <= r + R), optionally of `kinds` (names) or with a category
-        bit in `mask`: an sp.Hits (hits[q] -> (ids, distances), sorted by distance then id).
-        centers (dim,) or (Q, dim); r >= 0, a number or (Q,). Periodic boundaries wrap."""
+        radius R counts from |d| <= r + R): an sp.Hits (hits[q] -> (ids, distances), sorted
+        by distance then id). centers (dim,) or (Q, dim); r >= 0, a number or (Q,). Periodic
+        boundaries wrap."""
         from .queries import query_radius
-        return query_radius(self, centers, r, self._query_kinds(kinds), mask)
+        return query_radius(self, centers, r, self._query_kinds(kinds), mask, ignore, filter)
 
-    def query_box(self, lo, hi, kinds=None, mask=None):
+    def query_box(self, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
         """The bodies overlapping each axis-aligned box lo..hi ((dim,) or (Q, dim) each): an
         sp.Hits sorted by the distance of their centres from the box's centre."""
         from .queries import query_box
-        return query_box(self, lo, hi, self._query_kinds(kinds), mask)
+        return query_box(self, lo, hi, self._query_kinds(kinds), mask, ignore, filter)
 
     def raycast(self, origins, directions, max_distance, kinds=None, mask=None, first=True,
-                walls=True):
+                walls=True, ignore=None, filter=None):
         """Rays from origins along directions ((dim,) or (Q, dim); non-zero) up to
-        max_distance (finite, >= 0): the bodies (of `kinds`, or with a category bit in
-        `mask`) and walls (walls=True) they meet, an sp.RayHits (ids, walls, distances,
-        points, normals per hit; hits[q] for ray q), the nearest per ray (first=True) or
-        every one, nearest first. Periodic boundaries: rays run on through the seam."""
+        max_distance (finite, >= 0): the bodies and walls (walls=True) they meet, an
+        sp.RayHits: per hit ids, walls, distances, points, normals (hits[q] for ray q), the
+        nearest per ray (first=True) or every one, nearest first; per ray hit, body, wall,
+        distance of its nearest. A ray from inside a body meets it at 0: ignore= the
+        shooter. Periodic boundaries: rays run on through the seam."""
         from .queries import raycast
         return raycast(self, origins, directions, max_distance, self._query_kinds(kinds),
-                       mask, first, walls)
+                       mask, first, walls, ignore, filter)
 
-    def shapecast(self, shape, displacement, kinds=None, mask=None, walls=True):
+    def shapecast(self, shape, displacement, kinds=None, mask=None, walls=True, ignore=None,
+                  filter=None):
         """The first body or wall a circle (2D) or sphere (3D) would meet moving by
         displacement ((dim,) or (Q, dim), not zero): shape a body id or ids (their pos and
         radius; the body itself ignored) or (pos, radius). An sp.RayHits of at most one hit
         per shape: distances along the move (over |displacement|: the time of impact),
         points the shape's centre at first contact, normals toward it."""
         from .queries import shapecast
-        return shapecast(self, shape, displacement, self._query_kinds(kinds), mask, walls)
+        return shapecast(self, shape, displacement, self._query_kinds(kinds), mask, walls,
+                         ignore, filter)
 
-    def nearest(self, points, k=1, kinds=None, mask=None):
+    def nearest(self, points, k=1, kinds=None, mask=None, ignore=None, filter=None):
         """The k bodies nearest each point (by the gap to their surface): (ids (Q, k),
         distances (Q, k)), sorted; -1 and inf past the bodies there are."""
         from .queries import nearest
-        return nearest(self, points, k, self._query_kinds(kinds), mask)
+        return nearest(self, points, k, self._query_kinds(kinds), mask, ignore, filter)
 
     # ---------------------------------------------------------------- diagnostics
     def gravity_accelerations(self, ids=None, exact=False):

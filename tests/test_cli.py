@@ -94,6 +94,12 @@ def test_the_benchmarked_spacewar_loop_is_the_guides_word_for_word():
     assert (ROOT / "spacephys" / "study" / "spacewar_loop.py").read_text() == block
 
 
+def test_guide_queries_example_prints_what_the_page_says():
+    text = (ROOT / "docs" / "guide" / "queries.md").read_text()
+    printed = re.search(r"It prints:\s*```\n(.*?)```", text, re.S).group(1).splitlines()
+    assert _doc_example("docs/guide/queries.md", "queries") == printed
+
+
 def test_netplay_page_examples_run_as_pasted():
     assert _doc_example("docs/netplay.md", "snapshot") == [
         "the same bits as never having burned: True"]

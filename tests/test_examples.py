@@ -102,13 +102,13 @@ def test_laser_hits_what_is_in_line_nearest_first():
     hit = [s.split()[3] for s in shots]
     # "aside" is the nearest rock but off the line; "grazed" pokes 0.5 into it
     assert hit == ["first", "grazed", "behind", "wall"], out
-    # distances from the nose (5 from the centre): centre distance along the line minus
-    # the half chord's depth; the points on the line at 30 degrees
-    expected = [150 - 10 - 5, 220 - math.sqrt(4 ** 2 - 3.5 ** 2) - 5, 300 - 20 - 5, 400 - 5]
+    # distances from the ship's centre, which the ray leaves out: centre distance along the
+    # line minus the half chord's depth; the points on the line at 30 degrees
+    expected = [150 - 10, 220 - math.sqrt(4 ** 2 - 3.5 ** 2), 300 - 20, 400]
     for s, d in zip(shots, expected):
         distance, x, y = numbers(s.split("distance")[1])
         assert abs(distance - d) < 1e-5, s
-        assert abs(math.hypot(x, y) - (d + 5)) < 1e-5
+        assert abs(math.hypot(x, y) - d) < 1e-5
         assert abs(math.atan2(y, x) - math.pi / 6) < 1e-6
     assert line_with(out, "rocks left:") == "rocks left: aside"
 

@@ -481,3 +481,91 @@ def test_bodies_cast_among_many_agree_with_brute_force():
         want = ok[np.lexsort((w.ids[ok], t[ok]))][:1]
         assert got[q].ids.tolist() == w.ids[want].tolist(), q
         np.testing.assert_allclose(got[q].distances, t[want], rtol=1e-12)
+
+
+# ----------------------------------------------------------------- ignore=, filter=, per ray
+
+def _three_in_a_row(dim=2):
+    """A ship at the origin, a rock and a drone ahead of it on +x, a plane wall behind the
+    drone; categories 1 / 2 / 4, masks all / 1 / 2."""
+    w = sp.World(dim=dim, gravity="none")
+    at = lambda x: np.r_[x, np.zeros(dim - 1)]
+    ship = w.add_body(1.0, at(0.0), radius=1.0)
+    rock = w.add_body(1.0, at(5.0), radius=1.0, category=2, mask=1)
+    drone = w.add_body(1.0, at(10.0), radius=1.0, category=4, mask=2)
+    w.add_plane(at(20.0), at(-1.0))
+    return w, ship, rock, drone
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_ray_from_inside_a_body_it_ignores_does_not_see_it(dim):
+    w, ship, rock, drone = _three_in_a_row(dim)
+    aim = np.r_[1.0, np.zeros(dim - 1)]
+    assert w.raycast(np.zeros(dim), aim, 100.0).body.tolist() == [ship]   # itself, at 0
+    past = w.raycast(np.zeros(dim), aim, 100.0, ignore=ship)
+    assert past.body.tolist() == [rock] and past.distance.tolist() == [4.0]
+    every = w.raycast(np.zeros(dim), aim, 100.0, first=False, ignore=[ship, rock])
+    assert every.ids.tolist() == [drone, -1] and every.walls.tolist() == [-1, 0]
+    assert every.body.tolist() == [drone] and every.distance.tolist() == [9.0]  # the nearest
+    # ignore= leaves the same bodies out of every other query
+    assert w.query_radius(np.zeros(dim), 20.0, ignore=ship)[0][0].tolist() == [rock, drone]
+    assert w.query_box(-np.ones(dim) * 20, np.ones(dim) * 20,
+                       ignore=np.array([rock]))[0][0].tolist() == [ship, drone]
+    ids, d = w.nearest(np.zeros(dim), k=2, ignore=(ship, drone))
+    assert ids.tolist() == [[rock, -1]] and d[0, 1] == np.inf
+    cast = w.shapecast(ship, aim * 30.0, ignore=rock)
+    assert cast.body.tolist() == [drone] and cast.distance[0] == pytest.approx(8.0)
+
+
+def test_a_filter_applies_the_collision_rule_both_ways():
+    """Filter(category, mask) finds a body whose category meets mask AND whose mask meets
+    category; mask= alone tests only the first."""
+    w, ship, rock, drone = _three_in_a_row()
+    everything = w.query_radius((0.0, 0.0), 50.0)[0][0].tolist()
+    assert everything == [ship, rock, drone]
+    # a shot of category 2 aimed at categories 2 and 4: the rock (its mask 1 refuses
+    # category 2) is left out, the drone (mask 2) is found
+    shot = sp.Filter(category=2, mask=6)
+    assert w.query_radius((0.0, 0.0), 50.0, filter=shot)[0][0].tolist() == [drone]
+    assert w.query_radius((0.0, 0.0), 50.0, mask=6)[0][0].tolist() == [rock, drone]
+    assert w.raycast((0.0, 0.0), (1.0, 0.0), 100.0, filter=(2, 6)).body.tolist() == [drone]
+    # category 1 aimed at everything: the drone's mask 2 refuses it
+    assert w.nearest((0.0, 0.0), k=3, filter=sp.Filter(1, -1))[0].tolist() == \
+        [[ship, rock, -1]]
+
+
+def test_each_ray_says_whether_it_hit_and_what_a_miss_is_never_a_wall():
+    w, ship, rock, drone = _three_in_a_row()
+    rays = w.raycast(np.zeros((4, 2)), [(1.0, 0.0), (0.0, 1.0), (1.0, 0.0), (-1.0, 0.0)],
+                     [100.0, 100.0, 100.0, 0.5], ignore=ship)
+    # rays 0 and 2 meet the rock; ray 1 goes up past everything, ray 3 stops short
+    assert rays.hit.tolist() == [True, False, True, False]
+    assert rays.body.tolist() == [rock, -1, rock, -1]
+    assert rays.wall.tolist() == [-1, -1, -1, -1]
+    assert rays.distance.tolist() == [4.0, np.inf, 4.0, np.inf]
+    wall = w.raycast((0.0, 0.0), (1.0, 0.0), 100.0, ignore=[ship, rock, drone])
+    assert wall.hit.tolist() == [True] and wall.body.tolist() == [-1]
+    assert wall.wall.tolist() == [0] and wall.distance.tolist() == [20.0]
+    miss = w.raycast((0.0, 0.0), (0.0, 1.0), 100.0, ignore=ship)
+    assert miss.hit.tolist() == [False] and miss.wall.tolist() == [-1]
+    assert miss[0].hit.tolist() == [False] and len(miss[0].ids) == 0
+
+
+@pytest.mark.parametrize("bad, message", [
+    (dict(ignore=99), "ignore = 99 names no live body"),
+    (dict(ignore=[0, 1.5]), "ignore = .*ids are integers"),
+    (dict(filter=3), "filter = 3: expected sp.Filter"),
+    (dict(filter=(1.5, 2)), "filter category = 1.5"),
+    (dict(filter=(1, 2**70)), "filter mask = 1180591620717411303424"),
+    (dict(filter=(True, 1)), "filter category = True"),
+])
+def test_bad_ignore_or_filter_is_named(bad, message):
+    w, ship, rock, drone = _three_in_a_row()
+    w.remove(drone)
+    with pytest.raises(ValueError, match=message):
+        w.raycast((0.0, 0.0), (1.0, 0.0), 10.0, **bad)
+    with pytest.raises(ValueError, match=message):
+        w.query_radius((0.0, 0.0), 10.0, **bad)
+    if "ignore" in bad:                                    # a removed body's id, too
+        with pytest.raises(ValueError, match=f"ignore = {drone} names no live body"):
+            w.nearest((0.0, 0.0), ignore=[ship, drone])
