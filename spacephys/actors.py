@@ -285,6 +285,20 @@ class Actors:
         b = self.b
         return "actor" in b.columns and bool(b.actor[i]) and b.launcher[i] < 0
 
+    def release(self):
+        """Every ship's controls released (throttle, turn and strafe 0) and its plan cleared,
+        missiles left as they are: what World.predict(coast=True) flies."""
+        b = self.b
+        if "actor" in b.columns:
+            n = b.n
+            ships = np.flatnonzero(b.actor[:n] & (b.launcher[:n] < 0))
+            b.throttle[ships] = 0.0
+            b.turn[ships] = 0.0
+            b.strafe[ships] = 0.0
+        if self.plans:
+            self.plans = {}
+            self.w._invalidate()
+
     # ------------------------------------------------------------ plans
     def plan(self, ship, burns):
         """World.plan (the docstring is there)."""

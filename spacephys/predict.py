@@ -250,7 +250,7 @@ def _schedule(world, duration, points, integrator, dt):
 
 
 def predict(world, ids, duration, points=256, integrator=None, dt=None, tolerance=None,
-            target=None, about=None, background=False):
+            target=None, about=None, background=False, coast=False):
     """World.predict and World.predict_async (the docstrings are there): everything is
     checked and the World's state taken in the caller's thread; background: the run goes to
     a worker thread (kernels release the GIL) and a PredictionHandle comes back."""
@@ -278,7 +278,9 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
         if not get_integrator(name).adaptive:
             raise ValueError(f"tolerance = {tolerance}: only the adaptive integrator takes a "
                              f"tolerance ({name} is fixed-step; give dt)")
-    shadow = _shadow(world, name, step, tolerance, background)
+    if not isinstance(coast, (bool, np.bool_)):
+        raise ValueError(f"coast = {coast!r}: True or False")
+    shadow = _shadow(world, name, step, tolerance, background, bool(coast))
     cand, crows, watched = _picks(shadow, world, ids, about, target)
     cmass = world.mass[crows].astype(np.float64)
     centre = _centre(world) if about is None else None
@@ -288,6 +290,8 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
         try:
             _yield(background)
             w = shadow.ready()
+            if shadow.coast:
+                w._actors.release()
             sampler = _Sampler(w, watched, counts, shadow.buffers)
             sampler.take(w, 0)
             t = w.time_after(counts.astype(np.float64))     # as World.t computes the time
@@ -319,10 +323,12 @@ class _Shadow:
     those it was made beside (any change to the bodies or to a setting the tables hold
     rebuilds them) and its own run removed nobody; busy while a prediction runs on it."""
 
-    def __init__(self, world, key, name, step, tolerance, background, tape=None):
+    def __init__(self, world, key, name, step, tolerance, background, coast, tape=None):
         self.world_plan = world.driver.plan   # the World's tables it was made beside
         w = world.copy()
         w.watch_energy(None)
+        if coast:                         # no plans in its tables (controls: at each run)
+            w._actors.release()
         if name != w.integrator:
             w.integrator = name           # refuses, here, a scene it cannot run
         if step != w.dt:
@@ -335,6 +341,7 @@ class _Shadow:
         self.tape = Tape.make(w, tape)    # the pulling bodies' recorded future (tape.py)
         self.w, self.key, self.step, self.tolerance = w, key, step, tolerance
         self.same_integrator = name == world.integrator
+        self.coast = coast
         self.plan = w.driver.plan
         self.snap = None
         self.buffers = {}                 # the samplers' (_Sampler)
@@ -473,21 +480,23 @@ def _independent(w, src):
     return bool(np.isin(aimed, ids[src]).all())
 
 
-def _shadow(world, name, step, tolerance, background):
+def _shadow(world, name, step, tolerance, background, coast):
     """The World's shadow for these settings, up to date with it, marked busy; made anew
-    when there is none, it is busy, or the World's tables were rebuilt since."""
+    when there is none, it is busy, or the World's tables were rebuilt since. One for each
+    of foreground / background and flown / coasting, so that a HUD asking for both each
+    frame keeps both."""
     world.tables()
     key = (name, step, tolerance)
     shadows = world.__dict__.setdefault("_shadows", {})
-    shadow = shadows.get(background)
+    shadow = shadows.get((background, coast))
     if shadow is not None and shadow.usable(world, key):
         shadow.take(world, background)
         return shadow
     # the tape outlives a copy remade for new tables (a plan edited, a body added): it plays
     # on if the pulling bodies are where it has them
     tape = shadow.tape if shadow is not None and not shadow.busy and shadow.key == key else None
-    shadow = _Shadow(world, key, name, step, tolerance, background, tape)
-    shadows[background] = shadow
+    shadow = _Shadow(world, key, name, step, tolerance, background, coast, tape)
+    shadows[background, coast] = shadow
     return shadow
 
 

@@ -1232,7 +1232,7 @@ class World:
         orbits.put_on_orbit(self, body_id, about, elements)
 
     def predict(self, ids, duration, *, points=256, integrator=None, dt=None, tolerance=None,
-                target=None, about=None):
+                target=None, about=None, coast=False):
         """The predicted paths of the bodies `ids` (an id or a list) over `duration` [time]:
         a copy of this World is stepped (this one is unchanged), every body pulling, held
         controls, plans and collisions as here, with `integrator` (default this World's) and
@@ -1244,12 +1244,15 @@ class World:
         apsides about the dominant body (or `about`), the closest approach to `target`,
         changes of the dominant body (the one pulling hardest), impacts (a path ends where
         its body is destroyed, merged away, detonates or expires, at its first wall, or at
-        its first bounce off a body at least as heavy). Many passive bodies predicted
+        its first bounce off a body at least as heavy). coast=True: the paths if every ship's
+        controls were released now (throttle, turn and strafe 0, plans dropped; missiles fly
+        on), as a HUD shows them during a burn. Many passive bodies predicted
         together whose only coupling is the pulling bodies' motion, already recorded by the
         last prediction (spacephys/tape.py), run in two halves on two threads, bit for bit
         the same paths (predict._Halves)."""
         from .predict import predict
-        return predict(self, ids, duration, points, integrator, dt, tolerance, target, about)
+        return predict(self, ids, duration, points, integrator, dt, tolerance, target, about,
+                       coast=coast)
 
     def predict_async(self, ids, duration, **options):
         """predict() on a worker thread: the World's state is taken now (it is what is

@@ -378,3 +378,44 @@ def test_the_kept_copy_carries_the_adaptive_step_launches_and_the_origin():
     w.predict(a, 1.5, points=40)
     w.shift_origin([0.5, 0.25])
     _kept_equals_fresh(w, [a, b], 1.5, points=40)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_coasting_prediction_is_the_path_with_the_controls_released(dim):
+    """coast=True during a burn (throttle, turn, strafe held, and a plan ahead): bit for bit
+    the prediction of a copy whose ship's controls were released and plan cleared by hand;
+    a missile in flight keeps its motor; the World and its own (burning) prediction are
+    unchanged, asked in either order, in the foreground and the background."""
+    w = sp.World(dim=dim, G=1.0, integrator="leapfrog", dt=1e-3)
+    w.add_body(1.0, np.zeros(dim))
+    at = lambda *v: np.r_[v, np.zeros(dim - len(v))]
+    spec = sp.ShipSpec(dry_mass=1.0, fuel_mass=1.0, max_thrust=0.2, exhaust_speed=1.0,
+                       side_thrust=0.05, turn_rate=1.0)
+    ship = w.add_ship(spec, at(1.0, 0.0), at(0.0, 1.0))
+    w.control(ship, throttle=1.0, turn=0.5 if dim == 2 else (0.0, 0.0, 0.5),
+              strafe=0.3 if dim == 2 else (0.3, 0.0))
+    w.plan(ship, [sp.Burn(0.5, 0.2)])
+    torpedo = w.launch(ship, sp.MissileSpec(mass=0.01, fuel_mass=0.01, thrust=0.01,
+                                            exhaust_speed=1.0, launch_speed=0.1))
+    w.step(5)
+    burning = w.predict([ship, torpedo], 2.0, points=50)
+    coasting = w.predict([ship, torpedo], 2.0, points=50, coast=True)
+    by_hand = w.copy()
+    by_hand.control(ship, throttle=0.0, turn=0.0 if dim == 2 else (0.0, 0.0, 0.0),
+                    strafe=0.0 if dim == 2 else (0.0, 0.0))
+    by_hand.plan(ship, [])
+    want = by_hand.predict([ship, torpedo], 2.0, points=50)
+    assert coasting.pos.tobytes() == want.pos.tobytes()
+    assert coasting.vel.tobytes() == want.vel.tobytes()
+    assert not np.array_equal(coasting.pos[0], burning.pos[0])        # the ship coasts
+    # the torpedo (unguided, its motor running) flies the same path either way
+    assert np.array_equal(coasting.pos[1], burning.pos[1])
+    # asked again, after, in the background: the same; the World still burns
+    assert w.predict([ship, torpedo], 2.0, points=50).pos.tobytes() == burning.pos.tobytes()
+    again = w.predict_async([ship, torpedo], 2.0, points=50, coast=True).result(60)
+    assert again.pos.tobytes() == coasting.pos.tobytes()
+    assert w.planned(ship)
+    w.step(round((burning.t[1] - burning.t[0]) / w.dt))       # it flies the burning path
+    assert w.pos[w.index_of(ship)].tobytes() == burning.pos[0, 1].tobytes()
+    with pytest.raises(ValueError, match="coast = 'yes'"):
+        w.predict(ship, 1.0, coast="yes")
