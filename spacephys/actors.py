@@ -8,6 +8,7 @@ the specs, thrust curves and launch events waiting for the next step, and builds
 table (kernels/control.Actors). World's methods of the same names delegate here. Adding an
 entity kind with behaviour of its own touches this file, kernels/control.py and entities.py.
 """
+import dataclasses
 import math
 
 import numpy as np
@@ -168,7 +169,8 @@ class Actors:
             "torque": spec.torque}, active=spec.active)
 
     def _add_actor(self, spec, pos, vel, q, values, active, lifetime=None):
-        """Validate pos/vel, then add the body and set its actor columns (all or nothing)."""
+        """Validate pos/vel, then add the body (with the spec's collision filter) and set its
+        actor columns (all or nothing)."""
         pos = check.floats("pos", pos, (self.w.dim,))
         vel = np.zeros(self.w.dim) if vel is None else check.floats("vel", vel, (self.w.dim,))
         curve = self._curve_rows(spec.thrust_curve)       # only grows a table: harmless
@@ -177,7 +179,8 @@ class Actors:
         if lifetime is not None:
             self._lifetime_columns()
         body = self.w.add_body(spec.dry_mass + spec.fuel_mass, pos, vel, radius=spec.radius,
-                             kind=spec.kind, active=active)
+                               kind=spec.kind, active=active, category=spec.category,
+                               mask=spec.mask, group=spec.group)
         b = self.b
         i = self.w.index_of(body)
         b.actor[i] = True
@@ -325,10 +328,16 @@ class Actors:
         return [] if rows is None else plans.burns_of(rows, self.w.dim)
 
     # ------------------------------------------------------------ missiles
-    def launch(self, parent, spec, target=None, heading=None):
+    def launch(self, parent, spec, target=None, heading=None, category=None, mask=None,
+               group=None):
         """World.launch (the docstring is there)."""
         if not isinstance(spec, MissileSpec):
             raise ValueError(f"spec = {spec!r}: must be a MissileSpec")
+        if (category, mask, group) != (None, None, None):       # checked as a spec's are
+            spec = dataclasses.replace(
+                spec, category=spec.category if category is None else category,
+                mask=spec.mask if mask is None else mask,
+                group=spec.group if group is None else group)
         p = self.w.index_of(parent, "parent")
         b = self.b
         if target is not None:
@@ -368,7 +377,8 @@ class Actors:
             # never armed in the step it is launched in: it starts touching its launcher
             "burn_end": t + spec.burn_time,
             "armed_at": max(t + spec.arming_delay, np.nextafter(t, np.inf)),
-            "fuse": spec.fuse_radius, "kill": spec.kill_target}, active=False,
+            "fuse": spec.fuse_radius, "kill": spec.kill_target,
+            "flags": 0 if spec.hits_launcher else control.FLAG_SPARES}, active=False,
             lifetime=lifetime)
         if spec.recoil:
             p = self.w.index_of(parent)
@@ -492,15 +502,18 @@ class Actors:
                 b.dry[i] = b.mass[i] - b.fuel[i]
 
     def owners(self):
-        """(n,) int64: the launcher's row of each missile not yet armed (it ignores its
-        launcher in collisions until then), -1 elsewhere."""
+        """(n,) int64: the launcher's row of each missile that ignores it in collisions (one
+        not yet armed, or one that spares its launcher: MissileSpec.hits_launcher False), -1
+        elsewhere (and for a launcher gone)."""
         b = self.b
         n = b.n
         owner = np.full(n, -1, np.int64)
         if "actor" in b.columns:
             actors = np.flatnonzero(b.actor[:n])
-            unarmed = actors[(b.launcher[actors] >= 0) & (b.armed_at[actors] > self.w.t)]
-            owner[unarmed] = b.lookup(b.launcher[unarmed])
+            ignores = (b.armed_at[actors] > self.w.t) | \
+                (b.flags[actors] & control.FLAG_SPARES != 0)
+            missiles = actors[(b.launcher[actors] >= 0) & ignores]
+            owner[missiles] = b.lookup(b.launcher[missiles])
         return owner
 
     def rows(self):

@@ -198,9 +198,10 @@ class CollisionRules:
         biggest = ordered[giants] if giants < ordered.size else 0.0
         return np.sort(rows[:giants]).astype(np.int64), 2.0 * biggest if biggest > 0 else 1.0
 
-    def table(self, kind, radius, category, mask, fixed, owner, dim, index, scratch):
+    def table(self, kind, radius, category, mask, group, fixed, owner, dim, index, scratch):
         """The collision pass's Rules for the bodies (n,) columns given (shared), or None
-        when nothing can collide. owner : (n,) int64 launcher rows of unarmed missiles;
+        when nothing can collide. group : (n,) int64 collision groups, or (0,) when no body
+        has one; owner : (n,) int64 launcher rows of the missiles that ignore them;
         index : the bodies' slot -> row table; scratch : name -> (n, ...) arrays for
         krules.SCRATCH."""
         if not self.enabled():
@@ -219,7 +220,7 @@ class CollisionRules:
         gridded = entered.astype(np.int8)[kind]
         gridded[giants] = OUT_OF_GRID
         return krules.make(scratch, kind=kind, radius=radius, category=category, mask=mask,
-                           fixed=fixed, response=self.response, restitution=self.restitution,
+                           group=group, fixed=fixed, response=self.response, restitution=self.restitution,
                            walls=self.walls, boundary=self.boundary, box=self.box,
                            box_restitution=self.box_restitution, cell=cell, dim=dim,
                            owner=owner, giants=giants, gridded=gridded, index=index,

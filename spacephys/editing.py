@@ -29,6 +29,27 @@ def _bools(name, value, k):
     return np.broadcast_to(arr, (k,))
 
 
+GROUP = "group"                       # the collision group column, there once a body has one
+_NO_GROUP = np.zeros(0, np.int64)
+
+
+def groups(w):
+    """The collision pass's group column: (n,) int64 shared, or (0,) while no body has one."""
+    b = w._b
+    return b.group[:b.n] if GROUP in b.columns else _NO_GROUP
+
+
+def _group(value, k):
+    """A collision group or (k,) of them: ints >= 0, as a (k,) int64 array."""
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "iu" or arr.shape not in ((), (k,)):
+        raise ValueError(f"group = {value!r}: must be an integer >= 0 or {k} of them")
+    if arr.size and (arr.min() < 0 or arr.max() > np.iinfo(np.int64).max):
+        bad = arr.min() if arr.min() < 0 else arr.max()
+        raise ValueError(f"group = {int(bad)}: a group is an integer >= 0 (0: none)")
+    return np.broadcast_to(arr.astype(np.int64), (k,))
+
+
 def _bits(name, value, k):
     """An int or (k,) ints fitting int64, as a (k,) int64 array."""
     arr = np.asarray(value)
@@ -63,7 +84,8 @@ def kind_codes(w, kind, k, field):
     return codes
 
 
-def add_body(w, mass, pos, vel, radius, kind, active, fixed, category, mask, lifetime):
+def add_body(w, mass, pos, vel, radius, kind, active, fixed, category, mask, group,
+             lifetime):
     """World.add_body: the new body's int id."""
     pos = check.floats("pos", pos, (w._dim,))
     vel = np.zeros(w._dim) if vel is None else check.floats("vel", vel, (w._dim,))
@@ -73,10 +95,11 @@ def add_body(w, mass, pos, vel, radius, kind, active, fixed, category, mask, lif
         raise ValueError(f"active = {active!r}: must be True, False or None")
     return int(w.add_bodies(mass, pos[None], vel[None], radius=radius, kind=kind,
                             active=active, fixed=fixed, category=category,
-                            mask=mask, lifetime=lifetime)[0])
+                            mask=mask, group=group, lifetime=lifetime)[0])
 
 
-def add_bodies(w, mass, pos, vel, radius, kind, active, fixed, category, mask, lifetime):
+def add_bodies(w, mass, pos, vel, radius, kind, active, fixed, category, mask, group,
+               lifetime):
     """World.add_bodies: the new bodies' (k,) int64 ids."""
     pos = check.floats("pos", pos, (None, w._dim))
     k = pos.shape[0]
@@ -92,6 +115,7 @@ def add_bodies(w, mass, pos, vel, radius, kind, active, fixed, category, mask, l
     still = _bools("fixed", fixed, k)
     category = _bits("category", category, k)
     mask = _bits("mask", mask, k)
+    group = _group(group, k)
     if lifetime is not None:
         lifetime = check.per_body("lifetime", lifetime, k, minimum=0.0)
         if np.any(lifetime == 0):
@@ -100,9 +124,13 @@ def add_bodies(w, mass, pos, vel, radius, kind, active, fixed, category, mask, l
     v3 = np.zeros((k, 3))
     p3[:, :w._dim] = pos
     v3[:, :w._dim] = np.where(still[:, None], 0.0, vel)    # a fixed body never moves
-    ids = w._b.add({"pos": p3, "vel": v3, "mass": mass, "radius": radius,
-                    "kind": codes, "active": act, "fixed": still, "category": category,
-                    "mask": mask})
+    columns = {"pos": p3, "vel": v3, "mass": mass, "radius": radius, "kind": codes,
+               "active": act, "fixed": still, "category": category, "mask": mask}
+    if group.any():
+        w._b.ensure_column(GROUP, (), np.int64, 0)
+    if GROUP in w._b.columns:
+        columns[GROUP] = group
+    ids = w._b.add(columns)
     w._actors.set_lifetimes(ids, lifetime)
     w._invalidate()
     return ids
@@ -148,7 +176,8 @@ def get(w, body_id):
                 bool(b.active[i]), bool(b.active[i] and b.mass[i] > 0))
 
 
-def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, mask):
+def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, mask,
+             group=None):
     """World.set_body (None: unchanged)."""
     i = w.index_of(body_id)
     if mass is not None and "actor" in w._b.columns and w._b.actor[i]:
@@ -173,7 +202,16 @@ def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, 
     for name, value in (("category", category), ("mask", mask)):
         if value is not None:
             new[name] = _bits(name, value, 1)[0]
+    if group is not None:
+        new[GROUP] = _group(group, 1)[0]
     b = w._b
+    laid_out = False
+    if GROUP in new and GROUP not in b.columns:
+        if new[GROUP]:
+            b.ensure_column(GROUP, (), np.int64, 0)
+            laid_out = True                          # every column moved: new tables
+        else:
+            del new[GROUP]                           # 0, as every body's is
     if new.get("fixed", b.fixed[i]):
         new["vel"] = np.zeros(w._dim)          # a fixed body never moves
     for name, value in new.items():
@@ -188,7 +226,7 @@ def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, 
     for name, key in (("csx", "pos"), ("csv", "vel")):
         if key in new and name in b.columns:
             getattr(b, name)[i] = 0.0
-    if new.keys() - {"pos", "vel", "category", "mask"}:
+    if laid_out or new.keys() - {"pos", "vel", "category", "mask", GROUP}:
         w._invalidate()          # the tables hold copies derived from these
     else:
         measures.rewatch(w)

@@ -94,7 +94,8 @@ class ShipSpec:
     *Basic Game Physics*: thrust = max_thrust * factor(|v|) * throttle, linear between rows,
     flat beyond;
     radius [length]; kind; active: pulls other bodies (default False: it feels gravity only);
-    explosion: an ExplosionSpec thrown out when the ship is destroyed, or None.
+    explosion: an ExplosionSpec thrown out when the ship is destroyed, or None; category,
+    mask, group: its collision filter (World.add_body's).
     """
     dry_mass: float = 1.0
     fuel_mass: float = 0.0
@@ -110,8 +111,12 @@ class ShipSpec:
     kind: str = "ship"
     active: bool = False
     explosion: ExplosionSpec = None
+    category: int = 1
+    mask: int = -1
+    group: int = 0
 
     def __post_init__(self):
+        _check_filter(self)
         exhaust_given = self.exhaust_speed is not None or self.isp is not None
         _set_engine(self, "ShipSpec")
         object.__setattr__(self, "side_thrust", _nonneg("side_thrust", self.side_thrust))
@@ -146,7 +151,10 @@ class MissileSpec:
     (turn toward the target) or "pn" (proportional navigation with nav_constant N);
     turn_rate [rad/time]; fuse_radius [length]: detonates when the closest approach to the
     target within a step comes this near (0: contact only, through the collision matrix);
-    kill_target: a detonation destroys the target too; radius; kind; explosion.
+    kill_target: a detonation destroys the target too; radius; kind; explosion; category,
+    mask, group: its collision filter (World.add_body's; World.launch may set them per
+    launch); hits_launcher: False (the default), it never meets the body that launched it,
+    armed or not; True, it can once armed.
     """
     mass: float = 1.0
     fuel_mass: float = 0.0
@@ -167,8 +175,13 @@ class MissileSpec:
     radius: float = 0.0
     kind: str = "missile"
     explosion: ExplosionSpec = None
+    category: int = 1
+    mask: int = -1
+    group: int = 0
+    hits_launcher: bool = False
 
     def __post_init__(self):
+        _check_filter(self)
         object.__setattr__(self, "dry_mass", _positive("mass", self.mass))
         object.__setattr__(self, "max_thrust", self.thrust)
         _set_engine(self, "MissileSpec")
@@ -184,7 +197,7 @@ class MissileSpec:
                              f"{', '.join(GUIDANCE)}")
         nav = _positive("nav_constant", self.nav_constant)
         object.__setattr__(self, "nav_constant", nav)
-        for name in ("recoil", "kill_target"):
+        for name in ("recoil", "kill_target", "hits_launcher"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise ValueError(f"{name} = {getattr(self, name)!r}: must be True or False")
         _refuse_dead_engine(self, "thrust", self.max_thrust, empty_tank_ok=False)
@@ -194,6 +207,18 @@ class MissileSpec:
         if self.arming_delay > 0.0 and self.lifetime <= self.arming_delay:
             raise ValueError(f"lifetime = {self.lifetime} <= arming_delay = "
                              f"{self.arming_delay}: the missile would expire before it arms")
+
+
+def _check_filter(spec):
+    """A spec's category and mask (integers of int64 bits) and group (an integer >= 0)."""
+    for name in ("category", "mask", "group"):
+        v = getattr(spec, name)
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or \
+                not (0 if name == "group" else -2 ** 63) <= v < 2 ** 63:
+            what = "an integer >= 0 (0: none)" if name == "group" else \
+                "an integer of collision bits (int64)"
+            raise ValueError(f"{type(spec).__name__} {name} = {v!r}: must be {what}")
+        object.__setattr__(spec, name, int(v))
 
 
 def _refuse_dead_engine(spec, name, thrust, empty_tank_ok):

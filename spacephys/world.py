@@ -519,6 +519,12 @@ class World:
         return _readonly(self._b.category[:self._b.n])
 
     @property
+    def group(self):
+        """(n,) int64 collision groups: bodies of one group > 0 never collide (0: none)."""
+        b = self._b
+        return _readonly(b.group[:b.n] if "group" in b.columns else np.zeros(b.n, np.int64))
+
+    @property
     def mask(self):
         """(n,) int64 collision-filter bits: the categories each body meets (a query's
         filter= tests them with its category)."""
@@ -538,7 +544,7 @@ class World:
         return b.active[:b.n] & (b.mass[:b.n] > 0)
 
     def add_body(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None,
-                 fixed=False, category=1, mask=-1, lifetime=None):
+                 fixed=False, category=1, mask=-1, group=0, lifetime=None):
         """Add one body; returns its id.
 
         mass [mass] >= 0 (0: a test particle); pos, vel : (dim,); radius [length] >= 0;
@@ -546,23 +552,24 @@ class World:
         mass); default True, except for the kinds ship, missile and debris; fixed : immovable
         (it stays put, and collisions treat its mass as infinite); category, mask : collision
         filter bits: two bodies interact only if each one's category meets the other's mask
-        (default: category 1, mask all bits); lifetime [time] > 0: removed that long from
-        now, with an expiry event (None: never).
+        (default: category 1, mask all bits); group : int >= 0, bodies of one group > 0 never
+        collide (0: none; a ship and its own missiles, a fleet); lifetime [time] > 0: removed
+        that long from now, with an expiry event (None: never).
         """
         return editing.add_body(self, mass, pos, vel, radius, kind, active, fixed, category,
-                                mask, lifetime)
+                                mask, group, lifetime)
 
     def add_bodies(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None,
-                   fixed=False, category=1, mask=-1, lifetime=None):
+                   fixed=False, category=1, mask=-1, group=0, lifetime=None):
         """Add k bodies at once; returns their (k,) int64 ids.
 
         mass : number or (k,); pos, vel : (k, dim); radius : number or (k,);
         kind : one name/code or k of them; active, fixed : None/bool or (k,) bools (see
-        add_body); category, mask : int or (k,) ints; lifetime : None, a number or (k,)
-        numbers > 0. Everything is checked before anything is added.
+        add_body); category, mask, group : int or (k,) ints; lifetime : None, a number or
+        (k,) numbers > 0. Everything is checked before anything is added.
         """
         return editing.add_bodies(self, mass, pos, vel, radius, kind, active, fixed, category,
-                                  mask, lifetime)
+                                  mask, group, lifetime)
 
     index_of = editing.index_of        # itself, not a call to it: a game's every-frame call
 
@@ -574,13 +581,13 @@ class World:
         return editing.get(self, body_id)
 
     def set_body(self, body_id, *, pos=None, vel=None, mass=None, radius=None, kind=None,
-                 active=None, fixed=None, category=None, mask=None):
+                 active=None, fixed=None, category=None, mask=None, group=None):
         """Change one body between steps; everything is checked before anything changes.
 
         A new pos also resets the body's render interpolation (a teleport, not a smear).
         """
         editing.set_body(self, body_id, pos, vel, mass, radius, kind, active, fixed, category,
-                         mask)
+                         mask, group)
 
     def remove(self, ids):
         """Remove one id or an array of ids (all must be live; duplicates count once)."""
@@ -897,15 +904,19 @@ class World:
         """The ship's plan: a list of sp.Burn, frames resolved to ids."""
         return self._actors.planned(ship)
 
-    def launch(self, parent, spec, target=None, heading=None):
+    def launch(self, parent, spec, target=None, heading=None, *, category=None, mask=None,
+               group=None):
         """Launch a missile from any live body; returns its id.
 
         It appears just outside the parent (centres r_parent + r_missile apart) along the
         heading (default: the parent's own, if it is a ship), with the parent's velocity plus
         spec.launch_speed along the heading; with spec.recoil the parent gives up the
         missile's mass and takes the opposite momentum. target : an id to guide toward and
-        fuse against. A launch event is reported with the next step's events."""
-        return self._actors.launch(parent, spec, target, heading)
+        fuse against. category, mask, group : this missile's collision filter instead of the
+        spec's (add_body's: a side's bits, its ship's group). It never meets its launcher
+        unless spec.hits_launcher (then only once armed). A launch event is reported with
+        the next step's events."""
+        return self._actors.launch(parent, spec, target, heading, category, mask, group)
 
     def explode(self, body, spec=None):
         """Remove a body and throw out its debris: spec, or the ExplosionSpec it was made
@@ -1004,8 +1015,9 @@ class World:
         forces = self._forces.table(b.mass[:n], b.ids[:n], *sources,
                                     b.held[:n] if HELD in b.columns else None, threads)
         rules = self._collisions.table(b.kind[:n].astype(np.int64), b.radius[:n],
-                                       b.category[:n], b.mask[:n], b.fixed[:n],
-                                       self._actors.owners(), self._dim, b.index, scratch)
+                                       b.category[:n], b.mask[:n], editing.groups(self),
+                                       b.fixed[:n], self._actors.owners(), self._dim,
+                                       b.index, scratch)
         plan = Plan(self, state, forces, rules, self._actors.table(actors),
                     self._stepper.method(self, sources), alive, work)
         self._plan = plan

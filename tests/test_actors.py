@@ -288,12 +288,14 @@ def test_fuse_sees_a_pass_between_two_steps():
 
 
 def test_arming_delay_spares_the_launcher():
-    # the missile stops dead in front of its launcher, which runs into it at once; they
-    # overlap from t = 0 to 3 but cannot collide until the missile is armed at t = 1
+    # the missile (one that may hit its launcher) stops dead in front of its launcher, which
+    # runs into it at once; they overlap from t = 0 to 3 but cannot collide until the
+    # missile is armed at t = 1
     w = _ship_world(dt=0.01, gravity="none")
     w.set_collision("ship", "missile", "destroy_both")
     launcher = w.add_ship(sp.ShipSpec(radius=1.0), (0.0, 0.0), (1.0, 0.0))
-    missile = w.launch(launcher, sp.MissileSpec(radius=0.5, arming_delay=1.0), heading=0.0)
+    missile = w.launch(launcher, sp.MissileSpec(radius=0.5, arming_delay=1.0,
+                                                hits_launcher=True), heading=0.0)
     w.set_body(missile, vel=(0.0, 0.0))
     w.step(99)
     assert launcher in w and missile in w
@@ -645,7 +647,7 @@ def test_a_missile_with_no_arming_delay_can_hit_its_launcher_after_launch():
     w = _ship_world(dt=0.01, gravity="none")
     w.set_collision("ship", "missile", "destroy_both")
     launcher = w.add_ship(sp.ShipSpec(radius=1.0), (0.0, 0.0), (1.0, 0.0))
-    missile = w.launch(launcher, sp.MissileSpec(radius=0.5), heading=0.0)
+    missile = w.launch(launcher, sp.MissileSpec(radius=0.5, hits_launcher=True), heading=0.0)
     w.set_body(missile, vel=(0.0, 0.0))
     w.step(1)
     assert launcher in w and missile in w

@@ -200,7 +200,8 @@ def test_a_torpedo_that_armed_and_hit_after_the_snapshot_is_unarmed_again():
     w.set_collision("missile", "ship", "destroy_both")
     ship = w.add_ship(sp.ShipSpec(dry_mass=1.0, fuel_mass=1.0, max_thrust=5.0,
                                   exhaust_speed=100.0, radius=2.0), (0.0, 0.0))
-    w.launch(ship, sp.MissileSpec(mass=0.01, radius=1.0, arming_delay=0.1), heading=(1, 0))
+    w.launch(ship, sp.MissileSpec(mass=0.01, radius=1.0, arming_delay=0.1, hits_launcher=True),
+             heading=(1, 0))
     w.control(ship, throttle=1.0)
     w.step(2)
     assert _back_and_on(w, 30, 30).count(ev.DESTROY) == 2 and w.n == 0     # one each

@@ -19,7 +19,7 @@ from .._jit import kernel
 from . import libm
 from .arrays import grown_pairs, sort_in_place, stable_order
 from .codes import FOLLOWS, IGNORE, IN_GRID
-from .rules import allowed, periods, wrap
+from .rules import allowed, grouped, periods, wrap
 
 _SPARSE = 0.5        # a sparse scene's coarse cell: this times the span's length per body
 # a grid entry's body carries its kind in its low bits: a pair of kinds that never meet is
@@ -360,7 +360,7 @@ def _cells_covered(lo, hi, alive, gridded, size, dim):
 
 @kernel
 def _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell, ncell,
-          category, mask, owner, response, pairs):
+          category, mask, owner, group, response, pairs):
     """The pairs (i < j) of each cell of the grid (see grid_pairs) written into pairs while
     they fit; returns how many there are."""
     # pairs within each run of one cell, reported in the cell that holds the low corner of
@@ -403,7 +403,7 @@ def _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell,
                     home = home and _cell_key(first[0], first[1], first[2]) == keys[eu]
                 # the rest of allowed last: most pairs sharing a cell fail the box test
                 if not home or (category[i] & mask[j]) == 0 or (category[j] & mask[i]) == 0 \
-                        or owner[i] == j or owner[j] == i:
+                        or owner[i] == j or owner[j] == i or grouped(group, i, j):
                     continue
                 if m < pairs.shape[0]:
                     pairs[m, 0] = i
@@ -478,11 +478,11 @@ def grid_pairs(A, B, tb, alive, rules, lo, hi):
     # an array the size the first found)
     pairs = np.empty((max(16, total // 4), 2), np.int64)
     m = _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell, ncell,
-              rules.category, rules.mask, rules.owner, rules.response, pairs)
+              rules.category, rules.mask, rules.owner, rules.group, rules.response, pairs)
     if m > pairs.shape[0]:
         pairs = np.empty((m, 2), np.int64)
         _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell, ncell,
-              rules.category, rules.mask, rules.owner, rules.response, pairs)
+              rules.category, rules.mask, rules.owner, rules.group, rules.response, pairs)
     # the giants against everyone: the grid's bodies looked up in the cells a giant's box
     # covers (a test of every body took 16 ms for 70 giants among 6e4 bodies), a pair of
     # giants once, from the lower row, each giant's partners in row order; then the bodies
@@ -778,6 +778,7 @@ def _focused(alive, rules, lo, hi, focus, in_focus, stale, changed, grid, is_gia
     returns how many there are, or -1 when a focus body's box covers too many cells."""
     kind = rules.kind
     category, mask, owner, response = rules.category, rules.mask, rules.owner, rules.response
+    group = rules.group
     gridded = rules.gridded
     n = lo.shape[0]
     L = periods(rules)
@@ -812,7 +813,7 @@ def _focused(alive, rules, lo, hi, focus, in_focus, stale, changed, grid, is_gia
                 j = near[p]
                 a2, b2 = min(i, j), max(i, j)
                 if (category[a2] & mask[b2]) == 0 or (category[b2] & mask[a2]) == 0 or \
-                        owner[a2] == b2 or owner[b2] == a2 or \
+                        owner[a2] == b2 or owner[b2] == a2 or grouped(group, a2, b2) or \
                         response[kind[a2], kind[b2]] == IGNORE:
                     continue
                 if m < found.size:

@@ -43,8 +43,9 @@ from . import libm
 # distance]
 PENDING = 12
 
-# flags: what has been reported once
-_FLAG_EMPTY, _FLAG_BURNOUT = 1, 2
+# flags: what has been reported once, and a missile that never meets its launcher (armed or
+# not: MissileSpec.hits_launcher False)
+_FLAG_EMPTY, _FLAG_BURNOUT, FLAG_SPARES = 1, 2, 4
 # burn columns
 DX, DY, DZ, F, MDOT, M0, T_STOP, VE, T_START, LIMIT = range(10)
 # plan columns (a row per planned burn; a ship's rows sorted by start, not overlapping)
@@ -385,7 +386,8 @@ def begin_step(ht, t0, dt, L):
         burn[q, M0] = 1.0
         if not alive[i]:
             continue
-        if owner.size and owner[i] >= 0 and t0 >= act.armed_at[i]:
+        if owner.size and owner[i] >= 0 and t0 >= act.armed_at[i] and \
+                act.flags[i] & FLAG_SPARES == 0:
             owner[i] = -1                            # armed: its launcher can be hit now
         if _flies_plan(act, q, i, state, t0, dt):
             continue

@@ -34,7 +34,10 @@ FIELDS = (
     "box_restitution",  # float
     "cell",          # float > 0: grid cell size [length]
     "dim",           # 2 or 3: merged radii keep area (2D) or volume (3D)
-    "owner",         # (n,) int64: the launcher of a missile not yet armed (ignored by it), -1
+    "owner",         # (n,) int64: the launcher of a missile not yet armed, or one that spares
+                     # it (ignored by it), -1
+    "group",         # (n,) int64 collision groups (bodies of one group > 0 never meet), or
+                     # (0,) when no body has one
     "giants",        # (G,) int64 rows of bodies far larger than the cell: tested against all
     "gridded",       # (n,) int8: how the broad phase's grid takes each body (codes.py:
                      # OUT_OF_GRID, IN_GRID, FOLLOWS)
@@ -123,8 +126,16 @@ def allowed(rules, kind, i, j):
     if (rules.category[i] & rules.mask[j]) == 0 or (rules.category[j] & rules.mask[i]) == 0:
         return IGNORE
     if rules.owner[i] == j or rules.owner[j] == i:
-        return IGNORE                     # a missile and its launcher, before it is armed
+        return IGNORE                     # a missile and the launcher it spares
+    if grouped(rules.group, i, j):
+        return IGNORE
     return rules.response[kind[i], kind[j]]
+
+
+@kernel(inline=True)
+def grouped(group, i, j):
+    """Whether rows i and j share a collision group (> 0): such bodies never meet."""
+    return group.size > 0 and group[i] > 0 and group[i] == group[j]
 
 
 SCRATCH = {"A": (3, np.float64), "B": (3, np.float64), "D": (3, np.float64),
