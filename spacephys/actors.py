@@ -406,6 +406,21 @@ class Actors:
         self.b.born[rows] = self.w.t
         self.b.expires[rows] = self.w.t + lifetime
 
+    def set_explosions(self, rows, spec):
+        """The bodies at rows throw out spec's debris when a collision or a detonation
+        destroys them (False: they no longer do); returns whether the columns were laid out
+        anew (the World's tables then go)."""
+        b = self.b
+        if spec is False:
+            if "explosion" in b.columns:
+                b.explosion[rows] = -1
+            return False
+        new = "explosion" not in b.columns
+        shape, dtype, default = ACTOR_COLUMNS["explosion"]
+        b.ensure_column("explosion", shape, dtype, default)
+        b.explosion[rows] = self._explosion_index(spec)
+        return new
+
     def intensity(self):
         """World.intensity (the docstring is there)."""
         b = self.b

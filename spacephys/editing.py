@@ -11,6 +11,7 @@ import numpy as np
 
 from . import _validate as check
 from . import measures
+from .entities import ExplosionSpec
 
 # kinds whose bodies feel gravity but do not pull unless told to (active=True): their mass is
 # for thrust and collisions, and their pull on planets would only cost time
@@ -85,7 +86,7 @@ def kind_codes(w, kind, k, field):
 
 
 def add_body(w, mass, pos, vel, radius, kind, active, fixed, category, mask, group,
-             lifetime):
+             lifetime, explosion=None):
     """World.add_body: the new body's int id."""
     pos = check.floats("pos", pos, (w._dim,))
     vel = np.zeros(w._dim) if vel is None else check.floats("vel", vel, (w._dim,))
@@ -95,11 +96,20 @@ def add_body(w, mass, pos, vel, radius, kind, active, fixed, category, mask, gro
         raise ValueError(f"active = {active!r}: must be True, False or None")
     return int(w.add_bodies(mass, pos[None], vel[None], radius=radius, kind=kind,
                             active=active, fixed=fixed, category=category,
-                            mask=mask, group=group, lifetime=lifetime)[0])
+                            mask=mask, group=group, lifetime=lifetime,
+                            explosion=explosion)[0])
+
+
+def _explosion(value, allow_false=False):
+    """An ExplosionSpec, None (none given) or, where it clears one, False."""
+    if value is None or isinstance(value, ExplosionSpec) or (allow_false and value is False):
+        return value
+    raise ValueError(f"explosion = {value!r}: expected an sp.ExplosionSpec"
+                     + (", or False for none" if allow_false else ""))
 
 
 def add_bodies(w, mass, pos, vel, radius, kind, active, fixed, category, mask, group,
-               lifetime):
+               lifetime, explosion=None):
     """World.add_bodies: the new bodies' (k,) int64 ids."""
     pos = check.floats("pos", pos, (None, w._dim))
     k = pos.shape[0]
@@ -116,6 +126,7 @@ def add_bodies(w, mass, pos, vel, radius, kind, active, fixed, category, mask, g
     category = _bits("category", category, k)
     mask = _bits("mask", mask, k)
     group = _group(group, k)
+    explosion = _explosion(explosion)
     if lifetime is not None:
         lifetime = check.per_body("lifetime", lifetime, k, minimum=0.0)
         if np.any(lifetime == 0):
@@ -132,6 +143,8 @@ def add_bodies(w, mass, pos, vel, radius, kind, active, fixed, category, mask, g
         columns[GROUP] = group
     ids = w._b.add(columns)
     w._actors.set_lifetimes(ids, lifetime)
+    if explosion is not None:
+        w._actors.set_explosions(w.index_of(ids), explosion)
     w._invalidate()
     return ids
 
@@ -177,7 +190,7 @@ def get(w, body_id):
 
 
 def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, mask,
-             group=None):
+             group=None, explosion=None):
     """World.set_body (None: unchanged)."""
     i = w.index_of(body_id)
     if mass is not None and "actor" in w._b.columns and w._b.actor[i]:
@@ -204,8 +217,12 @@ def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, 
             new[name] = _bits(name, value, 1)[0]
     if group is not None:
         new[GROUP] = _group(group, 1)[0]
+    explosion = _explosion(explosion, allow_false=True)
     b = w._b
     laid_out = False
+    if explosion is not None:                  # checked above: it cannot fail now
+        laid_out = w._actors.set_explosions(i, explosion)
+        i = w.index_of(body_id)
     if GROUP in new and GROUP not in b.columns:
         if new[GROUP]:
             b.ensure_column(GROUP, (), np.int64, 0)

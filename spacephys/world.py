@@ -544,7 +544,7 @@ class World:
         return b.active[:b.n] & (b.mass[:b.n] > 0)
 
     def add_body(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None,
-                 fixed=False, category=1, mask=-1, group=0, lifetime=None):
+                 fixed=False, category=1, mask=-1, group=0, lifetime=None, explosion=None):
         """Add one body; returns its id.
 
         mass [mass] >= 0 (0: a test particle); pos, vel : (dim,); radius [length] >= 0;
@@ -554,22 +554,26 @@ class World:
         filter bits: two bodies interact only if each one's category meets the other's mask
         (default: category 1, mask all bits); group : int >= 0, bodies of one group > 0 never
         collide (0: none; a ship and its own missiles, a fleet); lifetime [time] > 0: removed
-        that long from now, with an expiry event (None: never).
+        that long from now, with an expiry event (None: never); explosion : an
+        sp.ExplosionSpec whose debris it throws out when a collision or a detonation destroys
+        it (an asteroid that breaks up), as a ship's or missile's spec gives them.
         """
         return editing.add_body(self, mass, pos, vel, radius, kind, active, fixed, category,
-                                mask, group, lifetime)
+                                mask, group, lifetime, explosion)
 
     def add_bodies(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None,
-                   fixed=False, category=1, mask=-1, group=0, lifetime=None):
+                   fixed=False, category=1, mask=-1, group=0, lifetime=None,
+                   explosion=None):
         """Add k bodies at once; returns their (k,) int64 ids.
 
         mass : number or (k,); pos, vel : (k, dim); radius : number or (k,);
         kind : one name/code or k of them; active, fixed : None/bool or (k,) bools (see
         add_body); category, mask, group : int or (k,) ints; lifetime : None, a number or
-        (k,) numbers > 0. Everything is checked before anything is added.
+        (k,) numbers > 0; explosion : one sp.ExplosionSpec for all (see add_body). Everything
+        is checked before anything is added.
         """
         return editing.add_bodies(self, mass, pos, vel, radius, kind, active, fixed, category,
-                                  mask, group, lifetime)
+                                  mask, group, lifetime, explosion)
 
     index_of = editing.index_of        # itself, not a call to it: a game's every-frame call
 
@@ -581,13 +585,15 @@ class World:
         return editing.get(self, body_id)
 
     def set_body(self, body_id, *, pos=None, vel=None, mass=None, radius=None, kind=None,
-                 active=None, fixed=None, category=None, mask=None, group=None):
+                 active=None, fixed=None, category=None, mask=None, group=None,
+                 explosion=None):
         """Change one body between steps; everything is checked before anything changes.
 
-        A new pos also resets the body's render interpolation (a teleport, not a smear).
+        A new pos also resets the body's render interpolation (a teleport, not a smear);
+        explosion : an sp.ExplosionSpec it throws out when destroyed, or False for none.
         """
         editing.set_body(self, body_id, pos, vel, mass, radius, kind, active, fixed, category,
-                         mask, group)
+                         mask, group, explosion)
 
     def remove(self, ids):
         """Remove one id or an array of ids (all must be live; duplicates count once)."""
