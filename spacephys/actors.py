@@ -17,7 +17,7 @@ from . import _validate as check
 from . import plans
 from .entities import G0_SI, ExplosionSpec, MissileSpec, ShipSpec
 from .kernels.codes import GUIDANCE
-from .events import EVENT_DTYPE
+from .events import EVENT_DTYPE, upgrade
 from .kernels import control, libm, seeds
 from .kernels.codes import EV_DESTROY, EV_DETONATION, EV_LAUNCH, EV_MERGE
 
@@ -635,7 +635,7 @@ class Actors:
         self.seed = int(s["seed"])
         self.specs = list(s["explosions"])
         self.curves = np.array(s["curves"], np.float64).reshape(-1, 2)
-        self.queued = list(np.array(s["queued"], EVENT_DTYPE).reshape(-1))
+        self.queued = list(upgrade(s["queued"]))
         rows = np.array(s.get("plans", np.zeros((0, plans.PLAN_WIDTH))), np.float64)
         rows = rows.reshape(-1, plans.PLAN_WIDTH)
         self.plans = {int(ship): rows[rows[:, 0] == ship] for ship in np.unique(rows[:, 0])}

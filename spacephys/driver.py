@@ -19,7 +19,7 @@ import warnings
 
 import numpy as np
 
-from . import measures
+from . import editing, measures
 from .errors import caller_level
 from .events import EVENT_DTYPE
 from .kernels import state as kstate
@@ -51,6 +51,11 @@ class Driver:
     def rows(self, ids):
         """(k,) int64 rows of the ids, -1 where an id names no live body."""
         return self.w._b.lookup(ids)
+
+    def release_controls(self):
+        """Every ship's controls released and its plan dropped, missiles left flying: the
+        copy World.predict(coast=True) runs."""
+        self.w._actors.release()
 
     @property
     def plan(self):
@@ -130,6 +135,24 @@ class Driver:
             w._events = np.zeros(2 * len(w._actors.queued), dtype=EVENT_DTYPE)
             w._plan = None
             w._actors.write_queued(w._events, w._event_count)
+        self._name_bodies(0)
+
+    def _name_bodies(self, first):
+        """The kinds and tags of the bodies a and b of the events from `first` on, read
+        before the bodies a call destroyed or merged away leave."""
+        w = self.w
+        count = w._event_count.item(0)
+        if count <= first:                         # the common call: nothing happened
+            return
+        events = w._events[first:count]
+        b = w._b
+        tagged = editing.TAG in b.columns
+        for side in "ab":
+            rows = b.lookup(events[side])
+            found = rows >= 0
+            rows[~found] = 0                       # a row there is (the capacity is >= 1)
+            events["kind_" + side] = np.where(found, b.kind[rows], -1)
+            events["tag_" + side] = np.where(found, b.tag[rows], 0) if tagged else 0
 
     def _calls(self, nsteps, frame_at=None, sink=None):
         """Take nsteps steps; a kernel call ends early after a collision removed or merged
@@ -158,6 +181,7 @@ class Driver:
             if w._event_count[0] > w._events.shape[0]:
                 w._events = kstate.events_of(plan.state)        # the kernel grew it
                 w._plan = None
+            self._name_bodies(first)
             if plan.rules is not None:
                 w._collisions.caught_up(plan.rules)
             if frames is not None:

@@ -30,24 +30,35 @@ def _bools(name, value, k):
     return np.broadcast_to(arr, (k,))
 
 
-GROUP = "group"                       # the collision group column, there once a body has one
-_NO_GROUP = np.zeros(0, np.int64)
+# int64 columns that exist once a body gets a value other than 0 (a World without them pays
+# nothing): the collision group (> 0: never meet each other) and the game's own tag
+GROUP, TAG = "group", "tag"
+OPTIONAL = {GROUP: 0, TAG: np.iinfo(np.int64).min}      # name -> the smallest value allowed
+_NONE = np.zeros(0, np.int64)
 
 
 def groups(w):
     """The collision pass's group column: (n,) int64 shared, or (0,) while no body has one."""
     b = w._b
-    return b.group[:b.n] if GROUP in b.columns else _NO_GROUP
+    return b.group[:b.n] if GROUP in b.columns else _NONE
 
 
-def _group(value, k):
-    """A collision group or (k,) of them: ints >= 0, as a (k,) int64 array."""
+def column(w, name):
+    """An optional column's live rows (zeros while no body has a value)."""
+    b = w._b
+    return getattr(b, name)[:b.n] if name in b.columns else np.zeros(b.n, np.int64)
+
+
+def _optional(name, value, k):
+    """A group or tag, or (k,) of them, as a (k,) int64 array."""
     arr = np.asarray(value)
+    what = "an integer >= 0 (0: none)" if name == GROUP else "an integer (int64)"
     if arr.dtype.kind not in "iu" or arr.shape not in ((), (k,)):
-        raise ValueError(f"group = {value!r}: must be an integer >= 0 or {k} of them")
-    if arr.size and (arr.min() < 0 or arr.max() > np.iinfo(np.int64).max):
-        bad = arr.min() if arr.min() < 0 else arr.max()
-        raise ValueError(f"group = {int(bad)}: a group is an integer >= 0 (0: none)")
+        raise ValueError(f"{name} = {value!r}: must be {what} or {k} of them")
+    low, high = OPTIONAL[name], np.iinfo(np.int64).max
+    if arr.size and (arr.min() < low or arr.max() > high):
+        bad = arr.min() if arr.min() < low else arr.max()
+        raise ValueError(f"{name} = {int(bad)}: must be {what}")
     return np.broadcast_to(arr.astype(np.int64), (k,))
 
 
@@ -86,7 +97,7 @@ def kind_codes(w, kind, k, field):
 
 
 def add_body(w, mass, pos, vel, radius, kind, active, fixed, category, mask, group,
-             lifetime, explosion=None):
+             lifetime, explosion=None, tag=0):
     """World.add_body: the new body's int id."""
     pos = check.floats("pos", pos, (w._dim,))
     vel = np.zeros(w._dim) if vel is None else check.floats("vel", vel, (w._dim,))
@@ -97,7 +108,7 @@ def add_body(w, mass, pos, vel, radius, kind, active, fixed, category, mask, gro
     return int(w.add_bodies(mass, pos[None], vel[None], radius=radius, kind=kind,
                             active=active, fixed=fixed, category=category,
                             mask=mask, group=group, lifetime=lifetime,
-                            explosion=explosion)[0])
+                            explosion=explosion, tag=tag)[0])
 
 
 def _explosion(value, allow_false=False):
@@ -109,7 +120,7 @@ def _explosion(value, allow_false=False):
 
 
 def add_bodies(w, mass, pos, vel, radius, kind, active, fixed, category, mask, group,
-               lifetime, explosion=None):
+               lifetime, explosion=None, tag=0):
     """World.add_bodies: the new bodies' (k,) int64 ids."""
     pos = check.floats("pos", pos, (None, w._dim))
     k = pos.shape[0]
@@ -125,7 +136,7 @@ def add_bodies(w, mass, pos, vel, radius, kind, active, fixed, category, mask, g
     still = _bools("fixed", fixed, k)
     category = _bits("category", category, k)
     mask = _bits("mask", mask, k)
-    group = _group(group, k)
+    optional = {GROUP: _optional(GROUP, group, k), TAG: _optional(TAG, tag, k)}
     explosion = _explosion(explosion)
     if lifetime is not None:
         lifetime = check.per_body("lifetime", lifetime, k, minimum=0.0)
@@ -137,10 +148,11 @@ def add_bodies(w, mass, pos, vel, radius, kind, active, fixed, category, mask, g
     v3[:, :w._dim] = np.where(still[:, None], 0.0, vel)    # a fixed body never moves
     columns = {"pos": p3, "vel": v3, "mass": mass, "radius": radius, "kind": codes,
                "active": act, "fixed": still, "category": category, "mask": mask}
-    if group.any():
-        w._b.ensure_column(GROUP, (), np.int64, 0)
-    if GROUP in w._b.columns:
-        columns[GROUP] = group
+    for name, values in optional.items():
+        if values.any():
+            w._b.ensure_column(name, (), np.int64, 0)
+        if name in w._b.columns:
+            columns[name] = values
     ids = w._b.add(columns)
     w._actors.set_lifetimes(ids, lifetime)
     if explosion is not None:
@@ -190,7 +202,7 @@ def get(w, body_id):
 
 
 def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, mask,
-             group=None, explosion=None):
+             group=None, explosion=None, tag=None):
     """World.set_body (None: unchanged)."""
     i = w.index_of(body_id)
     if mass is not None and "actor" in w._b.columns and w._b.actor[i]:
@@ -215,20 +227,22 @@ def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, 
     for name, value in (("category", category), ("mask", mask)):
         if value is not None:
             new[name] = _bits(name, value, 1)[0]
-    if group is not None:
-        new[GROUP] = _group(group, 1)[0]
+    for name, value in ((GROUP, group), (TAG, tag)):
+        if value is not None:
+            new[name] = _optional(name, value, 1)[0]
     explosion = _explosion(explosion, allow_false=True)
     b = w._b
     laid_out = False
     if explosion is not None:                  # checked above: it cannot fail now
         laid_out = w._actors.set_explosions(i, explosion)
         i = w.index_of(body_id)
-    if GROUP in new and GROUP not in b.columns:
-        if new[GROUP]:
-            b.ensure_column(GROUP, (), np.int64, 0)
-            laid_out = True                          # every column moved: new tables
-        else:
-            del new[GROUP]                           # 0, as every body's is
+    for name in OPTIONAL:
+        if name in new and name not in b.columns:
+            if new[name]:
+                b.ensure_column(name, (), np.int64, 0)
+                laid_out = True                      # every column moved: new tables
+            else:
+                del new[name]                        # 0, as every body's is
     if new.get("fixed", b.fixed[i]):
         new["vel"] = np.zeros(w._dim)          # a fixed body never moves
     for name, value in new.items():
@@ -243,7 +257,7 @@ def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, 
     for name, key in (("csx", "pos"), ("csv", "vel")):
         if key in new and name in b.columns:
             getattr(b, name)[i] = 0.0
-    if laid_out or new.keys() - {"pos", "vel", "category", "mask", GROUP}:
+    if laid_out or new.keys() - {"pos", "vel", "category", "mask", GROUP, TAG}:
         w._invalidate()          # the tables hold copies derived from these
     else:
         measures.rewatch(w)

@@ -10,7 +10,7 @@ from .kernels.codes import EV_WALL as WALL, EV_LAUNCH as LAUNCH
 from .kernels.codes import EV_BURNOUT as BURNOUT, EV_FUEL_EMPTY as FUEL_EMPTY
 from .kernels.codes import EV_DETONATION as DETONATION, EV_EXPIRY as EXPIRY
 
-__all__ = ["EVENT_DTYPE", "EVENT_KINDS", "BOUNCE", "MERGE", "DESTROY", "SENSOR_BEGIN",
+__all__ = ["EVENT_DTYPE", "EVENT_KINDS", "upgrade", "BOUNCE", "MERGE", "DESTROY", "SENSOR_BEGIN",
            "SENSOR_END", "CONTACT_BEGIN", "CONTACT_END", "WALL", "LAUNCH", "BURNOUT",
            "FUEL_EMPTY", "DETONATION", "EXPIRY", "kind_name"]
 
@@ -26,6 +26,10 @@ EVENT_DTYPE = np.dtype([
     ("energy_lost", np.float64),  # kinetic energy the response removed [mass length^2/time^2]
     ("distance", np.float64),    # centre distance at the event: r_a + r_b at a contact, the
                                  # radius at a wall, the miss distance of a detonation [length]
+    # who a and b were, read while they were alive (a destroyed body's too): kind codes
+    # (names in World.kinds; -1 for no body) and the game's tags (World.tags; 0 for none)
+    ("kind_a", np.int16), ("kind_b", np.int16),
+    ("tag_a", np.int64), ("tag_b", np.int64),
 ])
 """One record per event; the id fields are generational ids as in World.ids.
 
@@ -37,6 +41,24 @@ launch: a the missile, b its launcher, the point where it appeared; burnout (the
 ended) and fuel_empty: a the ship or missile, b = -1, at the moment it happened; detonation:
 a the missile, b its target, the point the missile was at, normal toward the target, closing
 speed, distance the miss distance; expiry: a the body whose lifetime ended."""
+
+
+# the fields events had before they named their bodies' kinds and tags (run logs and state
+# files written then hold these alone)
+FIRST_FIELDS = EVENT_DTYPE.names[:EVENT_DTYPE.names.index("kind_a")]
+
+
+def upgrade(events):
+    """(E,) EVENT_DTYPE from events of this or an earlier EVENT_DTYPE (a state file's or a
+    run log's, matched by field name): kinds -1 and tags 0 where it has none."""
+    events = np.asarray(events)
+    if events.dtype == EVENT_DTYPE:
+        return events.reshape(-1)
+    out = np.zeros(events.size, EVENT_DTYPE)
+    out["kind_a"] = out["kind_b"] = -1
+    for name in events.dtype.names or ():
+        out[name] = events[name].reshape(-1)
+    return out
 
 
 def kind_name(code):

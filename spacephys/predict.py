@@ -291,7 +291,7 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
             _yield(background)
             w = shadow.ready()
             if shadow.coast:
-                w._actors.release()
+                w.driver.release_controls()
             sampler = _Sampler(w, watched, counts, shadow.buffers)
             sampler.take(w, 0)
             t = w.time_after(counts.astype(np.float64))     # as World.t computes the time
@@ -328,7 +328,7 @@ class _Shadow:
         w = world.copy()
         w.watch_energy(None)
         if coast:                         # no plans in its tables (controls: at each run)
-            w._actors.release()
+            w.driver.release_controls()
         if name != w.integrator:
             w.integrator = name           # refuses, here, a scene it cannot run
         if step != w.dt:

@@ -8,6 +8,7 @@ from collections import namedtuple
 
 import h5py
 import numpy as np
+from numpy.lib.recfunctions import repack_fields
 
 from . import checksums
 from .events import EVENT_KINDS
@@ -374,7 +375,10 @@ def replay(path, each=None):
             return ReplayResult(False, frames, None, None, world,
                                 f"the replay made {frames} frames, the log holds {len(run)}")
         made = np.concatenate(rep.events) if rep.events else np.zeros(0, LOG_EVENT_DTYPE)
-        where = _difference(run.events(), made, "events")
+        logged = run.events()
+        if logged.dtype.names != made.dtype.names:     # a log from before a field was added
+            made = repack_fields(made[list(logged.dtype.names)])
+        where = _difference(logged, made, "events")
         if where is not None:
             return ReplayResult(False, frames, None, None, world,
                                 f"the replay's events differ from the log's: {where}")

@@ -521,8 +521,12 @@ class World:
     @property
     def group(self):
         """(n,) int64 collision groups: bodies of one group > 0 never collide (0: none)."""
-        b = self._b
-        return _readonly(b.group[:b.n] if "group" in b.columns else np.zeros(b.n, np.int64))
+        return _readonly(editing.column(self, editing.GROUP))
+
+    @property
+    def tags(self):
+        """(n,) int64: each body's tag, the game's own integer (add_body's tag=; 0: none)."""
+        return _readonly(editing.column(self, editing.TAG))
 
     @property
     def mask(self):
@@ -544,7 +548,8 @@ class World:
         return b.active[:b.n] & (b.mass[:b.n] > 0)
 
     def add_body(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None,
-                 fixed=False, category=1, mask=-1, group=0, lifetime=None, explosion=None):
+                 fixed=False, category=1, mask=-1, group=0, lifetime=None, explosion=None,
+                 tag=0):
         """Add one body; returns its id.
 
         mass [mass] >= 0 (0: a test particle); pos, vel : (dim,); radius [length] >= 0;
@@ -556,24 +561,26 @@ class World:
         collide (0: none; a ship and its own missiles, a fleet); lifetime [time] > 0: removed
         that long from now, with an expiry event (None: never); explosion : an
         sp.ExplosionSpec whose debris it throws out when a collision or a detonation destroys
-        it (an asteroid that breaks up), as a ship's or missile's spec gives them.
+        it (an asteroid that breaks up), as a ship's or missile's spec gives them; tag : an
+        integer of the game's own (what the body is to it: a player, a score, an index into
+        its tables), read back in w.tags and carried by nothing else.
         """
         return editing.add_body(self, mass, pos, vel, radius, kind, active, fixed, category,
-                                mask, group, lifetime, explosion)
+                                mask, group, lifetime, explosion, tag)
 
     def add_bodies(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None,
                    fixed=False, category=1, mask=-1, group=0, lifetime=None,
-                   explosion=None):
+                   explosion=None, tag=0):
         """Add k bodies at once; returns their (k,) int64 ids.
 
         mass : number or (k,); pos, vel : (k, dim); radius : number or (k,);
         kind : one name/code or k of them; active, fixed : None/bool or (k,) bools (see
-        add_body); category, mask, group : int or (k,) ints; lifetime : None, a number or
-        (k,) numbers > 0; explosion : one sp.ExplosionSpec for all (see add_body). Everything
-        is checked before anything is added.
+        add_body); category, mask, group, tag : int or (k,) ints; lifetime : None, a number
+        or (k,) numbers > 0; explosion : one sp.ExplosionSpec for all (see add_body).
+        Everything is checked before anything is added.
         """
         return editing.add_bodies(self, mass, pos, vel, radius, kind, active, fixed, category,
-                                  mask, group, lifetime, explosion)
+                                  mask, group, lifetime, explosion, tag)
 
     index_of = editing.index_of        # itself, not a call to it: a game's every-frame call
 
@@ -586,14 +593,14 @@ class World:
 
     def set_body(self, body_id, *, pos=None, vel=None, mass=None, radius=None, kind=None,
                  active=None, fixed=None, category=None, mask=None, group=None,
-                 explosion=None):
+                 explosion=None, tag=None):
         """Change one body between steps; everything is checked before anything changes.
 
         A new pos also resets the body's render interpolation (a teleport, not a smear);
         explosion : an sp.ExplosionSpec it throws out when destroyed, or False for none.
         """
         editing.set_body(self, body_id, pos, vel, mass, radius, kind, active, fixed, category,
-                         mask, group, explosion)
+                         mask, group, explosion, tag)
 
     def remove(self, ids):
         """Remove one id or an array of ids (all must be live; duplicates count once)."""

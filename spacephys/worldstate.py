@@ -29,7 +29,7 @@ import numpy as np
 
 from .collisions import CollisionRules
 from .kernels import rules as krules
-from .events import EVENT_DTYPE
+from .events import EVENT_DTYPE, upgrade
 from .forces import ForceField
 from .integrators import get_integrator
 from .state import Bodies
@@ -56,7 +56,7 @@ def _events(w):
 
 
 def _set_events(w, value):
-    events = np.array(value, EVENT_DTYPE).reshape(-1)
+    events = upgrade(value)
     w._events = np.zeros(max(256, 2 * events.size), EVENT_DTYPE)
     w._events[:events.size] = events
     w._event_count = np.array([events.size], np.int64)

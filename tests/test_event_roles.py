@@ -47,3 +47,54 @@ def test_walls_and_the_actors_events():
                                             burn_time=0.05), heading=0.0, target=prey)
     assert _kinds_ab(w) == [("launch", missile, ship), ("burnout", missile, -1),
                             ("detonation", missile, prey)]
+
+
+def test_events_name_their_bodies_kinds_and_tags_even_once_they_are_gone():
+    """Each event carries kind_a/kind_b (codes; -1 no body) and tag_a/tag_b (w.tags; 0
+    none), read while the bodies lived: both of destroy_both's, a merge's body merged
+    away, a wall's missing b; a launch's missile and its launcher (tagged by set_body)."""
+    w = sp.World(2, gravity="none", dt=0.01)
+    w.set_collision("body", "asteroid", "destroy_both")
+    w.set_collision("asteroid", "asteroid", "merge")
+    rock = w.kinds.index("asteroid")
+    body = w.add_body(1.0, (0.0, 0.0), (1.0, 0.0), radius=1.0, tag=11)
+    target = w.add_body(1.0, (3.0, 0.0), (-1.0, 0.0), radius=1.0, kind="asteroid", tag=-22)
+    big, small = w.add_bodies([2.0, 1.0], [(0.0, 10.0), (3.0, 10.0)],
+                              [(1.0, 0.0), (-1.0, 0.0)], radius=1.0, kind="asteroid",
+                              tag=[5, 6])
+    w.add_plane((0.0, -5.0), (0.0, 1.0))
+    faller = w.add_body(1.0, (0.0, -3.0), (0.0, -1.0), radius=0.5)
+    w.step(200)
+    e = w.events
+    got = {(sp.EVENT_KINDS[int(r["kind"])], int(r["a"])): (int(r["kind_a"]), int(r["kind_b"]),
+                                                           int(r["tag_a"]), int(r["tag_b"]))
+           for r in e}
+    assert got[("destroy", body)] == (0, rock, 11, -22)
+    assert got[("destroy", target)] == (rock, 0, -22, 11)
+    assert got[("merge", big)] == (rock, rock, 5, 6)          # small is gone, its tag kept
+    assert got[("wall", faller)] == (0, -1, 0, 0)
+    assert small not in w and list(w.tags) == [5, 0]
+    w = sp.World(2, gravity="none", dt=0.01)
+    ship = w.add_ship(sp.ShipSpec(dry_mass=1.0, radius=1.0), (0.0, 0.0), heading=0.0)
+    w.set_body(ship, tag=7)
+    missile = w.launch(ship, sp.MissileSpec(mass=0.1, radius=0.5, launch_speed=1.0))
+    w.step(1)
+    launch = w.events[0]
+    assert (int(launch["a"]), int(launch["b"])) == (missile, ship)
+    assert (int(launch["kind_a"]), int(launch["kind_b"])) == \
+        (w.kinds.index("missile"), w.kinds.index("ship"))
+    assert (int(launch["tag_a"]), int(launch["tag_b"])) == (0, 7)
+
+
+def test_events_of_an_earlier_format_read_with_unknown_bodies():
+    """sp.events.upgrade: events written before kinds and tags were fields (state files,
+    run logs) read with kinds -1 and tags 0, every other field kept."""
+    import numpy as np
+    old_dtype = np.dtype([(n, sp.EVENT_DTYPE[n]) for n in sp.events.FIRST_FIELDS])
+    old = np.zeros(2, old_dtype)
+    old["kind"], old["a"], old["b"], old["speed"] = 3, [4, 5], [5, 4], 2.5
+    new = sp.events.upgrade(old)
+    assert new.dtype == sp.EVENT_DTYPE
+    assert new["a"].tolist() == [4, 5] and new["speed"].tolist() == [2.5, 2.5]
+    assert new["kind_a"].tolist() == [-1, -1] and new["tag_b"].tolist() == [0, 0]
+    assert sp.events.upgrade(new) is not None and sp.events.upgrade(new).dtype == new.dtype

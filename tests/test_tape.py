@@ -24,7 +24,7 @@ def _scene(integrator="yoshida4"):
 
 
 def _played(w):
-    return w.__dict__["_shadows"][False].tape.played
+    return w.__dict__["_shadows"][False, False].tape.played
 
 
 def _same(w, ids, **options):
@@ -117,12 +117,12 @@ def test_scenes_without_a_tape_predict_as_before():
     w, inner, ship, probe = _scene("gauss_radau")
     _same(w, [ship, inner])
     _same(w, [ship, inner])
-    assert w.__dict__["_shadows"][False].tape is None
+    assert w.__dict__["_shadows"][False, False].tape is None
     w, inner, ship, probe = _scene()
     w.add_force(_nudge, [1e-6])
     _same(w, [ship, inner])
     _same(w, [ship, inner])
-    assert w.__dict__["_shadows"][False].tape is None
+    assert w.__dict__["_shadows"][False, False].tape is None
 
 
 @numba.njit
@@ -223,7 +223,7 @@ def test_many_ships_are_predicted_in_two_halves_on_two_threads_bit_for_bit():
     first = w.predict(ships, 0.8, **options)
     assert _played(w) == 0
     got = w.predict(ships, 0.8, **options)
-    halves = w.__dict__["_shadows"][False].halves
+    halves = w.__dict__["_shadows"][False, False].halves
     assert _played(w) == 2 * 200
     assert [c.n for c in halves.copies] == [3 + 1 + 6, 3 + 6]    # no rock
     fresh = w.copy().predict(ships, 0.8, **options)
@@ -246,5 +246,5 @@ def test_ships_coupled_otherwise_are_predicted_in_one_run():
     w.predict(ships, 0.8, points=60)
     got = w.predict(ships, 0.8, points=60)
     assert _played(w) == 200
-    assert "halves" not in w.__dict__["_shadows"][False].__dict__
+    assert "halves" not in w.__dict__["_shadows"][False, False].__dict__
     _compare(got, w.copy().predict(ships, 0.8, points=60))
