@@ -22,6 +22,7 @@ import numpy as np
 from . import editing, measures
 from .errors import caller_level
 from .events import EVENT_DTYPE
+from .kernels import parties as kparties
 from .kernels import state as kstate
 from .kernels.codes import FAILED, NONFINITE, REMOVED
 
@@ -139,20 +140,11 @@ class Driver:
 
     def _name_bodies(self, first):
         """The kinds and tags of the bodies a and b of the events from `first` on, read
-        before the bodies a call destroyed or merged away leave."""
+        before the bodies a call destroyed or merged away leave (kernels/parties.py)."""
         w = self.w
-        count = w._event_count.item(0)
-        if count <= first:                         # the common call: nothing happened
-            return
-        events = w._events[first:count]
         b = w._b
-        tagged = editing.TAG in b.columns
-        for side in "ab":
-            rows = b.lookup(events[side])
-            found = rows >= 0
-            rows[~found] = 0                       # a row there is (the capacity is >= 1)
-            events["kind_" + side] = np.where(found, b.kind[rows], -1)
-            events["tag_" + side] = np.where(found, b.tag[rows], 0) if tagged else 0
+        kparties.name_bodies(w._events, first, w._event_count.item(0), b.generation, b.index,
+                             b.slots_used, b.kind, editing.optional(w, editing.TAG))
 
     def _calls(self, nsteps, frame_at=None, sink=None):
         """Take nsteps steps; a kernel call ends early after a collision removed or merged
@@ -164,7 +156,7 @@ class Driver:
         status = 0
         while nsteps:
             plan = w._plan or w.tables()
-            first = w._event_count[0]
+            first = w._event_count.item(0)
             frames = None
             if frame_at is not None:
                 at = frame_at[frame_at > consumed] - consumed
@@ -181,7 +173,8 @@ class Driver:
             if w._event_count[0] > w._events.shape[0]:
                 w._events = kstate.events_of(plan.state)        # the kernel grew it
                 w._plan = None
-            self._name_bodies(first)
+            if w._event_count.item(0) > first:     # (most calls: nothing happened)
+                self._name_bodies(first)
             if plan.rules is not None:
                 w._collisions.caught_up(plan.rules)
             if frames is not None:

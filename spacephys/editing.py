@@ -37,10 +37,11 @@ OPTIONAL = {GROUP: 0, TAG: np.iinfo(np.int64).min}      # name -> the smallest v
 _NONE = np.zeros(0, np.int64)
 
 
-def groups(w):
-    """The collision pass's group column: (n,) int64 shared, or (0,) while no body has one."""
+def optional(w, name):
+    """An optional column's live rows, shared, or (0,) while no body has a value (for the
+    kernels: the collision pass's groups, the events' tags)."""
     b = w._b
-    return b.group[:b.n] if GROUP in b.columns else _NONE
+    return getattr(b, name)[:b.n] if name in b.columns else _NONE
 
 
 def column(w, name):

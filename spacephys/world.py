@@ -1028,7 +1028,7 @@ class World:
         forces = self._forces.table(b.mass[:n], b.ids[:n], *sources,
                                     b.held[:n] if HELD in b.columns else None, threads)
         rules = self._collisions.table(b.kind[:n].astype(np.int64), b.radius[:n],
-                                       b.category[:n], b.mask[:n], editing.groups(self),
+                                       b.category[:n], b.mask[:n], editing.optional(self, editing.GROUP),
                                        b.fixed[:n], self._actors.owners(), self._dim,
                                        b.index, scratch)
         plan = Plan(self, state, forces, rules, self._actors.table(actors),
