@@ -179,8 +179,9 @@ class ForceField:
         gravity); exact: a tree's sum made directly."""
         g, eps2 = self.G, self.softening ** 2
         if self.gravity == "direct" or (exact and self.gravity == "tree"):
+            # sums: None below PAIRS_FROM, so that a few-body scene compiles no pairs code
             return kgravity.Direct(g, eps2, np.empty((4, ns)),
-                                   np.empty((3, ns if ns >= PAIRS_FROM else 0)))
+                                   np.empty((3, ns)) if ns >= PAIRS_FROM else None)
         if self.gravity == "tree":
             from .kernels.tree import Tree
             return Tree(g, eps2, self.theta, int(self.quadrupole), np.empty((4, ns)))

@@ -24,7 +24,7 @@ def _model(model, ns, G=1.7, eps2=0.0, field=np.zeros(3), field_mass=0.0):
     """The gravity table of `model` (a name) for ns sources, as spacephys/forces.py builds it."""
     if model == "direct":
         return gravity.Direct(G, eps2, np.empty((4, ns)),
-                              np.empty((3, ns if ns >= pairs.PAIRS_FROM else 0)))
+                              np.empty((3, ns)) if ns >= pairs.PAIRS_FROM else None)
     if model == "central":
         return gravity.Central(G, eps2, field, field_mass, np.empty((4, 1)))
     if model == "uniform":
@@ -445,3 +445,24 @@ def test_the_cores_other_programs_hold_are_counted():
             p.kill()
             p.wait()
     assert seen >= 2
+
+
+def test_a_few_pulling_bodies_compile_no_pairs_code(tmp_path):
+    """Below pairs.PAIRS_FROM the Direct table's sums are None, a type of its own, so the
+    step kernel of a star system (6 pulling bodies) compiles none of pull_pairs (it cost the
+    default scene's cold first step 3.6 s while the sums were an empty array); a cluster of
+    PAIRS_FROM does. In a fresh process with an empty cache."""
+    import subprocess
+    code = ("import numpy as np, spacephys as sp\n"
+            "from spacephys.kernels import pairs\n"
+            "import sys; n = int(sys.argv[1])\n"
+            "w = sp.World(3, dt=1e-3)\n"
+            "w.threads = 'never'\n"
+            "w.add_bodies(1.0, np.random.default_rng(1).normal(size=(n, 3)))\n"
+            "w.step(1)\n"
+            "print(len(pairs.pull_pairs.signatures) + len(pairs.tile.signatures))\n")
+    env = dict(__import__("os").environ, NUMBA_CACHE_DIR=str(tmp_path))
+    few, many = (int(subprocess.run([sys.executable, "-c", code, str(n)], env=env, check=True,
+                                    capture_output=True, text=True).stdout.split()[-1])
+                 for n in (6, pairs.PAIRS_FROM))
+    assert few == 0 and many > 0

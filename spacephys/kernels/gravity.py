@@ -30,7 +30,8 @@ from .diagnostics import add
 
 # G [length^3 / (mass time^2)]; eps2: softening squared [length^2]; sources (4, ns): the
 # pulling bodies' x, y, z, m, gathered per evaluation; sums (3, ns) their pulls on each other
-# with each pair evaluated once (pairs.pull_pairs), or (3, 0) below pairs.PAIRS_FROM sources
+# with each pair evaluated once (pairs.pull_pairs), or None below pairs.PAIRS_FROM sources (a
+# type of its own: those scenes compile none of the pairs code)
 Direct = namedtuple("Direct", ("G", "eps2", "sources", "sums"))
 # g (3,) [length / time^2]
 Uniform = namedtuple("Uniform", ("g",))
@@ -121,7 +122,7 @@ def _pairs_first(sums, s, src, pos, out, targets, G, eps2, threads):
     """With sums (the scene has pairs.PAIRS_FROM sources or more) and the targets every body
     or exactly the sources: the sources' pulls on each other, each pair once, into out.
     Returns which targets are left: the passive ones, none, or (no pairs) all of them."""
-    if sums.shape[1] == 0:
+    if sums is None:
         return _ALL_LEFT
     if targets.size == pos.shape[0]:
         left = _PASSIVE_LEFT
