@@ -143,8 +143,8 @@ class Driver:
         before the bodies a call destroyed or merged away leave (kernels/parties.py)."""
         w = self.w
         b = w._b
-        kparties.name_bodies(w._events, first, w._event_count.item(0), b.generation, b.index,
-                             b.slots_used, b.kind, editing.optional(w, editing.TAG))
+        kparties.name_bodies(w._events, first, w._event_count.item(0), b.index, b.ids, b.kind,
+                             editing.optional(w, editing.TAG))
 
     def _calls(self, nsteps, frame_at=None, sink=None):
         """Take nsteps steps; a kernel call ends early after a collision removed or merged

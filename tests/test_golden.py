@@ -47,13 +47,17 @@ def World(**settings):
     return w
 
 
-def _ring(rng, n, r0, r1, dim):
+def _ring(rng, n, r0, r1, dim, thickness=0.0):
+    """n bodies on circular orbits about a unit mass at radii r0..r1 in the xy plane, at
+    heights of normal spread `thickness` (drawn after the ring)."""
     r = rng.uniform(r0, r1, n)
     th = rng.uniform(0.0, 2 * np.pi, n)
     pos = np.zeros((n, dim))
     vel = np.zeros((n, dim))
     pos[:, 0], pos[:, 1] = r * np.cos(th), r * np.sin(th)
     vel[:, 0], vel[:, 1] = -np.sin(th) / np.sqrt(r), np.cos(th) / np.sqrt(r)
+    if thickness:
+        pos[:, 2] = rng.normal(scale=thickness, size=n)
     return pos, vel
 
 
@@ -66,8 +70,7 @@ def gravity_scene(integrator):
     vel[:, 2] = rng.normal(scale=0.05, size=4)
     w.add_bodies(rng.uniform(1e-5, 1e-3, 4), pos, vel * rng.uniform(0.9, 1.1, (4, 1)),
                  kind="planet")
-    pos, vel = _ring(rng, 600, 1.0, 3.0, 3)
-    pos[:, 2] = rng.normal(scale=0.05, size=600)
+    pos, vel = _ring(rng, 600, 1.0, 3.0, 3, thickness=0.05)
     w.add_bodies(0.0, pos, vel * rng.uniform(0.8, 1.2, (600, 1)), kind="asteroid")
     w.move_to_center_of_mass()
     return w, [w.step(60)]
@@ -145,8 +148,7 @@ def cluster_scene(integrator):
     rng = np.random.default_rng(15)
     w = World(dim=3, integrator=integrator, dt=0.01)
     w.add_body(1.0, (0.0, 0.0, 0.0), kind="star")
-    pos, vel = _ring(rng, 450, 1.0, 2.0, 3)
-    pos[:, 2] = rng.normal(scale=0.05, size=450)
+    pos, vel = _ring(rng, 450, 1.0, 2.0, 3, thickness=0.05)
     w.add_bodies(rng.uniform(1e-7, 1e-5, 450), pos, vel * rng.uniform(0.95, 1.05, (450, 1)),
                  kind="planet")
     w.move_to_center_of_mass()

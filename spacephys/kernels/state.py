@@ -61,6 +61,20 @@ def make(**fields):
     return _make(*(fields[name] for name in FIELDS))
 
 
+_SLOT_MASK = (1 << 32) - 1                # an id's slot (state.py: (generation << 32) | slot)
+
+
+@kernel(inline=True)
+def row_of(index, ids, body_id):
+    """The row of a body id, -1 if it names no body now (-1 included): index (slots,) the
+    World's slot -> row table, ids the id column."""
+    slot = body_id & _SLOT_MASK
+    if slot >= index.size:
+        return -1
+    r = index[slot]
+    return r if r >= 0 and ids[r] == body_id else -1
+
+
 @kernel
 def events_of(state):
     """The event buffer: a new array once a kernel grew it."""

@@ -11,25 +11,12 @@ from .codes import (BOUNCE, ELASTIC, EV_CONTACT_BEGIN, EV_CONTACT_END, EV_SENSOR
 from .arrays import stable_order
 from .impact import exit_time
 from .rules import allowed, wrap
-from .state import record
+from .state import record, row_of
 
 # bodies in contact (elastic, bounce) are touching while the gap between their surfaces is at
 # most this fraction of the sum of their radii: a resting body's gap after its bounce is
 # rounding, a settling one's e g dt^2; a visible gap is a separation
 CONTACT_SLOP = 1e-4
-_SLOT_MASK = (1 << 32) - 1                # an id's slot (state.py: (generation << 32) | slot)
-
-
-@kernel(inline=True)
-def _row(index, ids, body_id):
-    """The row of a body id, -1 if it names no body now."""
-    slot = body_id & _SLOT_MASK
-    if slot >= index.size:
-        return -1
-    r = index[slot]
-    return r if r >= 0 and ids[r] == body_id else -1
-
-
 @kernel
 def _touch_event(state, rules, kind, i, j, t, dt, t0, L):
     """Record a begin or end event of rows i, j at fraction t of the step, from their lines:
@@ -82,8 +69,8 @@ def touches(state, rules, dt, t0, L):
     ne = 0
     k = 0
     for p in range(P):
-        i = _row(rules.index, ids, rules.touch[p, 0])
-        j = _row(rules.index, ids, rules.touch[p, 1])
+        i = row_of(rules.index, ids, rules.touch[p, 0])
+        j = row_of(rules.index, ids, rules.touch[p, 1])
         if i < 0 or j < 0:
             # a body removed between steps: its pair ends at this step's start
             point = np.zeros(3)
