@@ -121,12 +121,43 @@ class Actors:
         self.b.ensure_columns(LIFETIME_COLUMNS)
 
     def _actor_row(self, body, field="id"):
+        """The row of a ship or missile (ValueError naming field for any other body)."""
         i = self.w.index_of(body, field)
         b = self.b
-        if "actor" not in b.columns or not b.actor.item(i):
+        if "actor" not in b.columns or not b.actor.item(i) or \
+                b.flags.item(i) & control.FLAG_ROTOR:
             raise ValueError(f"{field} = {body}: body is a {self.w.kinds[self.b.kind[i]]!r}, "
                              f"not a ship or missile")
         return i
+
+    def _oriented_row(self, body):
+        """The row of a body with an orientation (an actor or a rotor), -1 for any other."""
+        i = self.w.index_of(body, "body")
+        b = self.b
+        return i if "actor" in b.columns and b.actor.item(i) else -1
+
+    def _rotor(self, i):
+        """Give the body at row i an orientation of its own (a rotor: identity, at rest)
+        unless it has one; returns its row (the columns may have been laid out anew)."""
+        b = self.b
+        if "actor" in b.columns and b.actor.item(i):
+            return i
+        body = int(b.ids[i])
+        self._actor_columns()
+        i = self.w.index_of(body)
+        b = self.b
+        b.actor[i] = True
+        b.quat[i] = (1.0, 0.0, 0.0, 0.0)
+        b.inertia[i] = np.inf                # no torque acts on a rotor: it keeps its spin
+        b.flags[i] = control.FLAG_ROTOR
+        self.w._invalidate()
+        return i
+
+    def _engines(self, rows):
+        """The ships and missiles among these rows of actors (rotors left out)."""
+        if not rows.size:
+            return rows
+        return rows[self.b.flags[rows] & control.FLAG_ROTOR == 0]
 
     def _exhaust_speed(self, spec):
         if spec.exhaust_speed is not None:
@@ -238,25 +269,50 @@ class Actors:
 
     def heading(self, body):
         """World.heading (the docstring is there)."""
-        q = self.b.quat[self._actor_row(body, "body")]
-        h = _rotate(q, np.array([1.0, 0.0, 0.0]))
+        h = _rotate(self.orientation(body), np.array([1.0, 0.0, 0.0]))
         return float(math.atan2(h[1], h[0])) if self.w.dim == 2 else h
 
     def orientation(self, body):
         """World.orientation (the docstring is there)."""
-        return self.b.quat[self._actor_row(body, "body")].copy()
+        i = self._oriented_row(body)
+        return np.array([1.0, 0.0, 0.0, 0.0]) if i < 0 else self.b.quat[i].copy()
 
     def set_heading(self, body, heading):
         """World.set_heading (the docstring is there)."""
-        i = self._actor_row(body, "body")
+        i = self.w.index_of(body, "body")
         _, q = _heading(self.w.dim, heading)
+        i = self._rotor(i)
         self.b.quat[i] = q
         self.b.omega[i] = 0.0
 
     def angular_velocity(self, body):
         """World.angular_velocity (the docstring is there)."""
-        w = self.b.omega[self._actor_row(body, "body")]
+        i = self._oriented_row(body)
+        if i < 0:
+            return 0.0 if self.w.dim == 2 else np.zeros(3)
+        w = self.b.omega[i]
         return float(w[2]) if self.w.dim == 2 else w.copy()
+
+    def spin_value(self, body, omega):
+        """A checked angular velocity for set_body: body-frame (3,) (2D: about z); ValueError
+        for an actor that turns arcade-style (its rate comes from its commands)."""
+        if self.w.dim == 2:
+            w = np.array([0.0, 0.0, check.scalar("angular_velocity", omega)])
+        else:
+            w = check.floats("angular_velocity", omega, (3,))
+        i = self._oriented_row(body)
+        if i >= 0 and not self.b.inertia.item(i) > 0.0:
+            raise ValueError(f"angular_velocity of {body}: it turns at its turn_rate as "
+                             f"commanded (arcade); give its spec a moment_of_inertia for "
+                             f"physical rotation")
+        return w
+
+    def set_spin(self, i, omega):
+        """Set the body-frame angular velocity (3,) of the body at row i (a rotor made if it
+        has no orientation); returns its row."""
+        i = self._rotor(i)
+        self.b.omega[i] = omega
+        return i
 
     def fuel(self, body):
         """World.fuel (the docstring is there)."""
@@ -286,7 +342,13 @@ class Actors:
     def is_ship(self, body):
         i = self.w.index_of(body, "id")
         b = self.b
-        return "actor" in b.columns and bool(b.actor[i]) and b.launcher[i] < 0
+        return "actor" in b.columns and bool(b.actor[i]) and b.launcher[i] < 0 and \
+            not b.flags[i] & control.FLAG_ROTOR
+
+    def is_actor(self, i):
+        """Whether the body at row i is a ship or missile."""
+        b = self.b
+        return "actor" in b.columns and bool(b.actor[i]) and not b.flags[i] & control.FLAG_ROTOR
 
     def release(self):
         """Every ship's controls released (throttle, turn and strafe 0) and its plan cleared,
@@ -294,7 +356,7 @@ class Actors:
         b = self.b
         if "actor" in b.columns:
             n = b.n
-            ships = np.flatnonzero(b.actor[:n] & (b.launcher[:n] < 0))
+            ships = self._engines(np.flatnonzero(b.actor[:n] & (b.launcher[:n] < 0)))
             b.throttle[ships] = 0.0
             b.turn[ships] = 0.0
             b.strafe[ships] = 0.0
@@ -346,7 +408,8 @@ class Actors:
             raise ValueError(f"guidance={spec.guidance!r} needs a target")
         if heading is None:
             if "actor" not in b.columns or not b.actor[p]:
-                raise ValueError(f"parent = {parent} has no heading of its own: give heading")
+                raise ValueError(f"parent = {parent} has no heading of its own: give heading "
+                                 f"(or set_heading the parent)")
             q = b.quat[p].copy()
             h = _rotate(q, np.array([1.0, 0.0, 0.0]))
         else:
@@ -354,7 +417,7 @@ class Actors:
         h = h[:self.w.dim]
         ve = self._exhaust_speed(spec)
         m = spec.dry_mass + spec.fuel_mass
-        is_ship = "actor" in b.columns and b.actor[p]
+        is_ship = self.is_actor(p)
         if spec.recoil:
             room = (b.dry[p] if is_ship else b.mass[p]) - m
             if not room > 0.0:
@@ -532,16 +595,21 @@ class Actors:
         return owner
 
     def rows(self):
-        """(A,) int64 rows of the ships and missiles now alive."""
+        """(A,) int64 rows of the bodies with an orientation now alive: ships, missiles and
+        rotors (the kernels turn them all)."""
         b = self.b
         if "actor" not in b.columns:
             return np.zeros(0, np.int64)
         return np.flatnonzero(b.actor[:b.n]).astype(np.int64)
 
+    def engines(self):
+        """(k,) int64 rows of the ships and missiles now alive."""
+        return self._engines(self.rows())
+
     def any_of(self, rows):
         """Whether any of these rows is a ship or missile."""
         b = self.b
-        return "actor" in b.columns and bool(b.actor[rows].any())
+        return "actor" in b.columns and self._engines(np.asarray(rows)[b.actor[rows]]).size > 0
 
     def table(self, actors):
         """The kernels' Actors table for the bodies now alive (columns shared), or None when

@@ -203,10 +203,10 @@ def get(w, body_id):
 
 
 def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, mask,
-             group=None, explosion=None, tag=None):
+             group=None, explosion=None, tag=None, angular_velocity=None):
     """World.set_body (None: unchanged)."""
     i = w.index_of(body_id)
-    if mass is not None and "actor" in w._b.columns and w._b.actor[i]:
+    if mass is not None and w._actors.is_actor(i):
         raise ValueError(f"mass of {body_id}: a ship's or missile's mass is dry + fuel; "
                          f"use set_fuel")
     new = {}
@@ -232,11 +232,16 @@ def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, 
         if value is not None:
             new[name] = _optional(name, value, 1)[0]
     explosion = _explosion(explosion, allow_false=True)
+    if angular_velocity is not None:
+        angular_velocity = w._actors.spin_value(body_id, angular_velocity)
     b = w._b
     laid_out = False
     if explosion is not None:                  # checked above: it cannot fail now
         laid_out = w._actors.set_explosions(i, explosion)
         i = w.index_of(body_id)
+    if angular_velocity is not None:
+        i = w._actors.set_spin(i, angular_velocity)
+        b = w._b
     for name in OPTIONAL:
         if name in new and name not in b.columns:
             if new[name]:

@@ -593,14 +593,18 @@ class World:
 
     def set_body(self, body_id, *, pos=None, vel=None, mass=None, radius=None, kind=None,
                  active=None, fixed=None, category=None, mask=None, group=None,
-                 explosion=None, tag=None):
+                 explosion=None, tag=None, angular_velocity=None):
         """Change one body between steps; everything is checked before anything changes.
 
         A new pos also resets the body's render interpolation (a teleport, not a smear);
-        explosion : an sp.ExplosionSpec it throws out when destroyed, or False for none.
+        explosion : an sp.ExplosionSpec it throws out when destroyed, or False for none;
+        angular_velocity [rad/time] : body-frame, a number (2D, about z) or (3,): any body
+        spins at it from then on (heading and orientation follow; no torque changes a
+        rotor's), a ship or missile with physical rotation (ShipSpec.moment_of_inertia) until
+        its thrusters turn it.
         """
         editing.set_body(self, body_id, pos, vel, mass, radius, kind, active, fixed, category,
-                         mask, group, explosion, tag)
+                         mask, group, explosion, tag, angular_velocity)
 
     def remove(self, ids):
         """Remove one id or an array of ids (all must be live; duplicates count once)."""
@@ -861,22 +865,24 @@ class World:
         self._actors.control(body, throttle, turn, strafe)
 
     def heading(self, body):
-        """Where the main engine points: an angle [rad] in (-pi, pi] in 2D, a unit (3,)
-        vector in 3D."""
+        """Where the body's x axis points (a ship's main engine): an angle [rad] in
+        (-pi, pi] in 2D, a unit (3,) vector in 3D; 0 (+x) for a body never given one."""
         return self._actors.heading(body)
 
     def orientation(self, body):
         """The unit quaternion (w, x, y, z) turning body axes (x forward, y left, z up) into
-        world axes."""
+        world axes; (1, 0, 0, 0) for a body never given one."""
         return self._actors.orientation(body)
 
     def set_heading(self, body, heading):
-        """Point an actor: an angle [rad] (2D) or a vector; stops physical rotation."""
+        """Point any body: an angle [rad] (2D) or a vector; stops its rotation. A body that
+        is not a ship or missile gets an orientation of its own from then on (it turns at
+        its angular_velocity, see set_body); bodies never given one carry none."""
         self._actors.set_heading(body, heading)
 
     def angular_velocity(self, body):
         """Body-frame angular velocity [rad/time]: the z rate in 2D, (3,) in 3D (physical
-        rotation; arcade turning has none between steps)."""
+        rotation; arcade turning has none between steps); 0 for a body never given one."""
         return self._actors.angular_velocity(body)
 
     def fuel(self, body):
@@ -940,9 +946,7 @@ class World:
     def actor_ids(self):
         """(k,) int64 ids of the ships and missiles, in row order."""
         b = self._b
-        if "actor" not in b.columns:
-            return np.zeros(0, np.int64)
-        return b.ids[:b.n][b.actor[:b.n]].copy()
+        return b.ids[self._actors.engines()]
 
     @property
     def intensity(self):
@@ -1013,7 +1017,7 @@ class World:
         n = b.n
         sources = self._sources()
         actors = self._actors.rows()
-        self._stepper.check(self, sources, actors)
+        self._stepper.check(self, sources, self._actors.engines())
         b.ensure_columns(self._stepper.columns)     # before any table takes a column
         scratch = self._scratch_rows(n)
         alive = scratch["alive"]

@@ -43,9 +43,11 @@ from . import libm
 # distance]
 PENDING = 12
 
-# flags: what has been reported once, and a missile that never meets its launcher (armed or
-# not: MissileSpec.hits_launcher False)
-_FLAG_EMPTY, _FLAG_BURNOUT, FLAG_SPARES = 1, 2, 4
+# flags: what has been reported once, a missile that never meets its launcher (armed or
+# not: MissileSpec.hits_launcher False), and a rotor: a body with an orientation and no
+# engine (World.set_heading or set_body(angular_velocity=) on a body that is not an actor;
+# no thrust, infinite inertia: it keeps its spin)
+_FLAG_EMPTY, _FLAG_BURNOUT, FLAG_SPARES, FLAG_ROTOR = 1, 2, 4, 8
 # burn columns
 DX, DY, DZ, F, MDOT, M0, T_STOP, VE, T_START, LIMIT = range(10)
 # plan columns (a row per planned burn; a ship's rows sorted by start, not overlapping)
