@@ -55,8 +55,8 @@ __all__ = [
 
 
 def __getattr__(name):
-    if name == "netplay":                          # a subpackage, imported on first use
-        return importlib.import_module(".netplay", __name__)
+    if name in ("netplay", "draw"):               # imported on first use
+        return importlib.import_module(f".{name}", __name__)
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'spacephys' has no attribute {name!r}")

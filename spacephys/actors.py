@@ -250,6 +250,14 @@ class Actors:
             else:
                 b.strafe[i] = strafe
 
+    def controls(self, body):
+        """World.controls (the docstring is there)."""
+        i = self._actor_row(body, "body")
+        b = self.b
+        if self.w.dim == 2:
+            return float(b.throttle[i]), float(b.turn[i, 2]), float(b.strafe[i, 1])
+        return float(b.throttle[i]), b.turn[i].copy(), b.strafe[i, 1:].copy()
+
     def _command(self, name, value, axes):
         """A turn or strafe command in [-1, 1]: in 2D the number, in 3D the body-frame (3,)
         row of its len(axes) numbers."""
@@ -292,6 +300,22 @@ class Actors:
             return 0.0 if self.w.dim == 2 else np.zeros(3)
         w = self.b.omega[i]
         return float(w[2]) if self.w.dim == 2 else w.copy()
+
+    def headings(self):
+        """World.headings (the docstring is there)."""
+        b, n, dim = self.b, self.b.n, self.w.dim
+        out = np.full((n,) if dim == 2 else (n, 3), np.nan)
+        if "actor" not in b.columns:
+            return out
+        rows = np.flatnonzero(b.actor[:n])
+        w, x, y, z = b.quat[rows].T
+        # R(q) (1, 0, 0): the first column of the rotation matrix
+        hx, hy, hz = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)
+        if dim == 2:
+            out[rows] = np.arctan2(hy, hx)
+        else:
+            out[rows] = np.stack([hx, hy, hz], axis=1)
+        return out
 
     def spin_value(self, body, omega):
         """A checked angular velocity for set_body: body-frame (3,) (2D: about z); ValueError

@@ -87,7 +87,7 @@ def _play(args):
     from .game import loop, make_mode
     if args.replay is not None:
         result, frames = loop.replay(args.replay, headless=args.headless,
-                                     screenshot=args.screenshot)
+                                     screenshot=args.screenshot, frames=args.frames)
         if result is None:
             print(f"replay of {args.replay} stopped after {frames} frames")
             return 0

@@ -388,7 +388,7 @@ def replay(path, each=None):
                 return ReplayResult(False, frames, None, None, world,
                                     f"the final state differs in {where}")
         return ReplayResult(True, frames, None, None, world,
-                            f"{frames} frames, the events and the final state equal, bit "
+                            f"{frames} recorded frames, the events and the final state equal, bit "
                             f"for bit")
 
 

@@ -864,10 +864,22 @@ class World:
         missiles steer themselves and ignore turn."""
         self._actors.control(body, throttle, turn, strafe)
 
+    def controls(self, body):
+        """(throttle, turn, strafe) of a ship or missile as control() last left them: numbers
+        in 2D, turn (3,) and strafe (2,) in 3D (a guided missile's turn is its guidance's,
+        not these)."""
+        return self._actors.controls(body)
+
     def heading(self, body):
         """Where the body's x axis points (a ship's main engine): an angle [rad] in
         (-pi, pi] in 2D, a unit (3,) vector in 3D; 0 (+x) for a body never given one."""
         return self._actors.heading(body)
+
+    @property
+    def headings(self):
+        """Every body's heading at once, for renderers: (n,) angles [rad] in 2D, (n, 3) unit
+        vectors in 3D; NaN for the bodies never given an orientation (heading() reads 0)."""
+        return self._actors.headings()
 
     def orientation(self, body):
         """The unit quaternion (w, x, y, z) turning body axes (x forward, y left, z up) into

@@ -494,6 +494,22 @@ def test_control_of_a_plain_body_is_refused():
     rock = w.add_body(1.0, (0.0, 0.0))
     with pytest.raises(ValueError, match="not a ship or missile"):
         w.control(rock, throttle=1.0)
+    with pytest.raises(ValueError, match="not a ship or missile"):
+        w.controls(rock)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_controls_reads_back_what_control_set(dim):
+    w = sp.World(dim, gravity="none")
+    ship = w.add_ship(sp.ShipSpec(**ENGINE), np.zeros(dim))
+    assert w.controls(ship)[0] == 0.0
+    if dim == 2:
+        w.control(ship, throttle=0.5, turn=-0.25, strafe=1.0)
+        assert w.controls(ship) == (0.5, -0.25, 1.0)
+    else:
+        w.control(ship, throttle=0.5, turn=(0.1, 0.2, 0.3), strafe=(-1.0, 0.5))
+        throttle, turn, strafe = w.controls(ship)
+        assert throttle == 0.5 and list(turn) == [0.1, 0.2, 0.3] and list(strafe) == [-1.0, 0.5]
 
 
 def test_bad_launches_change_nothing():

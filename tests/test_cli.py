@@ -115,7 +115,7 @@ def test_runlog_page_example_runs_as_pasted():
     assert lines[0] == "81 frames; last at t = 3.5"
     assert lines[1] == "fuel burned out at t = [3.]"
     assert lines[2] == "['control', 'step', 'setattr', 'step']"
-    assert lines[3] == "81 frames, the events and the final state equal, bit for bit"
+    assert lines[3] == "81 recorded frames, the events and the final state equal, bit for bit"
 
 
 def test_readme_commands_are_what_ci_runs():

@@ -17,7 +17,7 @@ from spacephys.game import make_mode                                      # noqa
 from spacephys.game.loop import play, replay                              # noqa: E402
 from spacephys.game.modes import TEAM_COLOURS                             # noqa: E402
 from spacephys.game.pilot import intercept                                # noqa: E402
-from spacephys.game.view import KIND_COLOURS, Projection, positions       # noqa: E402
+from spacephys.draw import KIND_COLOURS, Camera, drawn_positions       # noqa: E402
 
 
 def _events_of(mode):
@@ -96,8 +96,9 @@ def test_the_frame_shows_the_star_and_ships_at_their_pixels(tmp_path):
     pixels = pygame.surfarray.array3d(image)              # (width, height, 3)
     assert len(np.unique(pixels.reshape(-1, 3), axis=0)) > 10     # not blank
     w = m.world
-    drawn = positions(w, done.alpha)
-    project = Projection(image.get_size(), *m.camera(drawn))
+    drawn = drawn_positions(w, done.alpha)
+    project = Camera(*m.camera(drawn))
+    project.aim(w, drawn, image.get_size())
     star = project(drawn[w.index_of(m.star)]).astype(int)
     assert tuple(pixels[star[0], star[1]]) == KIND_COLOURS["star"]
     for k, ship in enumerate(m.ships):

@@ -141,3 +141,16 @@ def test_bad_orientations_are_named_and_nothing_changes(dim, call, message):
     with pytest.raises(ValueError, match=message):
         call(w, body, ship)
     assert w.digest() == before and set(w._b.columns) == columns
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_headings_reads_every_body_at_once(dim):
+    w, _, rock = _pair(dim)
+    ship = w.add_ship(sp.ShipSpec(dry_mass=1.0, fuel_mass=1.0, max_thrust=1.0,
+                                  exhaust_speed=10.0, turn_rate=1.0), np.full(dim, 3.0),
+                      heading=2.5 if dim == 2 else (0.0, -1.0, 1.0))
+    w.step(13)
+    got = w.headings
+    assert np.isnan(got[0]).all()                          # the star has none
+    for body in (rock, ship):
+        np.testing.assert_allclose(got[w.index_of(body)], w.heading(body), atol=1e-15)

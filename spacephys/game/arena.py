@@ -66,6 +66,19 @@ class Arena(Mode):
         self.side[ship] = k % 2
         return ship
 
+    def adopt(self, ship):
+        """A replayed respawn: controls() brings back, slot by slot in order, the ships
+        due."""
+        k = next(k for k in range(SHIPS) if self._due(k))
+        self.slots[k] = ship
+        self.side[ship] = k % 2
+        self.dead_since[k] = None
+
+    def _due(self, k):
+        """Whether slot k's ship is gone and waited long enough to come back."""
+        return self.slots[k] not in self.world and self.dead_since[k] is not None and \
+            self.world.t - self.dead_since[k] >= RESPAWN
+
     def _pilot(self, k):
         return Pilot(self, self.slots[k], self.warhead, hazards=("planet",), reload=0.6,
                      salvo=4, spread=0.5, magazine=40, range=1200.0)
@@ -92,7 +105,7 @@ class Arena(Mode):
         for k in range(SHIPS):
             ship = self.slots[k]
             if ship not in w:
-                if self.dead_since[k] is not None and w.t - self.dead_since[k] >= RESPAWN:
+                if self._due(k):
                     self._spawn(w, k)
                     self.dead_since[k] = None
                     if self.pilots[k] is not None:

@@ -8,7 +8,9 @@ import time
 
 import numpy as np
 
-from .modes import KEYS, Watch
+from .modes import KEYS, Watch, make_mode, mode_of
+
+RECORD_EVERY = 1.0                 # [time] between the frames of a recording
 
 
 def _pygame(headless):
@@ -73,8 +75,10 @@ def play(mode, *, frames=None, script=None, headless=False, record=None, record_
     w = mode.world
     log = None
     if record is not None:
-        every = record_every or max(1, round(0.1 / w.dt))
-        log = w.record(record, every=every)
+        # the replay re-runs the recorded calls: frames only check it, one a second is
+        # plenty; and a match's many short-lived debris make layouts that compress well
+        every = record_every or max(1, round(RECORD_EVERY / w.dt))
+        log = w.record(record, every=every, compression="lzf", scenario=mode.command)
     watched = _watched(mode)
     codes = {}
     for name in watched:
@@ -153,31 +157,44 @@ class _Stop(Exception):
     pass
 
 
-def replay(path, *, headless=False, size=(960, 720), realtime=None, screenshot=None):
+def replay(path, *, headless=False, size=(960, 720), realtime=None, screenshot=None,
+           frames=None):
     """Re-run a recorded match (sp.replay: its calls from its first checkpoint, compared bit
-    for bit with what was recorded) and draw it after each advance() or step(). Returns
-    (sp.ReplayResult, frames drawn); closing the window stops it (result None)."""
+    for bit with what was recorded) and draw each frame (each advance() or step()) as the
+    mode that recorded it draws it (its HUD, flames, overlay; Watch for a World recorded by
+    anything else). frames : stop after drawing this many (None: the whole match). Returns
+    (sp.ReplayResult, frames drawn); closing the window or `frames` stops it (result None)."""
     import spacephys as sp
     pygame, screen, view, clock = _window(headless, size, f"spacephys play --replay {path}")
     realtime = (not headless) if realtime is None else realtime
-    seen = {"frames": 0, "watch": None}
+    with sp.open_run(path) as run:
+        made_by = mode_of(str(run.meta.get("scenario", "")))
+    seen = {"frames": 0, "mode": None}
 
     def each(world, call, result):
+        mode = seen["mode"]
+        if mode is None:
+            if made_by:
+                mode = seen["mode"] = make_mode(*made_by, watching=True)
+            else:
+                mode = seen["mode"] = Watch(world)
+                mode.message = f"replay of {os.path.basename(str(path))}"
+        if call == "add_ship":
+            mode.adopt(result)
         if call not in ("advance", "step"):
             return
         for event in pygame.event.get():
             if event.type == pygame.QUIT or (event.type == pygame.KEYDOWN and
                                              pygame.key.name(event.key) == "escape"):
                 raise _Stop
-        if seen["watch"] is None:
-            seen["watch"] = Watch(world)
-        watch = seen["watch"]
-        watch.message = f"replay of {os.path.basename(str(path))}"
-        view.draw(watch, result if call == "advance" else 1.0)
+        mode.watch(world, world.events)
+        view.draw(mode, result if call == "advance" else 1.0)
         pygame.display.flip()
         seen["frames"] += 1
         if realtime:
             clock.tick(60)
+        if frames is not None and seen["frames"] >= frames:
+            raise _Stop
 
     try:
         result = sp.replay(path, each=each)

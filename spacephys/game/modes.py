@@ -22,18 +22,25 @@ class Mode:
     keys = ()                           # (key, what it does), for the help line and docs
     players_allowed = (0, 1, 2)
 
-    def __init__(self, players=1, seed=0):
+    def __init__(self, players=1, seed=0, watching=False):
         if players not in self.players_allowed:
             raise ValueError(f"players = {players!r}: {self.name} takes "
                              f"{', '.join(map(str, self.players_allowed))}")
         self.players = players
         self.seed = seed
+        self.watching = watching        # a replay: the recording makes every call, not the mode
         self.frame = 0
         self.warp = 1
         self.message = ""
         self._held = {}                 # ship id -> (throttle, turn) last given to control()
         self.world = self.build()
         self.start()
+
+    @property
+    def command(self):
+        """The command line that plays this match (kept with its recording, so that a
+        replay draws it as this mode)."""
+        return f"spacephys play {self.name} --players {self.players} --seed {self.seed}"
 
     # ------------------------------------------------------------------ subclasses
     def build(self):
@@ -73,9 +80,21 @@ class Mode:
         return TEAM_COLOURS[0]
 
     def thrusting(self, body_id):
-        """Whether a ship's engine is lit (for the flame)."""
-        held = self._held.get(body_id)
-        return held is not None and held[0] > 0
+        """Whether a ship's engine is lit (for the flame): read from the World, so that a
+        replay shows it too."""
+        w = self.world
+        return w.controls(body_id)[0] > 0.0 and w.fuel(body_id) > 0.0
+
+    def adopt(self, ship):
+        """A replay re-ran the add_ship of a ship this mode brought back (a respawn): take it
+        as the mode's own (the mode made no call itself)."""
+
+    def watch(self, world, events):
+        """A replay re-ran a frame of this mode's recording in `world`: follow it (its events
+        into after(), the frame counted) as if the mode had played it."""
+        self.world = world
+        self.after(events)
+        self.frame += 1
 
     # ------------------------------------------------------------------ helpers
     # a netplay.Inputs that takes this frame's control() and launch() calls instead of the
@@ -138,13 +157,27 @@ def orbit_speed(mu, r):
     return math.sqrt(mu / r)
 
 
-def make_mode(name, players=1, seed=0):
-    """The mode called `name` ("duel", "orbit", "arena")."""
+def make_mode(name, players=1, seed=0, watching=False):
+    """The mode called `name` ("duel", "orbit", "arena"); watching: to follow a replay of
+    its recording (Mode.watch)."""
     if name not in MODES:
         raise ValueError(f"mode = {name!r}: choose one of {', '.join(MODES)}")
     module, cls = MODES[name]
     import importlib
-    return getattr(importlib.import_module(f".{module}", __package__), cls)(players, seed)
+    return getattr(importlib.import_module(f".{module}", __package__), cls)(players, seed,
+                                                                            watching)
+
+
+def mode_of(command):
+    """(name, players, seed) from a Mode.command line, or None for any other text."""
+    words = command.split()
+    if len(words) != 7 or words[:2] != ["spacephys", "play"] or words[2] not in MODES or \
+            words[3] != "--players" or words[5] != "--seed":
+        return None
+    try:
+        return words[2], int(words[4]), int(words[6])
+    except ValueError:
+        return None
 
 
 MODES = {"duel": ("duel", "Duel"), "orbit": ("orbit", "Orbit"), "arena": ("arena", "Arena")}
