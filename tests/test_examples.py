@@ -128,3 +128,17 @@ def test_replay_match_replays_bit_for_bit(tmp_path):
     seen, of, last = numbers(line_with(out, "omega:"))
     assert of == 101 and seen < 101 and abs(last - 0.1 * (seen - 1)) < 1e-9
     assert line_with(out, "omega:").endswith("survivors: alpha")
+
+
+def test_asteroids_plays_itself_headless():
+    """examples/asteroids.py with the computer flying: its laser and its torpedoes break
+    rocks into debris, and each scores the rock's tag (5, 7 or 12), the torpedoes' read from
+    the destroy events (tag_a, tag_b); the enemy fires a guided missile every 4 s."""
+    out = run_example("asteroids.py", "--headless", "--frames", "1200")
+    line = line_with(out, "frames ")
+    frames, score, left, lasered, torpedoed, debris = numbers(line)[:6]
+    assert frames == 1200 and lasered >= 1 and torpedoed >= 1
+    assert left == 14 - lasered - torpedoed
+    assert 5 * (lasered + torpedoed) <= score <= 12 * (lasered + torpedoed)
+    assert debris >= 12                                   # a rock's ExplosionSpec(count=12)
+    assert "enemy alive after firing 5 missiles" in line
