@@ -199,3 +199,92 @@ def test_play_command_records_and_replays(tmp_path):
 def test_replay_refuses_a_callback_that_is_not_callable(tmp_path):
     with pytest.raises(ValueError, match="each = 3"):
         sp.replay(tmp_path / "match.h5", each=3)
+
+
+def _duel_losses(seed, frames=3600):
+    """The computer against itself in the duel (autoplay's loop): the mode, and (frame,
+    side, what destroyed it) of every ship lost."""
+    m = make_mode("duel", players=0, seed=seed)
+    w = m.world
+    lost = []
+    for frame in range(frames):
+        m.controls(set(), set())
+        w.advance(m.frame_time)
+        alive = [d is None for d in m.dead_since]
+        ships = list(m.ships)
+        m.after(w.events)
+        for k in range(2):
+            if alive[k] and m.dead_since[k] is not None:
+                by = {int(e["b"] if e["a"] == ships[k] else e["a"]) for e in w.events
+                      if e["kind"] == sp.events.DESTROY and ships[k] in (e["a"], e["b"])}
+                lost.append((frame, k, "star" if m.star in by else "other"))
+    return m, lost
+
+
+def test_the_computers_duel_differs_by_seed_and_is_no_lockstep():
+    # issue 43: identical pilots on the mirrored starts fell into the star together every
+    # round, 9 : 9 over a minute whatever the seed
+    a, lost_a = _duel_losses(0)
+    b, lost_b = _duel_losses(1)
+    again, lost_again = _duel_losses(0)
+    assert again.world.digest() == a.world.digest() and lost_again == lost_a
+    assert lost_a != lost_b                                 # the seed plays another match
+    for m, lost in ((a, lost_a), (b, lost_b)):
+        frames = [f for f, _, _ in lost]
+        together = sum(frames.count(f) == 2 for f in set(frames))
+        assert lost and together < len(set(frames)), lost  # not every round a double kill
+        assert all(by != "star" for _, _, by in lost), lost  # the pilots keep clear of it
+        assert sum(m.score) == len(lost)
+    needle, wedge = a.pilots                                # drawn from (seed, side)
+    assert needle.reload != wedge.reload and needle.range != wedge.range
+
+
+def test_the_hud_names_both_ships_destroyed_together():
+    m = make_mode("duel", players=2)
+    events = np.zeros(2, sp.EVENT_DTYPE)
+    events["kind"] = sp.events.DESTROY
+    events["a"], events["b"], events["time"] = m.ships, m.star, 4.83
+    m.after(events)
+    assert m.score == [1, 1]
+    assert m.message == "needle and wedge destroyed at t = 4.83"
+    assert m.message in m.hud()
+    one = make_mode("duel", players=2)
+    one.after(events[1:])
+    assert one.score == [1, 0] and one.message == "wedge destroyed at t = 4.83"
+
+
+def test_orbit_view_shows_the_moon_and_the_hud_measures_from_the_centre():
+    m = make_mode("orbit", players=0)
+    try:
+        w = m.world
+        moon = w.index_of(m.moon)
+        period = w.elements(m.moon, about=m.planet).period
+        inside = 0
+        for _ in range(24):                               # an orbit of the moon
+            drawn = w.interpolate(0.0)[:, :2]
+            centre, half = m.camera(drawn)
+            off = np.abs(drawn[moon] - centre) + w.radius[moon]
+            inside += off[0] <= half * 960 / 720 and off[1] <= half
+            w.step(round(period / 24 / w.dt))
+        assert inside == 24                               # the whole system by default
+        m.controls({"z"}, {"z"})                          # zoomed on the ship's surroundings
+        drawn = w.interpolate(0.0)[:, :2]
+        centre, half = m.camera(drawn)
+        ship = np.abs(drawn[w.index_of(m.ship)] - centre)
+        assert m.zoomed and 200.0 <= half < 400.0 and ship.max() < half
+        # an eccentric orbit: a, periapsis and apoapsis from the planet's centre, all three
+        i = w.index_of(m.ship)
+        w.set_body(m.ship, vel=1.1 * w.vel[i])
+        el = w.elements(m.ship, about=m.planet)
+        line = next(x for x in m.hud() if x.startswith("from the planet's centre"))
+        words = line.split()
+        shown = {k: float(words[words.index(k) + 1]) for k in ("a", "periapsis", "apoapsis")}
+        assert shown["a"] == pytest.approx(el.a, abs=0.05)
+        assert shown["periapsis"] == pytest.approx(el.pericentre, abs=0.05)
+        assert shown["apoapsis"] == pytest.approx(el.apocentre, abs=0.05)
+        assert (shown["periapsis"] + shown["apoapsis"]) / 2 == pytest.approx(shown["a"],
+                                                                               abs=0.1)
+        assert shown["apoapsis"] - shown["periapsis"] > 20.0
+    finally:
+        m.finish_prediction()
+        m.close()

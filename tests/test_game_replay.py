@@ -23,12 +23,15 @@ def _pixels(path):
         pygame.display.quit()
 
 
-@pytest.mark.parametrize("name, players, frames", [("arena", 0, 600), ("duel", 1, 240)])
-def test_a_replay_draws_the_last_frame_as_the_match_did(tmp_path, name, players, frames):
+@pytest.mark.parametrize("name, players, frames, seed", [("arena", 0, 600, 2),
+                                                         ("duel", 1, 240, 2),
+                                                         ("duel", 0, 900, 3)])
+def test_a_replay_draws_the_last_frame_as_the_match_did(tmp_path, name, players, frames, seed):
     """Arena: ten ships respawning into slots over 10 s (the replay must give each respawned
-    ship its side's colour); duel with a player: flames read from the World."""
+    ship its side's colour); duel with a player: flames read from the World; duel of the
+    computers, seed 3: both ships lost and back by frame 900 (adopted in the replay)."""
     path = tmp_path / "match.h5"
-    m = make_mode(name, players=players, seed=2)
+    m = make_mode(name, players=players, seed=seed)
     script = {0: {"w", "a"}, 100: {"w", "space"}, 180: set()}
     done = play(m, frames=frames, headless=True, record=path, script=script,
                 screenshot=tmp_path / "played.png")
@@ -38,11 +41,33 @@ def test_a_replay_draws_the_last_frame_as_the_match_did(tmp_path, name, players,
     played, replayed = _pixels(tmp_path / "played.png"), _pixels(tmp_path / "replayed.png")
     assert len(np.unique(played.reshape(-1, 3), axis=0)) > 10           # not blank
     assert np.array_equal(played, replayed)
+    if seed == 3:
+        assert sorted(m.score) == [1, 1] and min(m.ships) > 2**32        # both came back
     if name == "arena":
         # frames once a game second (the replay checks them), tables compressed: the 18 MB
         # of a frame of every body every 0.1 s uncompressed is 1.9 MB
         assert os.path.getsize(path) < 3e6
         assert len(sp.open_run(path)) == 11
+
+
+def test_the_orbit_replay_predicts_the_path_ahead_and_measures_no_warps(tmp_path):
+    path = tmp_path / "orbit.h5"
+    m = make_mode("orbit", players=1)
+    play(m, frames=200, headless=True, record=path, script={0: {"a", "w"}, 100: set()})
+    m.close()
+    import spacephys.game.loop as loop
+    made = []
+    real = loop.make_mode
+    loop.make_mode = lambda *a, **k: made.append(real(*a, **k)) or made[-1]
+    try:
+        result, drawn = replay(path, headless=True)
+    finally:
+        loop.make_mode = real
+    assert result.ok and drawn == 200
+    watched = made[0]
+    watched.finish_prediction()
+    assert watched.ship == m.ship and watched._chooser is None
+    assert watched.prediction is not None and watched.prediction.ids[0] == m.ship
 
 
 def test_replay_stops_after_the_frames_asked_for(tmp_path):

@@ -3,6 +3,8 @@ moving ships (they keep the ship's velocity), collisions with the star and each 
 explosions into debris, space that wraps around. 2 players, 1 against the computer, or 0."""
 import math
 
+import numpy as np
+
 import spacephys as sp
 
 from .modes import KEYS, Mode, TEAM_COLOURS, orbit_speed
@@ -11,6 +13,7 @@ from .pilot import Pilot
 HALF = 512.0                 # half the width of the wrapping square [length]
 STAR_MASS = 4e6              # G = 1
 RESPAWN = 2.0                # [time] a destroyed ship waits before it comes back
+SIDES = ("needle", "wedge")
 
 
 class Duel(Mode):
@@ -48,39 +51,60 @@ class Duel(Mode):
             self.pilots[k] = self.make_pilot(k)
 
     def make_pilot(self, k):
-        """The computer's pilot of side k."""
-        return Pilot(self, self.ships[k], self.torpedo, hazards=("star",), reload=0.4,
-                     range=450.0)
+        """The computer's pilot of side k: its reload, range, lead, aim, reaction and the
+        distance it keeps from the star drawn from (the World's seed, k), so the two differ
+        (identical pilots on the mirrored starts die together every round) and a seed always
+        plays the same match; nothing is drawn later, so a rollback has nothing to restore."""
+        rng = np.random.default_rng([self.seed, k])
+        return Pilot(self, self.ships[k], self.torpedo, hazards=("star", "ship"),
+                     reload=rng.uniform(0.3, 0.8), range=rng.uniform(300.0, 480.0),
+                     approach=rng.uniform(0.4, 0.8), lead=rng.uniform(0.6, 1.0),
+                     tolerance=rng.uniform(0.04, 0.12), delay=rng.uniform(0.2, 1.2),
+                     clear=(self.star, rng.uniform(70.0, 110.0)))
 
     def controls(self, held, pressed):
         fresh = self.respawn()
+        flying = [p for p in self.pilots if p is not None]
+        hits = dict(zip(map(id, flying), Pilot.look(flying)))     # one shapecast for both
         for k in range(2):
             if k not in fresh:
-                self.fly(k, held)
+                self.fly(k, held, hit=hits.get(id(self.pilots[k]), False))
 
     def respawn(self):
         """Bring back the ships destroyed RESPAWN ago; returns their sides."""
         w = self.world
         fresh = set()
         for k in range(2):
-            if self.ships[k] not in w and self.dead_since[k] is not None and \
-                    w.t - self.dead_since[k] >= RESPAWN:
-                self.ships[k] = w.add_ship(self.hull, *self.starts[k])
-                self.dead_since[k] = None
+            if self._due(k):
+                self._back(k, w.add_ship(self.hull, *self.starts[k]))
                 fresh.add(k)
-                if self.pilots[k] is not None:
-                    self.pilots[k] = self.make_pilot(k)
         return fresh
 
-    def fly(self, k, held, keys=None):
-        """Side k's controls this frame: its pilot's, or the keys held (its player's, or
-        `keys`)."""
+    def _due(self, k):
+        """Whether side k's ship is gone and has waited RESPAWN."""
+        w = self.world
+        return self.ships[k] not in w and self.dead_since[k] is not None and \
+            w.t - self.dead_since[k] >= RESPAWN
+
+    def _back(self, k, ship):
+        self.ships[k] = ship
+        self.dead_since[k] = None
+        if self.pilots[k] is not None:
+            self.pilots[k] = self.make_pilot(k)
+
+    def adopt(self, ship):
+        """A replayed respawn: respawn() brings back the sides due, needle first."""
+        self._back(next(k for k in range(2) if self._due(k)), ship)
+
+    def fly(self, k, held, keys=None, hit=False):
+        """Side k's controls this frame: its pilot's (hit: its row of Pilot.look, False: it
+        looks alone), or the keys held (its player's, or `keys`)."""
         w = self.world
         ship = self.ships[k]
         if ship not in w:
             return
         if self.pilots[k] is not None:
-            self.pilots[k].fly(self.ships[1 - k])
+            self.pilots[k].fly(self.ships[1 - k], hit=hit)
         elif self.human(k, ship, held, keys) and w.t >= self.next_fire[k]:
             self.fire(ship, self.torpedo)
             self.next_fire[k] = w.t + 0.25
@@ -108,6 +132,7 @@ class Duel(Mode):
                                                                 list(dead), list(pilots))
 
     def after(self, events):
+        lost = []                                            # the sides destroyed this frame
         for e in events:
             if e["kind"] != sp.events.DESTROY:
                 continue
@@ -115,7 +140,13 @@ class Duel(Mode):
                 if self.ships[k] in (e["a"], e["b"]) and self.dead_since[k] is None:
                     self.dead_since[k] = float(e["time"])
                     self.score[1 - k] += 1
-                    self.message = f"{('needle', 'wedge')[k]} destroyed at t = {e['time']:.2f}"
+                    lost.append(k)
+        if lost:                     # both, when both went (a ram, or torpedoes crossing)
+            said = [(SIDES[k], f"t = {self.dead_since[k]:.2f}") for k in lost]
+            if len(said) == 2 and said[0][1] == said[1][1]:
+                self.message = f"{said[0][0]} and {said[1][0]} destroyed at {said[0][1]}"
+            else:
+                self.message = ", ".join(f"{name} destroyed at {at}" for name, at in said)
 
     def hud(self):
         who = ["computer" if p is not None else f"keys {KEYS[k]['thrust']}"

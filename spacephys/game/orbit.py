@@ -13,7 +13,7 @@ from .modes import Mode, orbit_speed
 from .pilot import Pilot
 
 PLANET_MASS, PLANET_RADIUS = 4e5, 40.0       # G = 1
-SHIP_ORBIT, STATION_ORBIT, MOON_ORBIT = 120.0, 200.0, 600.0
+SHIP_ORBIT, STATION_ORBIT, MOON_ORBIT, MOON_RADIUS = 120.0, 200.0, 600.0, 12.0
 WARPS = (1, 10, 100, 1000)
 ERROR = 1e-6               # the orbit error sp.recommend is asked for at every warp...
 SESSION = 60.0             # ...over this much play [s of wall time] at that warp
@@ -33,12 +33,12 @@ class Orbit(Mode):
     players_allowed = (0, 1)
     keys = (("W", "thrust"), ("A D", "turn"), (", .", "time warp"),
             ("H", "Hohmann transfer to the station's orbit"), ("M", "match its velocity"),
-            ("esc", "quit"))
+            ("Z", "zoom"), ("esc", "quit"))
 
     def build(self):
         w = sp.World(dim=2, dt=1 / 60, integrator="leapfrog", seed=self.seed)
         self.planet = w.add_body(PLANET_MASS, (0, 0), radius=PLANET_RADIUS, kind="planet")
-        self.moon = _circular(w, 2e3, MOON_ORBIT, 0.0, radius=12, kind="moon")
+        self.moon = _circular(w, 2e3, MOON_ORBIT, 0.0, radius=MOON_RADIUS, kind="moon")
         w.add_kind("station")
         self.station = _circular(w, 0.0, STATION_ORBIT, math.radians(100), radius=4,
                                  kind="station")
@@ -56,15 +56,19 @@ class Orbit(Mode):
         self.choices = {}                  # warp -> sp.Recommendation, once measured
         self._requested = set()
         self.wanted = 1
+        self.zoomed = False                # the view: the whole system, or (Z) the ship's
         return w
 
     def start(self):
         self.pilot = Pilot(self, self.ship, sp.MissileSpec(mass=0.01), hazards=("planet",))
         self.planned = False
+        self._asked = queue.Queue()
+        self._chooser = None
+        if self.watching:                  # a replay: the recording holds the warps chosen
+            return
         # sp.recommend measures on a copy for seconds (x1: 2-5 s, x1000: about a minute): on
         # a thread, while the game runs (the kernels release the GIL), each warp the first
         # time it is asked for; until then the HUD says so and the warp stays
-        self._asked = queue.Queue()
         self._chooser = threading.Thread(target=self._choose, args=(self.world.copy(),),
                                          daemon=True)
         self._chooser.start()
@@ -94,8 +98,19 @@ class Orbit(Mode):
 
     def close(self):
         """Stop the measuring thread (after the warp it is measuring, if any)."""
-        self._asked.put(None)
-        self._chooser.join()
+        if self._chooser is not None:
+            self._asked.put(None)
+            self._chooser.join()
+
+    def adopt(self, ship):
+        """A replayed new ship (after a crash): the one to follow."""
+        self.ship = self.pilot.ship = ship
+
+    def watch(self, world, events):
+        """A replayed frame: followed as played, and the path ahead predicted as in play."""
+        super().watch(world, events)
+        if self.ship in world:
+            self._predict()
 
     def _set_warp(self):
         choice = self.choices.get(self.wanted)
@@ -109,6 +124,8 @@ class Orbit(Mode):
 
     def controls(self, held, pressed):
         w = self.world
+        if "z" in pressed:
+            self.zoomed = not self.zoomed
         if "." in pressed:
             self.wanted = WARPS[min(WARPS.index(self.wanted) + 1, len(WARPS) - 1)]
         if "," in pressed:
@@ -190,8 +207,9 @@ class Orbit(Mode):
                     f"{self.choices[self.warp].error:.1g})")]
         if self.ship in w:
             el = w.elements(self.ship, about=self.planet)
-            lines.append(f"a {el.a:8.1f}   e {el.e:.4f}   periapsis {el.pericentre - PLANET_RADIUS:7.1f}"
-                         f"   apoapsis {el.apocentre - PLANET_RADIUS:7.1f}   period {el.period:6.1f}")
+            lines.append(f"from the planet's centre (radius {PLANET_RADIUS:.0f}): a {el.a:8.1f}"
+                         f"   periapsis {el.pericentre:7.1f}   apoapsis {el.apocentre:7.1f}"
+                         f"   e {el.e:.4f}   period {el.period:6.1f}")
             lines.append(f"fuel {w.fuel(self.ship):5.2f}   delta-v {w.delta_v(self.ship):6.2f}")
             line = f"station: distance {self._distance():7.1f}"
             if self.prediction is not None and self.prediction.approaches:
@@ -213,8 +231,13 @@ class Orbit(Mode):
         return {"paths": [(p.pos[0], (120, 160, 255))], "markers": markers}
 
     def camera(self, drawn):
+        """Centred on the planet: the whole system, the moon's orbit in view; zoomed (Z), the
+        ship's surroundings: the station's orbit, and the ship wherever it is."""
         w = self.world
+        centre = drawn[w.index_of(self.planet)]
+        if not self.zoomed:
+            return centre, 1.1 * (MOON_ORBIT + MOON_RADIUS)
         reach = STATION_ORBIT
         if self.ship in w:
-            reach = max(reach, math.hypot(*w.pos[w.index_of(self.ship)][:2]))
-        return w.pos[w.index_of(self.planet)][:2], 1.25 * reach
+            reach = max(reach, math.dist(drawn[w.index_of(self.ship)], centre))
+        return centre, 1.25 * reach

@@ -12,10 +12,11 @@ def _wrap_angle(a):
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-def intercept(d, u, speed):
+def intercept(d, u, speed, lead=1.0):
     """The unit direction to launch at `speed` (relative to the launcher) to meet a target at
     d (2,) moving at u (2,) relative to the launcher, on straight lines; d's own direction
-    when the target cannot be caught."""
+    when the target cannot be caught. lead: the fraction of the target's motion until the
+    meeting that is aimed ahead (1: the meeting point; 0: the target's position)."""
     a = u @ u - speed * speed
     b = 2.0 * (d @ u)
     c = d @ d
@@ -28,7 +29,7 @@ def intercept(d, u, speed):
             roots = ((-b - math.sqrt(disc)) / (2 * a), (-b + math.sqrt(disc)) / (2 * a))
             positive = [r for r in roots if r > 0]
             t = min(positive) if positive else -1.0
-    aim = d + u * t if t > 0 else d
+    aim = d + lead * u * t if t > 0 else d
     norm = math.hypot(*aim)
     return aim / norm if norm > 0 else np.array([1.0, 0.0])
 
@@ -40,16 +41,22 @@ class Pilot:
     weapon : a MissileSpec (guided ones are launched at the target and steer themselves;
     unguided ones are aimed ahead of it); reload [time] between launches, salvo missiles a
     launch fanned `spread` [rad] apart, at most `magazine` of its missiles alive; range
-    [length] it fires from; lookahead [time] of the path it checks for hazards."""
+    [length] it fires from, closing in under thrust from beyond `approach` x range;
+    lookahead [time] of the path it checks for hazards. Unguided weapons: `lead` (intercept's)
+    and `tolerance` [rad] of the aim it fires at. delay [time] before its first launch (its
+    reaction). clear: (a body id, a distance): it keeps its orbit's pericentre about that body
+    beyond the distance (a straight-line shapecast misses a fall that gravity bends)."""
 
     def __init__(self, mode, ship, weapon, *, hazards=("star", "planet"), reload=0.5, salvo=1,
-                 spread=0.0, magazine=8, range=400.0, lookahead=1.5):
+                 spread=0.0, magazine=8, range=400.0, lookahead=1.5, approach=0.6, lead=1.0,
+                 tolerance=0.08, delay=0.0, clear=None):
         self.mode, self.ship, self.weapon = mode, ship, weapon
         self.hazards = [k for k in hazards if k in mode.world.kinds]
         self.reload, self.salvo, self.spread = reload, salvo, spread
         self.magazine, self.range, self.lookahead = magazine, range, lookahead
+        self.approach, self.lead, self.tolerance, self.clear = approach, lead, tolerance, clear
         self.guided = weapon.guidance != "none"
-        self.next_launch = 0.0
+        self.next_launch = mode.world.t + delay
         self.missiles = []
 
     def _offset(self, d):
@@ -97,6 +104,9 @@ class Pilot:
             away = hit.normals[0] + v / math.sqrt(v @ v)     # (the normal points away)
             aim = math.atan2(away[1], away[0])
             thrust = 1.0
+        elif self.clear is not None:
+            aim = self._climb(p, v)
+            thrust = 0.0 if aim is None else 1.0
         launched = []
         if target is not None and target in w:
             j = w.index_of(target)
@@ -105,13 +115,13 @@ class Pilot:
             if self.guided:
                 to = d / dist if dist > 0 else np.array([1.0, 0.0])
             else:
-                to = intercept(d, w.vel[j] - v, self.weapon.launch_speed)
+                to = intercept(d, w.vel[j] - v, self.weapon.launch_speed, self.lead)
             want = math.atan2(to[1], to[0])
             if aim is None:
                 aim = want
-                thrust = 1.0 if dist > 0.6 * self.range and \
+                thrust = 1.0 if dist > self.approach * self.range and \
                     abs(_wrap_angle(want - heading)) < 0.4 else 0.0
-            on_aim = abs(_wrap_angle(want - heading)) < (0.5 if self.guided else 0.08)
+            on_aim = abs(_wrap_angle(want - heading)) < (0.5 if self.guided else self.tolerance)
             self.missiles = [m for m in self.missiles if m in w]
             if on_aim and dist < self.range and w.t >= self.next_launch and \
                     len(self.missiles) + self.salvo <= self.magazine:
@@ -129,6 +139,24 @@ class Pilot:
             self.mode.steer(ship, thrust, float(np.clip(3.0 * _wrap_angle(aim - heading),
                                                         -1.0, 1.0)))
         return launched
+
+    def _climb(self, p, v):
+        """The heading to burn along when falling towards `clear`'s body on an orbit whose
+        pericentre is within its distance (along the orbit, and out): None when it is not."""
+        w = self.mode.world
+        body, distance = self.clear
+        if body not in w:
+            return None
+        j = w.index_of(body)
+        r, u = self._offset(p - w.pos[j]), v - w.vel[j]
+        if r @ u >= 0.0 or w.elements(self.ship, about=body).pericentre >= distance:
+            return None
+        out = r / math.sqrt(r @ r)
+        along = u - (u @ out) * out                      # the velocity across the radius
+        norm = math.sqrt(along @ along)
+        along = along / norm if norm > 1e-9 else np.array([-out[1], out[0]])
+        away = along + 0.3 * out
+        return math.atan2(away[1], away[0])
 
     def transfer(self, radius, about=None):
         """Plan a Hohmann transfer to a circular orbit of `radius` (sp.hohmann, flown by the
