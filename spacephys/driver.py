@@ -175,6 +175,8 @@ class Driver:
                 w._plan = None
             if w._event_count.item(0) > first:     # (most calls: nothing happened)
                 self._name_bodies(first)
+                if w._forces.broken().any():       # tethers broke: gone from the setup
+                    w._set_up()
             if plan.rules is not None:
                 w._collisions.caught_up(plan.rules)
             if frames is not None:

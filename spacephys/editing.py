@@ -12,6 +12,7 @@ import numpy as np
 from . import _validate as check
 from . import measures
 from .entities import ExplosionSpec
+from .steppers import INEXTENSIBLE
 
 # kinds whose bodies feel gravity but do not pull unless told to (active=True): their mass is
 # for thrust and collisions, and their pull on planets would only cost time
@@ -274,3 +275,77 @@ def remove(w, ids):
     rows = np.unique(np.atleast_1d(w.index_of(ids)))
     w._b.remove(rows)
     w._invalidate()
+
+
+# ---------------------------------------------------------------- tethers
+TETHER_DTYPE = np.dtype([("id", np.int64), ("a", np.int64), ("b", np.int64),
+                         ("length", np.float64), ("stiffness", np.float64),
+                         ("rigid", np.bool_), ("break_force", np.float64)])
+
+
+def tether(w, a, b, length, stiffness, rigid, break_force):
+    """World.tether: checked, then added; its id."""
+    ia, ib = w.index_of(a, "a"), w.index_of(b, "b")
+    if ia == ib:
+        raise ValueError(f"a = b = {a}: a tether joins two bodies")
+    stiffness = 0.0 if stiffness is None else \
+        check.scalar("stiffness", stiffness, positive=True)
+    if stiffness == 0.0 and w.integrator.startswith("wisdom_holman"):
+        raise ValueError(f"stiffness = None with integrator {w.integrator!r}: {INEXTENSIBLE}")
+    if not isinstance(rigid, (bool, np.bool_)):
+        raise ValueError(f"rigid = {rigid!r}: must be True (a rod) or False (a rope)")
+    b_ = w._b
+    if length is None:
+        length = float(np.linalg.norm(b_.pos[ib] - b_.pos[ia]))
+    else:
+        length = check.scalar("length", length, minimum=0.0)
+    break_force = np.inf if break_force is None else \
+        check.scalar("break_force", break_force, positive=True)
+    for name, body, i in (("a", a, ia), ("b", b, ib)):
+        if b_.mass[i] <= 0.0 and not b_.fixed[i]:
+            raise ValueError(f"{name} = {body}: has mass 0, which a tether's force cannot "
+                             f"move; give it mass, or fix it in place")
+    k = w._forces.tether(int(b_.ids[ia]), int(b_.ids[ib]), length, stiffness, bool(rigid),
+                         break_force)
+    w._set_up()
+    return k
+
+
+def untether(w, k):
+    """World.untether."""
+    k = check.count("tether", k)
+    keep = w._forces.tether_ids[:, 0] != k
+    if keep.all():
+        raise ValueError(f"tether = {k}: no such tether (live: "
+                         f"{w._forces.tether_ids[:, 0].tolist()})")
+    w._forces.untether(keep)
+    w._set_up()
+
+
+def tethers(w):
+    """World.tethers: (T,) TETHER_DTYPE."""
+    tether_rows(w)                              # the broken and the orphaned ones gone
+    f = w._forces
+    out = np.zeros(len(f.tether_ids), TETHER_DTYPE)
+    for c, name in enumerate(("id", "a", "b")):
+        out[name] = f.tether_ids[:, c]
+    for c, name in enumerate(("length", "stiffness", "rigid", "break_force")):
+        out[name] = f.tether_params[:, c]
+    out["stiffness"][out["stiffness"] == 0.0] = np.inf       # inextensible
+    return out
+
+
+def tether_rows(w):
+    """(T, 2) rows of the tethers' ends, the tethers of removed bodies and the broken ones
+    dropped first (a change of the setup); None without tethers."""
+    f = w._forces
+    if not len(f.tether_ids):
+        return None
+    rows = w._b.lookup(f.tether_ids[:, 1:].ravel()).reshape(-1, 2)
+    keep = (rows >= 0).all(axis=1) & ~f.broken()
+    if not keep.all():
+        f.untether(keep)
+        f.built = None
+        w._set_up()
+        rows = rows[keep]
+    return rows if len(rows) else None

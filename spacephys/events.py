@@ -9,10 +9,11 @@ from .kernels.codes import EV_CONTACT_BEGIN as CONTACT_BEGIN, EV_CONTACT_END as 
 from .kernels.codes import EV_WALL as WALL, EV_LAUNCH as LAUNCH
 from .kernels.codes import EV_BURNOUT as BURNOUT, EV_FUEL_EMPTY as FUEL_EMPTY
 from .kernels.codes import EV_DETONATION as DETONATION, EV_EXPIRY as EXPIRY
+from .kernels.codes import EV_TETHER_BREAK as TETHER_BREAK
 
 __all__ = ["EVENT_DTYPE", "EVENT_KINDS", "upgrade", "BOUNCE", "MERGE", "DESTROY", "SENSOR_BEGIN",
            "SENSOR_END", "CONTACT_BEGIN", "CONTACT_END", "WALL", "LAUNCH", "BURNOUT",
-           "FUEL_EMPTY", "DETONATION", "EXPIRY", "kind_name"]
+           "FUEL_EMPTY", "DETONATION", "EXPIRY", "TETHER_BREAK", "kind_name"]
 
 EVENT_DTYPE = np.dtype([
     ("kind", np.int16),          # one of EVENT_KINDS
@@ -40,7 +41,10 @@ and end": at the moment, the point on a's surface, normal a -> b, speed the clos
 launch: a the missile, b its launcher, the point where it appeared; burnout (the burn time
 ended) and fuel_empty: a the ship or missile, b = -1, at the moment it happened; detonation:
 a the missile, b its target, the point the missile was at, normal toward the target, closing
-speed, distance the miss distance; expiry: a the body whose lifetime ended."""
+speed, distance the miss distance; expiry: a the body whose lifetime ended; tether_break:
+a and b the tether's ends (World.tether's a, b), at the end of the step whose tension passed
+its break_force, the point midway, normal a -> b, speed the ends' separating speed,
+energy_lost the spring energy it held, distance the ends' distance."""
 
 
 # the fields events had before they named their bodies' kinds and tags (run logs and state

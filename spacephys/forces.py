@@ -17,6 +17,7 @@ from . import _validate as check
 from ._jit import PARALLEL_MIN_PAIRS
 from .kernels import forces as kforces
 from .kernels import gravity as kgravity
+from .kernels import tethers as ktethers
 from .kernels.pairs import PAIRS_FROM
 
 # the gravity models by name, each with a code (kernels/gravity.py has their tables and
@@ -80,6 +81,10 @@ class ForceField:
         self.user = []                        # [(fn, params (p,) float64)]
         self._typed = None                    # the kernels' typed lists of them, made on demand
         self.tape = None                      # a prediction copy's tape (spacephys/tape.py)
+        self.tether_ids = np.zeros((0, 3), np.int64)   # [tether id, a id, b id]
+        self.tether_params = np.zeros((0, 4))          # kernels/tethers.py's params
+        self.tether_next = 0                  # the next tether's id
+        self.built = None                     # the last table's TetherArrays (their breaks)
 
     @staticmethod
     def checked_theta(theta):
@@ -162,17 +167,48 @@ class ForceField:
             self._typed = (fns, params)
         return kforces.UserForces(*self._typed, np.zeros((n, 3)))
 
+    # ------------------------------------------------------------ tethers
+    def tether(self, a, b, length, stiffness, rigid, break_force):
+        """Add a checked tether between ids a, b (World.tether checks them); its id."""
+        k = self.tether_next
+        self.tether_ids = np.vstack([self.tether_ids, [[k, a, b]]])
+        self.tether_params = np.vstack([self.tether_params,
+                                        [[length, stiffness, float(rigid), break_force]]])
+        self.tether_next = k + 1
+        return k
+
+    @property
+    def inextensible(self):
+        """Whether any tether is inextensible (stiffness 0)."""
+        return bool(np.any(self.tether_params[:, 1] == 0.0))
+
+    def untether(self, keep):
+        """Keep the tethers where the (T,) bool keep is True."""
+        self.tether_ids = self.tether_ids[keep]
+        self.tether_params = self.tether_params[keep]
+
+    def broken(self):
+        """(T,) bool: the tethers the kernels broke since the tables were built."""
+        built = self.built
+        if built is None or built.broken.size != len(self.tether_ids):
+            return np.zeros(len(self.tether_ids), bool)
+        return built.broken != 0
+
     # ------------------------------------------------------------ the table
-    def table(self, mass, ids, src, passive, still, held, threads):
+    def table(self, mass, ids, src, passive, still, held, threads, tether_rows=None,
+              fixed=None, pos=None):
         """The kernels' Forces for the bodies mass, ids (n,); src, passive, still: int64 rows;
         held : (n, 6) or None; threads : (1,) int64 shared with World's ThreadChoice, or None
-        (the scene's force loops never run on threads)."""
+        (the scene's force loops never run on threads); tether_rows (T, 2): the tethers'
+        ends' rows (None without tethers), fixed (n,) and pos (n, 3) the bodies' now."""
         tape = self.tape.table_for(src, ids[src]) if self.tape is not None else None
+        self.built = None if tether_rows is None else \
+            ktethers.make(tether_rows, self.tether_params, fixed, pos)
         return kforces.make(mass, ids, gravity=self.model(src.size), src=src,
                             passive=passive, still=still, held=held,
                             user=self.typed_user(mass.shape[0]),
                             drag=self.drag if self.drag[0] > 0.0 else None, tape=tape,
-                            threads=threads)
+                            threads=threads, tethers=self.built)
 
     def model(self, ns, exact=False):
         """The gravity model's table (kernels/gravity.py) for ns pulling bodies (None: no
@@ -238,7 +274,9 @@ class ForceField:
                 "drag": self.drag.copy(),
                 "user_functions": [f"{fn.py_func.__module__}:{fn.py_func.__qualname__}"
                                    for fn, _ in self.user],
-                "user_params": [p.copy() for _, p in self.user]}
+                "user_params": [p.copy() for _, p in self.user],
+                "tether_ids": self.tether_ids.copy(), "tether_params": self.tether_params.copy(),
+                "tether_next": self.tether_next}
 
     @classmethod
     def from_state(cls, dim, s):
@@ -256,12 +294,18 @@ class ForceField:
                   for name, p in zip(s["user_functions"], s["user_params"])]
         f._typed = None
         f.tape = None
+        f.tether_ids = np.array(s.get("tether_ids", np.zeros((0, 3))), np.int64).reshape(-1, 3)
+        f.tether_params = np.array(s.get("tether_params", np.zeros((0, 4))),
+                                   np.float64).reshape(-1, 4)
+        f.tether_next = int(s.get("tether_next", 0))
+        f.built = None
         return f
 
     def __getstate__(self):
         state = self.__dict__.copy()
         state["_typed"] = None                # typed lists neither copy nor pickle
         state["tape"] = None                  # a copy's tape is its own (spacephys/tape.py)
+        state["built"] = None                 # the tables' scratch: rebuilt with them
         return state
 
 

@@ -16,6 +16,7 @@ from .errors import InstabilityError, PrecisionWarning, caller_level
 from .kernels import diagnostics
 from .kernels import forces as kforces
 from .kernels import gravity as kgravity
+from .kernels import tethers as ktethers
 from .kernels.codes import NONFINITE
 
 
@@ -166,8 +167,13 @@ def potential_energy(w, pulling_only, exact):
     b = w._b
     src, passive, _ = w._sources()
     passive = passive[:0] if pulling_only else passive
+    springs = 0.0
+    rows = w._tether_rows()
+    if rows is not None:
+        both = np.isin(rows, src).all(axis=1) if pulling_only else np.ones(len(rows), bool)
+        springs = ktethers.potential(rows[both], w._forces.tether_params[both], b.pos[:b.n])
     return kgravity.potential(w._forces.model(src.size), b.pos[:b.n],
-                              _masses(w, pulling_only), src, passive, exact)
+                              _masses(w, pulling_only), src, passive, exact) + springs
 
 
 def energy(w, pulling_only, exact):

@@ -223,6 +223,12 @@ class GaussRadau(Stepper):
         self.stats[:] = state["stats"]
 
 
+# why Wisdom-Holman refuses an inextensible tether (World.tether checks it too)
+INEXTENSIBLE = ("an inextensible tether's force holds against every other acceleration, "
+                "which the Kepler drifts do not show it; give the tether a stiffness (a "
+                "spring), or use another integrator")
+
+
 class WisdomHolman(Stepper):
     """Wisdom-Holman in Jacobi coordinates about the heaviest pulling body; carries nothing
     but the Jacobi order, derived from the bodies."""
@@ -233,6 +239,8 @@ class WisdomHolman(Stepper):
     moving_mass = "the Jacobi frames"
 
     def check(self, world, sources, actors):
+        if world._forces.inextensible:
+            raise ValueError(f"integrator {self.spec.name!r}: {INEXTENSIBLE}")
         if world.gravity != "direct":
             raise ValueError(f"integrator {self.spec.name!r} needs gravity='direct' with a "
                              f"dominant body among the bodies (gravity={world.gravity!r}: no "

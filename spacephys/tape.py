@@ -60,7 +60,7 @@ class Tape:
         """A Tape for the copy w (the old copy's, when the same bodies pull in the same
         rows), or None when its scene cannot have one."""
         per_step = w.stepper.tape_evaluations()
-        if per_step is None or w.gravity != "direct" or w.forces:
+        if per_step is None or w.gravity != "direct" or w.forces or len(w.tethers):
             return None
         src = w.driver.pulling()
         if old is not None and old.per_step == per_step \

@@ -606,6 +606,35 @@ class World:
         editing.set_body(self, body_id, pos, vel, mass, radius, kind, active, fixed, category,
                          mask, group, explosion, tag, angular_velocity)
 
+    def tether(self, a, b, length=None, *, stiffness=None, rigid=False, break_force=None):
+        """Join bodies a and b with a tether of length `length` [length] (default: their
+        distance now); returns its id (World.tethers lists them).
+
+        A rope (rigid=False) is slack below its length, a rod (rigid=True) holds it both
+        ways. stiffness None: inextensible, held exactly (a constraint force in every force
+        evaluation, the drift projected away after each step; a rope snapping taut loses its
+        ends' relative speed along it); stiffness k [mass/time^2]: a spring pulling with
+        k (r - L), its energy in potential_energy. break_force [mass length/time^2]: it
+        breaks (a tether_break event) after a step whose tension passed it. Both ends need
+        mass (or are fixed); removing either end removes the tether. Wisdom-Holman takes
+        springs only.
+        """
+        return editing.tether(self, a, b, length, stiffness, rigid, break_force)
+
+    def untether(self, tether):
+        """Remove tether `tether` (an id of World.tethers)."""
+        editing.untether(self, tether)
+
+    @property
+    def tethers(self):
+        """(T,) structured: id, a, b, length, stiffness, rigid, break_force of each tether."""
+        return editing.tethers(self)
+
+    def _tether_rows(self):
+        """(T, 2) rows of the tethers' ends (those of removed bodies and the broken ones
+        dropped first), or None without tethers."""
+        return editing.tether_rows(self)
+
     def remove(self, ids):
         """Remove one id or an array of ids (all must be live; duplicates count once)."""
         editing.remove(self, ids)
@@ -1042,7 +1071,8 @@ class World:
         threads = self._threads.min_pairs if self._threads.mode != "never" and \
             self._forces.threaded(work) else None
         forces = self._forces.table(b.mass[:n], b.ids[:n], *sources,
-                                    b.held[:n] if HELD in b.columns else None, threads)
+                                    b.held[:n] if HELD in b.columns else None, threads,
+                                    self._tether_rows(), b.fixed[:n], b.pos[:n])
         rules = self._collisions.table(b.kind[:n].astype(np.int64), b.radius[:n],
                                        b.category[:n], b.mask[:n], editing.optional(self, editing.GROUP),
                                        b.fixed[:n], self._actors.owners(), self._dim,
@@ -1323,4 +1353,5 @@ JOURNALED = ("step", "advance", "watch_energy", "shift_origin", "move_to_center_
              "add_kind", "add_body", "add_bodies", "set_body", "remove", "set_collision",
              "add_plane", "add_segment", "clear_walls", "set_boundary", "add_ship", "control",
              "set_heading", "set_fuel", "plan", "launch", "explode", "apply_force",
-             "apply_acceleration", "add_force", "set_force_params", "remove_force")
+             "apply_acceleration", "add_force", "set_force_params", "remove_force",
+             "tether", "untether")

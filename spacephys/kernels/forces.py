@@ -7,8 +7,8 @@ toward a wind, and whether the force loops may run on threads. Every integrator 
 `accelerations` for the accelerations of the bodies it moves, at the positions (and
 velocities) of its stage; nothing else computes forces.
 
-What a scene does not have is None in the table (no held forces, no user forces, no drag, no
-prediction's tape, no threads), and so is its model's type: numba compiles `accelerations` for
+What a scene does not have is None in the table (no held forces, no tethers, no user forces,
+no drag, no prediction's tape, no threads), and so is its model's type: numba compiles `accelerations` for
 the table's types, so a scene compiles the code of what it has and nothing else (a 2D
 gravity-only scene never the tree, user forces, drag or the tape). A change that adds one (the
 first held force, drag from 0) rebuilds the table (World drops its Plan).
@@ -28,6 +28,7 @@ from numba.experimental import structref
 from .._jit import TableType, field_type, implements, kernel, read
 from . import gravity
 from . import libm
+from . import tethers as ktethers
 
 # the signature of a user force: (t [time], pos (n, 3), vel (n, 3), mass (n,), ids (n,) int64,
 # params (p,) float64, out (n, 3) accelerations to add to) -> None
@@ -65,6 +66,7 @@ FIELDS = (
     "threads",     # (1,) int64: the fewest pair evaluations a force loop runs on threads
                    # (World's ThreadChoice sets it between calls), or None: never (no
                    # threaded loop compiled)
+    "tethers",     # kernels/tethers.TetherArrays, or None
 )
 structref.define_proxy(Forces, ForcesType, list(FIELDS))
 
@@ -81,14 +83,15 @@ def _make(*fields):
 
 
 def make(mass, ids, *, gravity, src, passive, still, held=None, user=None, drag=None,
-         tape=None, threads=None):
+         tape=None, threads=None, tethers=None):
     """A Forces table for the bodies mass, ids (n,); arrays are shared, not copied (a change
     to drag or to a held force between steps needs no new table). gravity : a model table
     of kernels/gravity.py or None; held (n, 6), user (UserForces), drag (4,), tape
-    (kernels/tape.TapeArrays), threads (1,) int64: each None when the scene has none."""
+    (kernels/tape.TapeArrays), threads (1,) int64, tethers (kernels/tethers.TetherArrays):
+    each None when the scene has none."""
     fields = dict(gravity=gravity, mass=mass, ids=ids, src=src, passive=passive, still=still,
                   everyone=np.arange(mass.shape[0], dtype=np.int64), held=held, user=user,
-                  drag=drag, tape=tape, threads=threads)
+                  drag=drag, tape=tape, threads=threads, tethers=tethers)
     return _make(*(fields[name] for name in FIELDS))
 
 
@@ -113,8 +116,9 @@ def accelerations(fx, t, pos, vel, out, targets, with_drag):
     rows (fx.everyone, fx.src, fx.passive or any subset); with_drag : add -k (v - wind) (the
     splittings and Wisdom-Holman apply drag in their kicks instead, see kick). The force
     loops run on threads from fx.threads[0] pair evaluations on (never with threads None):
-    the same bits either way. Gravity, held forces, user forces, drag, in that order; zero
-    for immovable bodies. Kernels call it (numba runs _accelerations, see below).
+    the same bits either way. Gravity, held forces, tethers' springs, user forces, drag, in
+    that order; zero for immovable bodies; then the inextensible tethers' constraint forces,
+    which hold against all of these (kernels/tethers.py: they need every row's). Kernels call it (numba runs _accelerations, see below).
     """
 
 
@@ -122,10 +126,12 @@ def _accelerations(fx, t, pos, vel, out, targets, with_drag):
     gravity.pull(fx.gravity, fx.tape, fx.src, fx.passive, pos, fx.mass, out, targets,
                  fx.threads)
     _add_held(fx.held, fx.mass, out, targets)
+    ktethers.add_springs(fx.tethers, pos, fx.mass, out, targets)
     _add_user(fx.user, t, pos, vel, fx.mass, fx.ids, out, targets)
     if with_drag:
         _add_drag(fx.drag, vel, out, targets)
     _hold_still(fx.still, out)
+    ktethers.add_constraints(fx.tethers, pos, vel, fx.mass, out)
 
 
 # A step loop evaluates forces thousands of times a call, so accelerations is compiled
@@ -211,8 +217,9 @@ def _hold_still(still, vel):
 
 @kernel
 def velocity_dependent(fx):
-    """Whether the accelerations read velocities (drag or user forces)."""
-    return dragging(fx.drag) or fx.user is not None
+    """Whether the accelerations read velocities (drag, user forces, inextensible
+    tethers)."""
+    return dragging(fx.drag) or fx.user is not None or ktethers.constrained(fx.tethers)
 
 
 @kernel

@@ -31,6 +31,8 @@ Around each round run does, for every family:
     <advance>       the family's integration
     the NaN check   for a family that undoes a non-finite round (Wisdom-Holman)
     undo(...)       a failed round taken back (Gauss-Radau, Wisdom-Holman)
+    tethers.settle  inextensible tethers' drift projected away; tethers pulling past their
+                    break force break (kernels/tethers.py)
     end(...)        fuel booked, collisions found and resolved, fuses and lifetimes; True
                     when bodies died (the call then stops so that World can remove them)
     capture(...)    a recording's frame, when one falls due after this step
@@ -52,6 +54,7 @@ from .._jit import implements, is_table, kernel
 from . import control
 from . import state as kstate
 from . import tape
+from . import tethers
 from .arrays import copy_into
 from .codes import BODIES_GONE, FAILED, NONFINITE, REMOVED
 from .forces import hoist as hoist_forces, implements_by_users
@@ -330,6 +333,7 @@ def run(state, forces, rules, actors, frames, method, dt, nsteps, t0):
             finish(method, carry)
             return done, status(state, False) | FAILED
         tape.integrated(fx.tape, src, pos, vel, mass, played)
+        tethers.settle(fx.tethers, state, t, dt)
         removed = end(state, rules, actors, ht, t, dt)
         tape.collided(fx.tape, src, pos, vel, mass, played, collisions)
         done += k
