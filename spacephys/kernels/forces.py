@@ -116,9 +116,10 @@ def accelerations(fx, t, pos, vel, out, targets, with_drag):
     rows (fx.everyone, fx.src, fx.passive or any subset); with_drag : add -k (v - wind) (the
     splittings and Wisdom-Holman apply drag in their kicks instead, see kick). The force
     loops run on threads from fx.threads[0] pair evaluations on (never with threads None):
-    the same bits either way. Gravity, held forces, tethers' springs, user forces, drag, in
-    that order; zero for immovable bodies; then the inextensible tethers' constraint forces,
-    which hold against all of these (kernels/tethers.py: they need every row's). Kernels call it (numba runs _accelerations, see below).
+    the same bits either way. Gravity, held forces, user forces, drag, in that order; zero
+    for immovable bodies; then the tethers: springs, and the inextensible tethers'
+    constraint forces, which hold against all of these (kernels/tethers.py: they need every
+    row's). Kernels call it (numba runs _accelerations, see below).
     """
 
 
@@ -126,12 +127,11 @@ def _accelerations(fx, t, pos, vel, out, targets, with_drag):
     gravity.pull(fx.gravity, fx.tape, fx.src, fx.passive, pos, fx.mass, out, targets,
                  fx.threads)
     _add_held(fx.held, fx.mass, out, targets)
-    ktethers.add_springs(fx.tethers, pos, fx.mass, out, targets)
     _add_user(fx.user, t, pos, vel, fx.mass, fx.ids, out, targets)
     if with_drag:
         _add_drag(fx.drag, vel, out, targets)
     _hold_still(fx.still, out)
-    ktethers.add_constraints(fx.tethers, pos, vel, fx.mass, out)
+    ktethers.add(fx.tethers, pos, vel, fx.mass, out, targets)
 
 
 # A step loop evaluates forces thousands of times a call, so accelerations is compiled

@@ -7,7 +7,7 @@ rope (rigid 0) is slack below L and never pushes, a rod (rigid 1) pushes back as
 compressed. Its energy k (r - L)^2 / 2 is in World.potential_energy.
 
 With k = 0 it is inextensible: a constraint r = L (a rod) or r <= L (a rope), solved in two
-parts. In every force evaluation (`add_constraints`, after every other force) it adds the
+parts. In every force evaluation (`add`, after every other force) it adds the
 force that keeps the distance's second derivative zero: along d = p_j - p_i, on j
 -lam d and on i +lam d, with
 
@@ -82,11 +82,20 @@ def _pull(params, k, r):
 
 
 @kernel(lean=True)
-def add_springs(tt, pos, mass, out, targets):
-    """out += the tethers' accelerations of the rows in targets (tt: TetherArrays or None).
-    A body of mass 0 is not moved (a tether pulls by force)."""
+def add(tt, pos, vel, mass, out, targets):
+    """out += the tethers' accelerations of the rows in targets (tt: TetherArrays, or None:
+    nothing, and nothing else compiled): the springs', then the inextensible tethers'
+    constraint forces against everything in out (every row's)."""
     if tt is None:
         return
+    _add_springs(tt, pos, mass, out, targets)
+    _add_constraints(tt, pos, vel, mass, out)
+
+
+@kernel(lean=True)
+def _add_springs(tt, pos, mass, out, targets):
+    """The springs' accelerations of the rows in targets; a body of mass 0 or fixed is not
+    moved."""
     rows, params, broken, wanted = tt.rows, tt.params, tt.broken, tt.wanted
     for a in range(targets.size):
         wanted[targets[a]] = True
@@ -103,12 +112,12 @@ def add_springs(tt, pos, mass, out, targets):
         f = _pull(params, k, r) / r
         if f == 0.0:
             continue
-        if wanted[i] and mass[i] > 0.0:
+        if wanted[i] and mass[i] > 0.0 and not tt.fixed[k, 0]:
             g = f / mass[i]
             out[i, 0] += g * dx
             out[i, 1] += g * dy
             out[i, 2] += g * dz
-        if wanted[j] and mass[j] > 0.0:
+        if wanted[j] and mass[j] > 0.0 and not tt.fixed[k, 1]:
             g = f / mass[j]
             out[j, 0] -= g * dx
             out[j, 1] -= g * dy
@@ -135,7 +144,7 @@ def _apart(arr, i, j, wi, wj, f, x, y, z):
     arr[j, 2] -= f * wj * z
 
 
-@kernel(lean=True)
+@kernel(inline=True)
 def constrained(tt):
     """Whether there are inextensible tethers (their force reads velocities)."""
     if tt is None:
@@ -152,10 +161,10 @@ def _inverse(tt, mass, k, e, row):
 
 
 @kernel(lean=True)
-def add_constraints(tt, pos, vel, mass, out):
+def _add_constraints(tt, pos, vel, mass, out):
     """out += the inextensible tethers' constraint accelerations (see the module), given the
     accelerations of every other force in out (every row: a constraint couples its ends)."""
-    if tt is None or tt.count[0] == 0:
+    if tt.count[0] == 0:
         return
     rows, params, broken, lam = tt.rows, tt.params, tt.broken, tt.lam
     for k in range(rows.shape[0]):
