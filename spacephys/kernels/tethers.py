@@ -144,7 +144,7 @@ def _apart(arr, i, j, wi, wj, f, x, y, z):
     arr[j, 2] -= f * wj * z
 
 
-@kernel(inline=True)
+@kernel(lean=True)
 def constrained(tt):
     """Whether there are inextensible tethers (their force reads velocities)."""
     if tt is None:
