@@ -117,7 +117,7 @@ def test_replay_match_replays_bit_for_bit(tmp_path):
     log = tmp_path / "match.h5"
     out = run_example("replay_match.py", log)
     assert log.stat().st_size > 0
-    assert line_with(out, "replay:").startswith("replay: identical (101 frames,")
+    assert line_with(out, "replay:").startswith("replay: identical (101 recorded frames,")
     frames, t0, t1 = numbers(line_with(out, "log:"))
     assert (frames, t0, t1) == (101, 0.0, 10.0)          # every 6th of 600 steps, and t = 0
     inputs = {k: int(v) for v, k in re.findall(r"(\d+) (\w+)", line_with(out, "inputs:"))}
