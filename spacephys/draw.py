@@ -1,7 +1,7 @@
 """Drawing a World with pygame-ce in a few lines, as pymunk.pygame_util does for pymunk: the
 bodies where w.interpolate(alpha) puts them, coloured by kind, ships and missiles along their
-headings, spinning bodies with a mark, fading debris, trails, walls, predicted paths and
-labels, through a Camera that can follow a body, zoom and look across a wrapping box's seams.
+headings, spinning bodies with a mark, fading debris, trails, walls, tethers, predicted
+paths and labels, through a Camera that can follow a body, zoom and look across a wrapping box's seams.
 
     import pygame, spacephys as sp
     screen = pygame.display.set_mode((960, 720))
@@ -31,6 +31,7 @@ TEXT = (220, 220, 220)
 FLAME = (255, 140, 40)
 WALL = (120, 120, 140)
 PATH = (80, 140, 255)
+TETHER = (200, 200, 120)
 
 
 def _pygame():
@@ -155,6 +156,7 @@ class Painter:
                 del pixels                                  # (unlocks the surface)
         self._walls(world, camera)
         px = camera(drawn)
+        self._tethers(world, px)
         names = np.array(world.kinds)[world.kind] if world.n else np.zeros(0, str)
         debris = names == "debris"
         self._remember(world, drawn, debris)
@@ -224,6 +226,16 @@ class Painter:
             tail = (x - 1.3 * size * c, y - 1.3 * size * s)
             pygame.draw.polygon(self.surface, FLAME, [left, tail, right])
         pygame.draw.polygon(self.surface, colour, [nose, left, right])
+
+    def _tethers(self, world, px):
+        """Each tether as a line between its ends (where the camera puts each end)."""
+        pygame = _pygame()
+        tethers = world.tethers
+        if not len(tethers):
+            return
+        rows = world.index_of(np.concatenate([tethers["a"], tethers["b"]])).reshape(2, -1)
+        for i, j in rows.T:
+            pygame.draw.line(self.surface, TETHER, px[i].tolist(), px[j].tolist(), 1)
 
     def _points(self, px, intensity, colour):
         pygame = _pygame()

@@ -11,7 +11,7 @@ os.environ["PYGAME_HIDE_SUPPORT_PROMPT"] = "1"
 import pygame                                                             # noqa: E402
 
 import spacephys as sp                                                    # noqa: E402
-from spacephys.draw import KIND_COLOURS, PATH, WALL, Camera, Painter     # noqa: E402
+from spacephys.draw import KIND_COLOURS, PATH, TETHER, WALL, Camera, Painter  # noqa: E402
 
 SIZE = (400, 300)
 
@@ -94,6 +94,19 @@ def test_trails_keep_the_last_positions_and_zoom_scales(surface):
     assert _pixel(surface, camera, (5.0, 0.0)) == dim                  # within the last 4
     assert _pixel(surface, camera, (-25.0, 0.0)) == (0, 0, 10)         # older: forgotten
     assert body in w
+
+
+def test_a_tether_is_a_line_between_its_ends(surface):
+    w = sp.World(2, gravity="none", dt=0.1)
+    a = w.add_body(1.0, (-50.0, 0.0), radius=2.0, kind="planet")
+    b = w.add_body(1.0, (50.0, 0.0), radius=2.0, kind="planet")
+    painter = Painter(surface, stars=0)
+    camera = painter.draw(w, 1.0, Camera(half=100.0))
+    assert _pixel(surface, camera, (0.0, 0.0)) == (0, 0, 10)
+    w.tether(a, b, rigid=True)
+    painter.draw(w, 1.0, camera)
+    assert _pixel(surface, camera, (0.0, 0.0)) == TETHER
+    assert _pixel(surface, camera, (20.0, 0.0)) == TETHER
 
 
 def test_hud_text_sits_on_a_panel(surface):
