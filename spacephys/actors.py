@@ -123,9 +123,7 @@ class Actors:
     def _actor_row(self, body, field="id"):
         """The row of a ship or missile (ValueError naming field for any other body)."""
         i = self.w.index_of(body, field)
-        b = self.b
-        if "actor" not in b.columns or not b.actor.item(i) or \
-                b.flags.item(i) & control.FLAG_ROTOR:
+        if not self.is_actor(i):
             raise ValueError(f"{field} = {body}: body is a {self.w.kinds[self.b.kind[i]]!r}, "
                              f"not a ship or missile")
         return i
@@ -365,14 +363,13 @@ class Actors:
 
     def is_ship(self, body):
         i = self.w.index_of(body, "id")
-        b = self.b
-        return "actor" in b.columns and bool(b.actor[i]) and b.launcher[i] < 0 and \
-            not b.flags[i] & control.FLAG_ROTOR
+        return self.is_actor(i) and self.b.launcher.item(i) < 0
 
     def is_actor(self, i):
         """Whether the body at row i is a ship or missile."""
         b = self.b
-        return "actor" in b.columns and bool(b.actor[i]) and not b.flags[i] & control.FLAG_ROTOR
+        return "actor" in b.columns and b.actor.item(i) and \
+            not b.flags.item(i) & control.FLAG_ROTOR
 
     def release(self):
         """Every ship's controls released (throttle, turn and strafe 0) and its plan cleared,

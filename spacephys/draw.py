@@ -55,6 +55,18 @@ def drawn_positions(world, alpha):
     return drawn
 
 
+def framing(world, drawn, centre=(0.0, 0.0)):
+    """(centre (2,), half height) of a view holding a World: a wrapping World's whole box,
+    else every body but debris about `centre`, with a fifth to spare. drawn (n, 2)."""
+    mode, lo, hi, _ = world.boundary
+    if mode == "periodic":
+        return (lo + hi)[:2] / 2, float(hi[1] - lo[1]) / 2
+    heavy = drawn[world.kind != world.kind_code("debris")] \
+        if "debris" in world.kinds and world.n else drawn
+    reach = float(np.abs(heavy - centre).max()) if heavy.size else 1.0
+    return np.asarray(centre, float), 1.2 * max(reach, 1e-9)
+
+
 class Camera:
     """What the view shows: `centre` (2,) [length] at the middle of the surface, `half`
     [length] from the middle to the top edge, divided by `zoom`. follow : a body id to keep
@@ -82,14 +94,7 @@ class Camera:
         mode, lo, hi, _ = world.boundary
         self.period = (hi - lo)[:2] if mode == "periodic" else None
         if self.half is None:
-            if self.period is not None:
-                self.centre = (lo + hi)[:2] / 2
-                self.half = float(self.period[1]) / 2
-            else:
-                heavy = drawn[world.kind != world.kind_code("debris")] \
-                    if "debris" in world.kinds and world.n else drawn
-                reach = float(np.abs(heavy - self.centre).max()) if heavy.size else 1.0
-                self.half = 1.2 * max(reach, 1e-9)
+            self.centre, self.half = framing(world, drawn, self.centre)
         if self.follow is not None and self.follow in world:
             self.centre = drawn[world.index_of(self.follow)].copy()
         self.size = size
@@ -103,10 +108,10 @@ class Camera:
         return self.centre + (pos - self.centre + self.period / 2) % self.period - \
             self.period / 2
 
-    def __call__(self, pos):
+    def __call__(self, pos, wrap=True):
         """World positions (..., 2 or 3) to pixels (..., 2): y up in the world, down on
-        screen."""
-        pos = self.nearest(pos)
+        screen; each at its image nearest the centre (wrap False: where it is)."""
+        pos = self.nearest(pos) if wrap else np.asarray(pos, float)[..., :2]
         x = self.size[0] / 2 + (pos[..., 0] - self.centre[0]) * self.scale
         y = self.size[1] / 2 - (pos[..., 1] - self.centre[1]) * self.scale
         return np.stack([x, y], axis=-1)
@@ -304,9 +309,8 @@ class Painter:
                 ends = foot + np.outer([-reach, reach], along)
             else:
                 ends = np.array([a, row[4:6]])
-            x = camera.size[0] / 2 + (ends[:, 0] - camera.centre[0]) * camera.scale
-            y = camera.size[1] / 2 - (ends[:, 1] - camera.centre[1]) * camera.scale
-            pygame.draw.line(self.surface, WALL, (x[0], y[0]), (x[1], y[1]), 2)
+            pix = camera(ends, wrap=False)
+            pygame.draw.line(self.surface, WALL, pix[0].tolist(), pix[1].tolist(), 2)
 
     def _label(self, text, x, y, colour):
         self.surface.blit(self.font.render(text, True, colour), (x, y))

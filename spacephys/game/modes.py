@@ -66,14 +66,10 @@ class Mode:
         return {"paths": [], "markers": []}
 
     def camera(self, drawn):
-        """(centre (2,), half height) of the view, given the drawn positions (n, 2)."""
-        w = self.world
-        mode, lo, hi, _ = w.boundary
-        if mode == "periodic":
-            return (lo + hi)[:2] / 2, float(hi[1] - lo[1]) / 2
-        heavy = drawn[w.kind != w.kind_code("debris")] if w.n else drawn
-        reach = float(np.abs(heavy).max()) if heavy.size else 1.0
-        return np.zeros(2), 1.2 * max(reach, 1e-9)
+        """(centre (2,), half height) of the view, given the drawn positions (n, 2): the
+        wrapping box, or every body but debris about the origin (spacephys.draw.framing)."""
+        from ..draw import framing
+        return framing(self.world, drawn)
 
     def colour(self, body_id):
         """The colour of a ship or missile: its side's."""

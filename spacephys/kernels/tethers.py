@@ -103,9 +103,7 @@ def _add_springs(tt, pos, mass, out, targets):
         if broken[k] or params[k, STIFFNESS] == 0.0:
             continue
         i, j = rows[k, 0], rows[k, 1]
-        dx = pos[j, 0] - pos[i, 0]
-        dy = pos[j, 1] - pos[i, 1]
-        dz = pos[j, 2] - pos[i, 2]
+        dx, dy, dz = _between(pos, i, j)
         r = math.sqrt(dx * dx + dy * dy + dz * dz)
         if r == 0.0:
             continue
@@ -213,10 +211,9 @@ def settle(tt, state, t0, dt):
                     _project(tt, k, pos, vel, mass)
         for k in range(rows.shape[0]):           # whether each rope pulls in the next step
             if params[k, RIGID] == 0.0:
-                r = math.sqrt((pos[rows[k, 1], 0] - pos[rows[k, 0], 0]) ** 2
-                              + (pos[rows[k, 1], 1] - pos[rows[k, 0], 1]) ** 2
-                              + (pos[rows[k, 1], 2] - pos[rows[k, 0], 2]) ** 2)
-                tt.taut[k] = r >= params[k, LENGTH] * (1.0 - TAUT)
+                dx, dy, dz = _between(pos, rows[k, 0], rows[k, 1])
+                tt.taut[k] = math.sqrt(dx * dx + dy * dy + dz * dz) >= \
+                    params[k, LENGTH] * (1.0 - TAUT)
     point = np.empty(3)
     normal = np.empty(3)
     for k in range(rows.shape[0]):
