@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from . import _validate as check
-from . import plans
+from . import editing, plans
 from .entities import G0_SI, ExplosionSpec, MissileSpec, ShipSpec
 from .kernels.codes import GUIDANCE
 from .events import EVENT_DTYPE, upgrade
@@ -151,6 +151,11 @@ class Actors:
         self.w._invalidate()
         return i
 
+    def orient(self, i):
+        """Make sure the body at row i has an orientation (a rotor, at rest, unless it has
+        one); returns its row (the columns may have been laid out anew)."""
+        return self._rotor(i)
+
     def _engines(self, rows):
         """The ships and missiles among these rows of actors (rotors left out)."""
         if not rows.size:
@@ -204,6 +209,7 @@ class Actors:
         vel = np.zeros(self.w.dim) if vel is None else check.floats("vel", vel, (self.w.dim,))
         curve = self._curve_rows(spec.thrust_curve)       # only grows a table: harmless
         explosion = self._explosion_index(spec.explosion)
+        shape = editing.check_shape(self.w, getattr(spec, "shape", None))
         self._actor_columns()
         if lifetime is not None:
             self._lifetime_columns()
@@ -212,6 +218,11 @@ class Actors:
                                mask=spec.mask, group=spec.group)
         b = self.b
         i = self.w.index_of(body)
+        b.actor[i] = True                     # before its shape: a ship, not a rotor
+        if shape is not None:
+            editing.give_shapes(self.w, [body], [shape])
+            b = self.b
+            i = self.w.index_of(body)
         b.actor[i] = True
         b.quat[i] = q
         b.curve[i] = curve

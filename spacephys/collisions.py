@@ -5,7 +5,9 @@ name) and kernels/responses.py (what it does at contact)."""
 import numpy as np
 
 from . import _validate as check
+from .entities import Circles
 from .kernels import rules as krules
+from .kernels import shapes as kshapes
 from .kernels.arrays import largest
 from .kernels.codes import (BOUNCE, BOUNDARIES, BREAK_A, BREAK_B, FOLLOWS, IGNORE, IN_GRID,
                             MIRRORED, OPEN, OUT_OF_GRID, PLANE, RESPONSES, SEGMENT)
@@ -29,6 +31,7 @@ class CollisionRules:
         self.box = np.zeros((2, 3))
         self.box_restitution = 1.0
         self.cell = None                   # None: chosen from the radii (see giants)
+        self.shapes = []                   # the compound shapes (Circles) the column names
         self._touch_set(np.zeros((0, 3), np.int64))
 
     def _touch_set(self, pairs):
@@ -172,6 +175,43 @@ class CollisionRules:
         if self.boundary != OPEN:
             self.box[:, :dim] -= delta
 
+    # ------------------------------------------------------------ compound shapes
+    def shape_code(self, circles):
+        """The library index of a Circles (added once; equal shapes share an entry)."""
+        if circles not in self.shapes:
+            self.shapes.append(circles)
+        return self.shapes.index(circles)
+
+    def library(self):
+        """(rows (S, 2) int64: first circle and count of each shape, circles (C, 4):
+        offsets x, y, z and radius, gyration (S,): Circles.gyration)."""
+        counts = np.array([len(c.radii) for c in self.shapes], np.int64)
+        rows = np.stack([np.cumsum(counts) - counts, counts], axis=1) if counts.size else \
+            np.zeros((0, 2), np.int64)
+        circles = np.concatenate([c.rows() for c in self.shapes]) if self.shapes else \
+            np.zeros((0, 4))
+        return rows, circles, np.array([c.gyration() for c in self.shapes], np.float64)
+
+    def world_circles(self, shape, pos, quat, rows=None):
+        """Every circle of the compound bodies among `rows` (default all) now: (rows (C,),
+        circle index in its body (C,), centres (C, 3), radii (C,)). shape (n,) the shape
+        column, pos (n, 3), quat (n, 4) the orientations."""
+        rows = np.flatnonzero(shape >= 0) if rows is None else \
+            np.asarray(rows)[shape[rows] >= 0]
+        if not rows.size:
+            return rows, np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0)
+        table, circles, _ = self.library()
+        first, count = table[shape[rows]].T
+        body = np.repeat(rows, count)
+        k = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+        c = circles[np.repeat(first, count) + k]
+        w, x, y, z = quat[body].T
+        o = c[:, :3]
+        # R(q) o, row by row
+        t = 2.0 * np.cross(np.stack([x, y, z], axis=1), o)
+        turned = o + w[:, None] * t + np.cross(np.stack([x, y, z], axis=1), t)
+        return body, k, pos[body] + turned, c[:, 3].copy()
+
     # ------------------------------------------------------------ the table
     def giants(self, radius):
         """(rows of the giants, grid cell). With the default cell: the largest bodies above
@@ -198,14 +238,19 @@ class CollisionRules:
         biggest = ordered[giants] if giants < ordered.size else 0.0
         return np.sort(rows[:giants]).astype(np.int64), 2.0 * biggest if biggest > 0 else 1.0
 
-    def table(self, kind, radius, category, mask, group, fixed, owner, dim, index, scratch):
+    def table(self, kind, radius, category, mask, group, fixed, owner, dim, index, scratch,
+              shape=None, orientation=None):
         """The collision pass's Rules for the bodies (n,) columns given (shared), or None
         when nothing can collide. group : (n,) int64 collision groups, or (0,) when no body
         has one; owner : (n,) int64 launcher rows of the missiles that ignore them;
         index : the bodies' slot -> row table; scratch : name -> (n, ...) arrays for
-        krules.SCRATCH."""
+        krules.SCRATCH; shape : (n,) the shape column (None: every body round), orientation :
+        the actors' (quat, omega, inertia) columns, (n, ...) each, when a body has a shape."""
         if not self.enabled():
             return None
+        shapes = None
+        if shape is not None and (shape >= 0).any():
+            shapes = kshapes.make(shape, *self.library(), *orientation)
         giants, cell = self.giants(radius)
         # a kind needs the grid if it can meet a kind with bodies besides giants (itself: two);
         # bodies that meet only giants stay out of it (they look up a grid of the giants)
@@ -224,7 +269,7 @@ class CollisionRules:
                            walls=self.walls, boundary=self.boundary, box=self.box,
                            box_restitution=self.box_restitution, cell=cell, dim=dim,
                            owner=owner, giants=giants, gridded=gridded, index=index,
-                           touch=self.touch, ntouch=self.ntouch)
+                           touch=self.touch, ntouch=self.ntouch, shapes=shapes)
 
     def _followers(self, counts):
         """(K,) bool: the kinds whose bodies the grid enters only in cells that hold a body of
@@ -250,7 +295,9 @@ class CollisionRules:
                 "walls": self.walls.copy(), "boundary": int(self.boundary),
                 "box": self.box.copy(), "box_restitution": float(self.box_restitution),
                 "cell": -1.0 if self.cell is None else float(self.cell),
-                "touching": self.touching()}
+                "touching": self.touching(),
+                "shape_rows": self.library()[0], "shape_circles": self.library()[1],
+                "shape_dims": np.array([c.dim for c in self.shapes], np.int64)}
 
     @classmethod
     def from_state(cls, s):
@@ -263,4 +310,9 @@ class CollisionRules:
         r.box_restitution = float(s["box_restitution"])
         r.cell = None if float(s["cell"]) < 0 else float(s["cell"])
         r._touch_set(np.array(s.get("touching", np.zeros((0, 3))), np.int64).reshape(-1, 3))
+        rows = np.array(s.get("shape_rows", np.zeros((0, 2))), np.int64).reshape(-1, 2)
+        circles = np.array(s.get("shape_circles", np.zeros((0, 4))), np.float64).reshape(-1, 4)
+        dims = np.array(s.get("shape_dims", np.zeros(0)), np.int64).reshape(-1)
+        r.shapes = [Circles(circles[a:a + k, :d], circles[a:a + k, 3])
+                    for (a, k), d in zip(rows, dims)]
         return r

@@ -1,7 +1,8 @@
 """Drawing a World with pygame-ce in a few lines, as pymunk.pygame_util does for pymunk: the
 bodies where w.interpolate(alpha) puts them, coloured by kind, ships and missiles along their
-headings, spinning bodies with a mark, fading debris, trails, walls, tethers, predicted
-paths and labels, through a Camera that can follow a body, zoom and look across a wrapping box's seams.
+headings, spinning bodies with a mark, compound bodies (sp.Circles) circle by circle, fading
+debris, trails, walls, tethers, predicted paths and labels, through a Camera that can follow a
+body, zoom and look across a wrapping box's seams.
 
     import pygame, spacephys as sp
     screen = pygame.display.set_mode((960, 720))
@@ -173,13 +174,19 @@ class Painter:
         headings = world.headings if world.dim == 2 else self._flat(world.headings)
         colours = colours or {}
         flames = set(flames)
+        compound = self._compound(world, camera.scale)
         for r in np.flatnonzero(~debris):
             name, body = names[r], int(ids[r])
             x, y = float(px[r, 0]), float(px[r, 1])
             colour = colours.get(body) or self.colour(world, world.kind[r])
             size = radius[r] * camera.scale
             h = headings[r]
-            if name == "ship" and not np.isnan(h):
+            if r in compound and size >= 4.0:            # circle by circle (big enough)
+                if name == "ship" and body in flames and not np.isnan(h):
+                    self._flame(x, y, size, h)
+                for (dx, dy), rc in zip(*compound[r]):
+                    pygame.draw.circle(surf, colour, (x + dx, y + dy), max(1.0, rc))
+            elif name == "ship" and not np.isnan(h):
                 self._ship(x, y, max(10.0, size), h, colour, body in flames)
             elif name == "missile" and not np.isnan(h):
                 c, s = math.cos(h), -math.sin(h)
@@ -228,9 +235,36 @@ class Painter:
         left = (x + size * (-0.7 * c + 0.6 * s), y + size * (-0.7 * s - 0.6 * c))
         right = (x + size * (-0.7 * c - 0.6 * s), y + size * (-0.7 * s + 0.6 * c))
         if flame:
-            tail = (x - 1.3 * size * c, y - 1.3 * size * s)
-            pygame.draw.polygon(self.surface, FLAME, [left, tail, right])
+            self._flame(x, y, size, h)
         pygame.draw.polygon(self.surface, colour, [nose, left, right])
+
+    def _flame(self, x, y, size, h):
+        """A lit engine's flame behind (x, y) [pixels], against heading h, for a ship of size
+        [pixels]."""
+        pygame = _pygame()
+        c, s = math.cos(h), -math.sin(h)
+        left = (x + size * (-0.7 * c + 0.6 * s), y + size * (-0.7 * s - 0.6 * c))
+        right = (x + size * (-0.7 * c - 0.6 * s), y + size * (-0.7 * s + 0.6 * c))
+        tail = (x - 1.3 * size * c, y - 1.3 * size * s)
+        pygame.draw.polygon(self.surface, FLAME, [left, tail, right])
+
+    @staticmethod
+    def _compound(world, scale):
+        """{row: (offsets (k, 2), radii (k,)) in pixels} of the compound bodies' circles:
+        each circle's offset from its body's centre turned by the body's orientation now (the
+        headings drawn are now's too; 3D: seen from above), added to where the body is drawn,
+        so the circles move with its interpolated position (and its nearest image)."""
+        ids, _, centres, radii = world.circles()
+        if not len(ids):
+            return {}
+        rows = world.index_of(ids)
+        off = (centres[:, :2] - world.pos[rows, :2]) * scale
+        off[:, 1] *= -1.0                                  # screen y points down
+        out = {}
+        for r in np.unique(rows):
+            mine = rows == r
+            out[int(r)] = (off[mine], radii[mine] * scale)
+        return out
 
     def _tethers(self, world, px):
         """Each tether as a line between its ends (where the camera puts each end)."""

@@ -11,7 +11,7 @@ import numpy as np
 
 from . import _validate as check
 from . import measures
-from .entities import ExplosionSpec
+from .entities import Circles, ExplosionSpec
 from .steppers import INEXTENSIBLE
 
 # kinds whose bodies feel gravity but do not pull unless told to (active=True): their mass is
@@ -99,7 +99,7 @@ def kind_codes(w, kind, k, field):
 
 
 def add_body(w, mass, pos, vel, radius, kind, active, fixed, category, mask, group,
-             lifetime, explosion=None, tag=0):
+             lifetime, explosion=None, tag=0, shape=None):
     """World.add_body: the new body's int id."""
     pos = check.floats("pos", pos, (w._dim,))
     vel = np.zeros(w._dim) if vel is None else check.floats("vel", vel, (w._dim,))
@@ -110,7 +110,7 @@ def add_body(w, mass, pos, vel, radius, kind, active, fixed, category, mask, gro
     return int(w.add_bodies(mass, pos[None], vel[None], radius=radius, kind=kind,
                             active=active, fixed=fixed, category=category,
                             mask=mask, group=group, lifetime=lifetime,
-                            explosion=explosion, tag=tag)[0])
+                            explosion=explosion, tag=tag, shape=shape)[0])
 
 
 def _explosion(value, allow_false=False):
@@ -121,8 +121,90 @@ def _explosion(value, allow_false=False):
                      + (", or False for none" if allow_false else ""))
 
 
+# ---------------------------------------------------------------- compound shapes
+SHAPE = "shape"               # the column: each body's shape in CollisionRules.shapes, -1 round
+
+
+def check_shape(w, value, field="shape"):
+    """A Circles for this World's dimension, or None."""
+    if value is None:
+        return None
+    if not isinstance(value, Circles):
+        raise ValueError(f"{field} = {value!r}: expected an sp.Circles(offsets, radii)")
+    if value.dim != w._dim:
+        raise ValueError(f"{field}: its offsets have {value.dim} coordinates in a "
+                         f"{w._dim}D World")
+    return value
+
+
+def _shapes(w, value, k):
+    """(k,) list of Circles or None from one Circles (every body) or k of them, or None."""
+    if value is None:
+        return None
+    if isinstance(value, Circles):
+        return [check_shape(w, value)] * k
+    if not isinstance(value, (list, tuple)) or len(value) != k:
+        raise ValueError(f"shape = {value!r}: expected an sp.Circles, or a list of {k} "
+                         f"(Circles or None)")
+    return [check_shape(w, v, f"shape[{q}]") for q, v in enumerate(value)]
+
+
+def _shaped_radius(radius, shapes):
+    """The radii with each compound body's the bounding radius of its shape (a radius given
+    beside a shape is refused)."""
+    radius = radius.copy()
+    for q, c in enumerate(shapes):
+        if c is not None:
+            if radius[q] != 0.0:
+                raise ValueError(f"radius[{q}] = {radius[q]} with a shape: a compound body's "
+                                 f"radius is its shape's bounding radius ({c.bounding}); "
+                                 f"leave radius out")
+            radius[q] = c.bounding
+    return radius
+
+
+def give_shapes(w, ids, shapes):
+    """Set checked shapes (Circles, or None for round) of bodies `ids`: the shape column,
+    the radius (bounding) and an orientation for each compound body (a rotor unless it is an
+    actor)."""
+    if all(c is None for c in shapes) and SHAPE not in w._b.columns:
+        return
+    w._b.ensure_column(SHAPE, (), np.int64, -1)
+    for body, c in zip(ids, shapes):
+        i = w.index_of(int(body))
+        w._b.shape[i] = -1 if c is None else w._collisions.shape_code(c)
+        if c is not None:
+            w._b.radius[i] = c.bounding
+            w._actors.orient(i)
+    w._invalidate()
+
+
+def shape_of(w, body):
+    """World.shape."""
+    i = w.index_of(body, "body")
+    b = w._b
+    if SHAPE not in b.columns or b.shape[i] < 0:
+        return None
+    return w._collisions.shapes[b.shape[i]]
+
+
+def circles(w, body):
+    """World.circles."""
+    b, n, dim = w._b, w._b.n, w._dim
+    quat = b.quat[:n] if "quat" in b.columns else np.zeros((n, 4))
+    shape = b.shape[:n] if SHAPE in b.columns else np.full(n, -1, np.int64)
+    if body is None:
+        rows, k, centres, radii = w._collisions.world_circles(shape, b.pos[:n], quat)
+        return b.ids[rows].copy(), k, centres[:, :dim], radii
+    i = w.index_of(body, "body")
+    if shape[i] < 0:
+        return b.pos[i, :dim][None].copy(), np.array([b.radius[i]])
+    _, _, centres, radii = w._collisions.world_circles(shape, b.pos[:n], quat, [i])
+    return centres[:, :dim], radii
+
+
 def add_bodies(w, mass, pos, vel, radius, kind, active, fixed, category, mask, group,
-               lifetime, explosion=None, tag=0):
+               lifetime, explosion=None, tag=0, shape=None):
     """World.add_bodies: the new bodies' (k,) int64 ids."""
     pos = check.floats("pos", pos, (None, w._dim))
     k = pos.shape[0]
@@ -140,6 +222,9 @@ def add_bodies(w, mass, pos, vel, radius, kind, active, fixed, category, mask, g
     mask = _bits("mask", mask, k)
     optional = {GROUP: _optional(GROUP, group, k), TAG: _optional(TAG, tag, k)}
     explosion = _explosion(explosion)
+    shapes = _shapes(w, shape, k)
+    if shapes is not None:
+        radius = _shaped_radius(radius, shapes)
     if lifetime is not None:
         lifetime = check.per_body("lifetime", lifetime, k, minimum=0.0)
         if np.any(lifetime == 0):
@@ -159,6 +244,8 @@ def add_bodies(w, mass, pos, vel, radius, kind, active, fixed, category, mask, g
     w._actors.set_lifetimes(ids, lifetime)
     if explosion is not None:
         w._actors.set_explosions(w.index_of(ids), explosion)
+    if shapes is not None:
+        give_shapes(w, ids, shapes)
     w._invalidate()
     return ids
 
@@ -204,9 +291,15 @@ def get(w, body_id):
 
 
 def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, mask,
-             group=None, explosion=None, tag=None, angular_velocity=None):
+             group=None, explosion=None, tag=None, angular_velocity=None, shape=None):
     """World.set_body (None: unchanged)."""
     i = w.index_of(body_id)
+    if shape is not None and shape is not False:
+        shape = check_shape(w, shape)
+    if radius is not None and (shape not in (None, False) or (
+            shape is None and shape_of(w, body_id) is not None)):
+        raise ValueError(f"radius of {body_id}: a compound body's radius is its shape's "
+                         f"bounding radius; set its shape (or shape=False, round)")
     if mass is not None and w._actors.is_actor(i):
         raise ValueError(f"mass of {body_id}: a ship's or missile's mass is dry + fuel; "
                          f"use set_fuel")
@@ -242,6 +335,10 @@ def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, 
         i = w.index_of(body_id)
     if angular_velocity is not None:
         i = w._actors.set_spin(i, angular_velocity)
+        b = w._b
+    if shape is not None:
+        give_shapes(w, [body_id], [None if shape is False else shape])
+        i = w.index_of(body_id)
         b = w._b
     for name in OPTIONAL:
         if name in new and name not in b.columns:

@@ -9,7 +9,7 @@ from . import _validate as check
 from .kernels.codes import GUIDANCE
 
 # what `import spacephys` re-exports: a new spec is public once it is listed here
-__all__ = ["ShipSpec", "MissileSpec", "ExplosionSpec", "GUIDANCE"]
+__all__ = ["ShipSpec", "MissileSpec", "ExplosionSpec", "Circles", "GUIDANCE"]
 
 G0_SI = 9.80665           # standard gravity [m/s^2]: exhaust speed = isp * G0 (SI units only)
 
@@ -44,6 +44,63 @@ def _exhaust(spec_name, exhaust_speed, isp):
     if exhaust_speed is not None:
         return _positive("exhaust_speed", exhaust_speed)
     return None      # from isp, in World units: resolved by World (needs units="si")
+
+
+@dataclass(frozen=True)
+class Circles:
+    """A compound hitbox: circles (spheres in 3D) fixed in a body's frame, turning with its
+    heading (World.add_body(..., shape=), ShipSpec(shape=)).
+
+    offsets : (k, dim) the circles' centres in the body's frame [length] (x along the
+    heading); radii : (k,) [length] > 0. Held as tuples (a Circles is immutable and
+    hashable); `bounding` is the radius of the circle about the body's centre that holds them
+    all (the body's radius, which the broad phase and the drawing of a round body use).
+    """
+    offsets: tuple
+    radii: tuple
+
+    def __post_init__(self):
+        radii = check.floats("radii", self.radii).reshape(-1) if np.ndim(self.radii) < 2 \
+            else check.floats("radii", self.radii, (None,))
+        k = radii.size
+        if k == 0:
+            raise ValueError("radii = []: a compound shape needs at least one circle")
+        bad = np.flatnonzero(~(radii > 0.0))
+        if bad.size:
+            raise ValueError(f"radii[{bad[0]}] = {radii[bad[0]]}: must be > 0")
+        offsets = check.floats("offsets", self.offsets)
+        if offsets.ndim != 2 or offsets.shape[0] != k or offsets.shape[1] not in (2, 3):
+            raise ValueError(f"offsets has shape {offsets.shape}: expected ({k}, 2) or "
+                             f"({k}, 3), a centre per radius")
+        object.__setattr__(self, "offsets", tuple(tuple(float(x) for x in o) for o in offsets))
+        object.__setattr__(self, "radii", tuple(float(r) for r in radii))
+
+    @property
+    def dim(self):
+        return len(self.offsets[0])
+
+    @property
+    def bounding(self):
+        o = np.array(self.offsets)
+        return float(np.max(np.sqrt((o * o).sum(axis=1)) + np.array(self.radii)))
+
+    def rows(self):
+        """(k, 4) float64: x, y, z offsets and radius of each circle (z 0 in 2D)."""
+        out = np.zeros((len(self.radii), 4))
+        out[:, :self.dim] = self.offsets
+        out[:, 3] = self.radii
+        return out
+
+    def gyration(self):
+        """k^2 [length^2]: the moment of inertia per unit mass about the body's centre, the
+        mass spread evenly over the circles' areas (2D: discs, r^2/2 each) or volumes
+        (3D: balls, 2 r^2/5), with the parallel-axis term of each offset."""
+        rows = self.rows()
+        r = rows[:, 3]
+        weight = r ** self.dim
+        own = 0.5 * r * r if self.dim == 2 else 0.4 * r * r
+        arm = (rows[:, :3] ** 2).sum(axis=1)
+        return float((weight * (own + arm)).sum() / weight.sum())
 
 
 @dataclass(frozen=True)
@@ -95,7 +152,8 @@ class ShipSpec:
     flat beyond;
     radius [length]; kind; active: pulls other bodies (default False: it feels gravity only);
     explosion: an ExplosionSpec thrown out when the ship is destroyed, or None; category,
-    mask, group: its collision filter (World.add_body's).
+    mask, group: its collision filter (World.add_body's); shape: an sp.Circles, its compound
+    hitbox (radius then left out: the shape's bounding radius).
     """
     dry_mass: float = 1.0
     fuel_mass: float = 0.0
@@ -114,9 +172,16 @@ class ShipSpec:
     category: int = 1
     mask: int = -1
     group: int = 0
+    shape: Circles = None
 
     def __post_init__(self):
         _check_filter(self)
+        if self.shape is not None:
+            if not isinstance(self.shape, Circles):
+                raise ValueError(f"shape = {self.shape!r}: expected an sp.Circles")
+            if self.radius:
+                raise ValueError(f"radius = {self.radius} with a shape: the ship's radius is "
+                                 f"its shape's bounding radius; leave radius out")
         exhaust_given = self.exhaust_speed is not None or self.isp is not None
         _set_engine(self, "ShipSpec")
         object.__setattr__(self, "side_thrust", _nonneg("side_thrust", self.side_thrust))

@@ -31,6 +31,9 @@ EVENT_DTYPE = np.dtype([
     # (names in World.kinds; -1 for no body) and the game's tags (World.tags; 0 for none)
     ("kind_a", np.int16), ("kind_b", np.int16),
     ("tag_a", np.int64), ("tag_b", np.int64),
+    # which circle of a compound body (World.shape: the index into its Circles) touched, at a
+    # contact of a compound body; -1 for a round body, a wall, or an event of no contact
+    ("circle_a", np.int16), ("circle_b", np.int16),
 ])
 """One record per event; the id fields are generational ids as in World.ids.
 
@@ -47,19 +50,19 @@ its break_force, the point midway, normal a -> b, speed the ends' separating spe
 energy_lost the spring energy it held, distance the ends' distance."""
 
 
-# the fields events had before they named their bodies' kinds and tags (run logs and state
-# files written then hold these alone)
+# the fields events had before they named their bodies' kinds and tags, and their circles
+# (run logs and state files written then hold these alone)
 FIRST_FIELDS = EVENT_DTYPE.names[:EVENT_DTYPE.names.index("kind_a")]
 
 
 def upgrade(events):
     """(E,) EVENT_DTYPE from events of this or an earlier EVENT_DTYPE (a state file's or a
-    run log's, matched by field name): kinds -1 and tags 0 where it has none."""
+    run log's, matched by field name): kinds and circles -1 and tags 0 where it has none."""
     events = np.asarray(events)
     if events.dtype == EVENT_DTYPE:
         return events.reshape(-1)
     out = np.zeros(events.size, EVENT_DTYPE)
-    out["kind_a"] = out["kind_b"] = -1
+    out["kind_a"] = out["kind_b"] = out["circle_a"] = out["circle_b"] = -1
     for name in events.dtype.names or ():
         out[name] = events[name].reshape(-1)
     return out

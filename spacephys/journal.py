@@ -8,11 +8,11 @@ import functools
 import numpy as np
 from numba.core.registry import CPUDispatcher
 
-from .entities import ExplosionSpec, MissileSpec, ShipSpec
+from .entities import Circles, ExplosionSpec, MissileSpec, ShipSpec
 from .plans import Burn
 
 _SPECS = {"ShipSpec": ShipSpec, "MissileSpec": MissileSpec, "ExplosionSpec": ExplosionSpec,
-          "Burn": Burn}
+          "Burn": Burn, "Circles": Circles}
 
 
 def encode(value):

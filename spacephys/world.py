@@ -549,7 +549,7 @@ class World:
 
     def add_body(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None,
                  fixed=False, category=1, mask=-1, group=0, lifetime=None, explosion=None,
-                 tag=0):
+                 tag=0, shape=None):
         """Add one body; returns its id.
 
         mass [mass] >= 0 (0: a test particle); pos, vel : (dim,); radius [length] >= 0;
@@ -563,24 +563,28 @@ class World:
         sp.ExplosionSpec whose debris it throws out when a collision or a detonation destroys
         it (an asteroid that breaks up), as a ship's or missile's spec gives them; tag : an
         integer of the game's own (what the body is to it: a player, a score, an index into
-        its tables), read back in w.tags and carried by nothing else.
+        its tables), read back in w.tags and carried by nothing else; shape : an sp.Circles,
+        a compound hitbox of circles (spheres) fixed in the body's frame, turning with it
+        (radius then left out: the shape's bounding radius; the body gets an orientation,
+        and contacts turn it: docs/guide/collisions.md#compound-hitboxes).
         """
         return editing.add_body(self, mass, pos, vel, radius, kind, active, fixed, category,
-                                mask, group, lifetime, explosion, tag)
+                                mask, group, lifetime, explosion, tag, shape)
 
     def add_bodies(self, mass, pos, vel=None, *, radius=0.0, kind="body", active=None,
                    fixed=False, category=1, mask=-1, group=0, lifetime=None,
-                   explosion=None, tag=0):
+                   explosion=None, tag=0, shape=None):
         """Add k bodies at once; returns their (k,) int64 ids.
 
         mass : number or (k,); pos, vel : (k, dim); radius : number or (k,);
         kind : one name/code or k of them; active, fixed : None/bool or (k,) bools (see
         add_body); category, mask, group, tag : int or (k,) ints; lifetime : None, a number
-        or (k,) numbers > 0; explosion : one sp.ExplosionSpec for all (see add_body).
-        Everything is checked before anything is added.
+        or (k,) numbers > 0; explosion : one sp.ExplosionSpec for all (see add_body); shape :
+        one sp.Circles for all, or a list of k (Circles or None). Everything is checked before
+        anything is added.
         """
         return editing.add_bodies(self, mass, pos, vel, radius, kind, active, fixed, category,
-                                  mask, group, lifetime, explosion, tag)
+                                  mask, group, lifetime, explosion, tag, shape)
 
     index_of = editing.index_of        # itself, not a call to it: a game's every-frame call
 
@@ -593,7 +597,7 @@ class World:
 
     def set_body(self, body_id, *, pos=None, vel=None, mass=None, radius=None, kind=None,
                  active=None, fixed=None, category=None, mask=None, group=None,
-                 explosion=None, tag=None, angular_velocity=None):
+                 explosion=None, tag=None, angular_velocity=None, shape=None):
         """Change one body between steps; everything is checked before anything changes.
 
         A new pos also resets the body's render interpolation (a teleport, not a smear);
@@ -601,10 +605,22 @@ class World:
         angular_velocity [rad/time] : body-frame, a number (2D, about z) or (3,): any body
         spins at it from then on (heading and orientation follow; no torque changes a
         rotor's), a ship or missile with physical rotation (ShipSpec.moment_of_inertia) until
-        its thrusters turn it.
+        its thrusters turn it; shape : an sp.Circles (its radius becomes the shape's bounding
+        radius), or False for round again.
         """
         editing.set_body(self, body_id, pos, vel, mass, radius, kind, active, fixed, category,
-                         mask, group, explosion, tag, angular_velocity)
+                         mask, group, explosion, tag, angular_velocity, shape)
+
+    def shape(self, body):
+        """The body's compound hitbox (an sp.Circles), or None for a round body."""
+        return editing.shape_of(self, body)
+
+    def circles(self, body=None):
+        """Where hitboxes are now. For a body: (centres (k, dim), radii (k,)) of its circles
+        (a round body: its centre and radius). For None: every circle of every compound body,
+        (ids (C,), index of the circle in its body's Circles (C,), centres (C, dim),
+        radii (C,))."""
+        return editing.circles(self, body)
 
     def tether(self, a, b, length=None, *, stiffness=None, rigid=False, break_force=None):
         """Join bodies a and b with a tether of length `length` [length] (default: their
@@ -1076,12 +1092,20 @@ class World:
         rules = self._collisions.table(b.kind[:n].astype(np.int64), b.radius[:n],
                                        b.category[:n], b.mask[:n], editing.optional(self, editing.GROUP),
                                        b.fixed[:n], self._actors.owners(), self._dim,
-                                       b.index, scratch)
+                                       b.index, scratch, *self._shape_columns(n))
         plan = Plan(self, state, forces, rules, self._actors.table(actors),
                     self._stepper.method(self, sources), alive, work)
         self._plan = plan
         measures.check_precision(self, b.pos[:n, :self._dim])
         return plan
+
+    def _shape_columns(self, n):
+        """(the shape column, the orientation columns (quat, omega, inertia)) for the
+        collision table, (None, None) when no body has a shape."""
+        b = self._b
+        if editing.SHAPE not in b.columns:
+            return None, None
+        return b.shape[:n], (b.quat[:n], b.omega[:n], b.inertia[:n])
 
     # ---------------------------------------------------------------- stepping
     def step(self, n=1):

@@ -5,17 +5,27 @@ from spacephys.study.overhead import _calls, _snapshots
 
 
 def test_per_call_cases_run_beside_rebound():
-    """The four cases of the issue, each with a finite time, and REBOUND's beside the three
+    """The cases of the issue, each with a finite time, and REBOUND's beside the three
     that have one (its duel: the star pulls, the ships do not, nothing collides)."""
     rows = _calls(quick=True)
     assert [r["case"] for r in rows] == ["step(1), 2 bodies",
                                          "advance(1/60), one step of 2 bodies",
-                                         "duel step(1)", "duel control()"]
+                                         "duel step(1)", "duel step(1), compound hulls",
+                                         "duel control()"]
     for r in rows:
         assert 0.0 < r["spacephys_s"] < 1e-3 and math.isfinite(r["spacephys_s"])
         if r["case"] != "duel control()":
             assert 0.0 < r["rebound_s"] < 1e-3
             assert math.isclose(r["ratio"], r["spacephys_s"] / r["rebound_s"])
+    # the compound duel's target is 1.5 times the round duel's step, measured in the same run
+    by = {r["case"]: r for r in rows}
+    assert by["duel step(1), compound hulls"]["target_s"] == 1.5 * by["duel step(1)"]["spacephys_s"]
+
+
+def test_the_compound_duel_has_compound_hulls():
+    from spacephys.study.overhead import _duel
+    w, ship = _duel(compound=True)
+    assert w.shape(ship) is not None and len(w.circles()[0]) == 6
 
 
 def test_snapshot_cases_run_beside_rebounds_copy():

@@ -143,3 +143,57 @@ def test_the_guides_example_runs_as_written(tmp_path):
     pygame.display.quit()
     assert (shot == PATH).all(axis=2).sum() > 50                   # the predicted path
     assert (shot == KIND_COLOURS["planet"]).all(axis=2).sum() > 100
+
+
+def test_a_compound_body_is_drawn_circle_by_circle_turning_with_its_heading(surface):
+    w = sp.World(2, gravity="none", dt=1.0)
+    bell = w.add_body(1.0, (0.0, 0.0), shape=sp.Circles([[3.0, 0.0], [-3.0, 0.0]], [1.0, 1.0]),
+                      kind="asteroid")
+    rock = KIND_COLOURS["asteroid"]
+    painter = Painter(surface, stars=0)
+    camera = painter.draw(w, 1.0, Camera(half=10.0))
+    assert _pixel(surface, camera, (3.0, 0.0)) == rock
+    assert _pixel(surface, camera, (-3.0, 0.0)) == rock
+    assert _pixel(surface, camera, (0.0, 0.0)) == (0, 0, 10)           # the gap between
+    assert _pixel(surface, camera, (0.0, 3.0)) == (0, 0, 10)
+    w.set_heading(bell, math.pi / 2)                                     # turned a quarter
+    painter.draw(w, 1.0, camera)
+    assert _pixel(surface, camera, (0.0, 3.0)) == rock
+    assert _pixel(surface, camera, (0.0, -3.0)) == rock
+    assert _pixel(surface, camera, (3.0, 0.0)) == (0, 0, 10)
+    assert _pixel(surface, camera, (-3.0, 0.0)) == (0, 0, 10)
+    # between two steps: the circles go with the body's interpolated position
+    w.set_body(bell, vel=(4.0, 0.0))
+    w.step(1)
+    painter.draw(w, 0.5, camera)
+    assert _pixel(surface, camera, (2.0, 3.0)) == rock
+    assert _pixel(surface, camera, (2.0, -3.0)) == rock
+    assert _pixel(surface, camera, (4.0, 3.0)) == (0, 0, 10)           # not where it is now
+
+
+def test_a_compound_ship_shows_its_circles_and_its_flame(surface):
+    hull = sp.Circles([[2.0, 0.0], [0.0, 0.0], [-2.0, 0.0]], [1.0, 1.0, 1.0])
+    w = sp.World(2, gravity="none", dt=0.1)
+    ship = w.add_ship(sp.ShipSpec(dry_mass=1, fuel_mass=1, max_thrust=1, exhaust_speed=10,
+                                  turn_rate=1, shape=hull), (0.0, 0.0), heading=math.pi / 2)
+    painter = Painter(surface, stars=0)
+    camera = painter.draw(w, 1.0, Camera(half=10.0), flames=[ship])
+    for y in (2.0, 0.0, -2.0):
+        assert _pixel(surface, camera, (0.0, y)) == KIND_COLOURS["ship"]
+    assert _pixel(surface, camera, (0.9, 2.0)) == KIND_COLOURS["ship"]  # round, not a
+    assert _pixel(surface, camera, (-1.5, -2.0)) == (0, 0, 10)          # triangle's corners
+    assert _pixel(surface, camera, (2.0, 0.0)) == (0, 0, 10)            # along y, not x
+    assert _pixel(surface, camera, (0.0, -3.6)) == (255, 140, 40)       # the flame, behind
+
+
+def test_a_3d_compound_body_is_seen_from_above(surface):
+    w = sp.World(3, gravity="none", dt=0.1)
+    bell = w.add_body(1.0, (0.0, 0.0, 0.0), kind="planet",
+                      shape=sp.Circles([[3.0, 0.0, 0.0], [-3.0, 0.0, 0.0]], [1.0, 1.0]))
+    w.set_heading(bell, (0.0, 1.0, 0.0))
+    painter = Painter(surface, stars=0)
+    camera = painter.draw(w, 1.0, Camera(half=10.0))
+    assert _pixel(surface, camera, (0.0, 3.0)) == KIND_COLOURS["planet"]
+    assert _pixel(surface, camera, (0.0, -3.0)) == KIND_COLOURS["planet"]
+    assert _pixel(surface, camera, (3.0, 0.0)) == (0, 0, 10)
+    assert _pixel(surface, camera, (0.0, 0.0)) == (0, 0, 10)

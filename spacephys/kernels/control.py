@@ -37,6 +37,7 @@ from .codes import (BURN_ANTINORMAL, BURN_NORMAL, BURN_PROGRADE, BURN_RADIAL_IN,
 from .rules import wrap
 from .state import record
 from . import libm
+from .rotations import normalised, qexp, qmul, rotate
 
 # pending events (the lean functions cannot grow the event buffer; flush records them): a row
 # each, [kind, row i, row j (-1: none), time into the step, point (3,), normal (3,), speed,
@@ -133,44 +134,6 @@ def make(columns, actors, target, curve_table, expires, dim, plan, clock, planne
     return _make(*(fields[name] for name in FIELDS))
 
 
-# ---------------------------------------------------------------- rotations
-@kernel
-def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
-    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
-
-
-@kernel
-def _qexp(wx, wy, wz, t):
-    """The rotation by the angle |w| t about w, as a quaternion."""
-    norm = math.sqrt(wx * wx + wy * wy + wz * wz)
-    if norm == 0.0:
-        return 1.0, 0.0, 0.0, 0.0
-    half = 0.5 * norm * t
-    s = libm.sin(half) / norm
-    return libm.cos(half), wx * s, wy * s, wz * s
-
-
-@kernel
-def _rotate(q0, q1, q2, q3, vx, vy, vz):
-    """R(q) v for a unit quaternion q."""
-    # t = 2 q_vec x v; v' = v + q0 t + q_vec x t
-    tx = 2.0 * (q2 * vz - q3 * vy)
-    ty = 2.0 * (q3 * vx - q1 * vz)
-    tz = 2.0 * (q1 * vy - q2 * vx)
-    return (vx + q0 * tx + (q2 * tz - q3 * ty),
-            vy + q0 * ty + (q3 * tx - q1 * tz),
-            vz + q0 * tz + (q1 * ty - q2 * tx))
-
-
-@kernel
-def _normalised(q0, q1, q2, q3):
-    s = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-    return q0 * s, q1 * s, q2 * s, q3 * s
-
-
 @kernel(inline=True)
 def _curve_factor(act, i, speed):
     """The thrust curve at this speed: piecewise linear through the table rows, flat beyond."""
@@ -241,7 +204,7 @@ def _turn_toward(q0, q1, q2, q3, hx, hy, hz, dx, dy, dz, max_angle, dim):
         if c > 0.0:
             return 0.0, 0.0, 1.0, 0.0
         # straight behind: turn about the body's own z (2D: the plane's normal)
-        ax, ay, az = (0.0, 0.0, 1.0) if dim == 2 else _rotate(q0, q1, q2, q3, 0.0, 0.0, 1.0)
+        ax, ay, az = (0.0, 0.0, 1.0) if dim == 2 else rotate(q0, q1, q2, q3, 0.0, 0.0, 1.0)
         s = math.sqrt(ax * ax + ay * ay + az * az)
     return ax / s, ay / s, az / s, min(angle, max_angle)
 
@@ -394,7 +357,7 @@ def begin_step(ht, t0, dt, L):
         if _flies_plan(act, q, i, state, t0, dt):
             continue
         q0, q1, q2, q3 = act.quat[i, 0], act.quat[i, 1], act.quat[i, 2], act.quat[i, 3]
-        hx, hy, hz = _rotate(q0, q1, q2, q3, 1.0, 0.0, 0.0)
+        hx, hy, hz = rotate(q0, q1, q2, q3, 1.0, 0.0, 0.0)
         speed = math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2 + vel[i, 2] ** 2)
         burning = act.fuel[i] > 0.0 and t0 < act.burn_end[i]
         main = act.throttle[i] * act.thrust[i] * _curve_factor(act, i, speed) \
@@ -406,10 +369,10 @@ def begin_step(ht, t0, dt, L):
             dx, dy, dz = _desired(act, i, j, pos, vel, hx, hy, hz, a_max, L)
             ax, ay, az, angle = _turn_toward(q0, q1, q2, q3, hx, hy, hz, dx, dy, dz,
                                              act.turn_rate[i] * dt, act.dim)
-            m0, m1, m2, m3 = _qexp(ax, ay, az, 0.5 * angle)
-            e0, e1, e2, e3 = _qexp(ax, ay, az, angle)
-            h0, h1, h2, h3 = _qmul(m0, m1, m2, m3, q0, q1, q2, q3)
-            n0, n1, n2, n3 = _qmul(e0, e1, e2, e3, q0, q1, q2, q3)
+            m0, m1, m2, m3 = qexp(ax, ay, az, 0.5 * angle)
+            e0, e1, e2, e3 = qexp(ax, ay, az, angle)
+            h0, h1, h2, h3 = qmul(m0, m1, m2, m3, q0, q1, q2, q3)
+            n0, n1, n2, n3 = qmul(e0, e1, e2, e3, q0, q1, q2, q3)
         else:
             # body-frame rates: commanded (arcade) or from torque (physical, the step's mean)
             if act.inertia[i] > 0.0:
@@ -427,11 +390,11 @@ def begin_step(ht, t0, dt, L):
                 wx = act.turn_rate[i] * act.turn[i, 0]
                 wy = act.turn_rate[i] * act.turn[i, 1]
                 wz = act.turn_rate[i] * act.turn[i, 2]
-            m0, m1, m2, m3 = _qexp(wx, wy, wz, 0.5 * dt)
-            e0, e1, e2, e3 = _qexp(wx, wy, wz, dt)
-            h0, h1, h2, h3 = _qmul(q0, q1, q2, q3, m0, m1, m2, m3)
-            n0, n1, n2, n3 = _qmul(q0, q1, q2, q3, e0, e1, e2, e3)
-        n0, n1, n2, n3 = _normalised(n0, n1, n2, n3)
+            m0, m1, m2, m3 = qexp(wx, wy, wz, 0.5 * dt)
+            e0, e1, e2, e3 = qexp(wx, wy, wz, dt)
+            h0, h1, h2, h3 = qmul(q0, q1, q2, q3, m0, m1, m2, m3)
+            n0, n1, n2, n3 = qmul(q0, q1, q2, q3, e0, e1, e2, e3)
+        n0, n1, n2, n3 = normalised(n0, n1, n2, n3)
         act.quat[i, 0] = n0
         act.quat[i, 1] = n1
         act.quat[i, 2] = n2
@@ -439,10 +402,10 @@ def begin_step(ht, t0, dt, L):
         if not burning:
             continue
         # thrust along the mid-step frame: main along x, side thrusters along y and z
-        fx, fy, fz = _rotate(h0, h1, h2, h3, main, 0.0, 0.0)
+        fx, fy, fz = rotate(h0, h1, h2, h3, main, 0.0, 0.0)
         sy = act.side[i] * act.strafe[i, 1]
         sz = act.side[i] * act.strafe[i, 2]
-        px, py, pz = _rotate(h0, h1, h2, h3, 0.0, sy, sz)
+        px, py, pz = rotate(h0, h1, h2, h3, 0.0, sy, sz)
         fx += px
         fy += py
         fz += pz
@@ -530,7 +493,7 @@ def _fly_plan(act, q, i, state, t0, dt):
     if c < -1.0 + 1e-15:
         q0, q1, q2, q3 = 0.0, 0.0, 0.0, 1.0
     else:
-        q0, q1, q2, q3 = _normalised(1.0 + c, 0.0, -dz, dy)
+        q0, q1, q2, q3 = normalised(1.0 + c, 0.0, -dz, dy)
     act.quat[i, 0] = q0
     act.quat[i, 1] = q1
     act.quat[i, 2] = q2

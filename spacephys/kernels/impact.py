@@ -6,11 +6,9 @@ per rejected pair). Compiled without fastmath: the roots need exact rounding.
 """
 import math
 
-import numpy as np
-
 from .._jit import kernel
-from .codes import PLANE, SENSOR, TOUCH_ENDS
-from .rules import allowed, wrap
+from .codes import PLANE
+from .rules import wrap
 
 
 @kernel(lean=True)
@@ -25,10 +23,14 @@ def pair_time(A, B, i, j, R, t_lo, L, overlap_counts):
     e0 = B[j, 0] - B[i, 0]
     e1 = B[j, 1] - B[i, 1]
     e2 = B[j, 2] - B[i, 2]
-    # relative position at t_lo, and the quadratic |p + e s|^2 = R^2 in s = t - t_lo
-    p0 = d0 + e0 * t_lo
-    p1 = d1 + e1 * t_lo
-    p2 = d2 + e2 * t_lo
+    return meet(d0 + e0 * t_lo, d1 + e1 * t_lo, d2 + e2 * t_lo, e0, e1, e2, R, t_lo,
+                overlap_counts)
+
+
+@kernel(lean=True)
+def meet(p0, p1, p2, e0, e1, e2, R, t_lo, overlap_counts):
+    """pair_time from the relative position p at t_lo and the relative motion e per step:
+    the quadratic |p + e s|^2 = R^2 in s = t - t_lo."""
     a = e0 * e0 + e1 * e1 + e2 * e2
     b = p0 * e0 + p1 * e1 + p2 * e2
     c = p0 * p0 + p1 * p1 + p2 * p2 - R * R
@@ -49,12 +51,18 @@ def pair_time(A, B, i, j, R, t_lo, L, overlap_counts):
 def wall_time(A, B, i, r, wall, t_lo):
     """Earliest t in [t_lo, 1] at which body i (radius r) touches the wall row; -1 if never.
     Returns (t, nx, ny, nz) with n the wall's normal toward the body at contact."""
+    return wall_hit(A[i, 0], A[i, 1], A[i, 2], B[i, 0], B[i, 1], B[i, 2], r, wall, t_lo)
+
+
+@kernel(lean=True)
+def wall_hit(a0, a1, a2, b0, b1, b2, r, wall, t_lo):
+    """wall_time for a circle of radius r on the line a + b t."""
     if wall[0] == PLANE:
         q0, q1, q2 = wall[1], wall[2], wall[3]
         n0, n1, n2 = wall[4], wall[5], wall[6]
-        s0 = (A[i, 0] + B[i, 0] * t_lo - q0) * n0 + (A[i, 1] + B[i, 1] * t_lo - q1) * n1 \
-            + (A[i, 2] + B[i, 2] * t_lo - q2) * n2 - r
-        rate = B[i, 0] * n0 + B[i, 1] * n1 + B[i, 2] * n2
+        s0 = (a0 + b0 * t_lo - q0) * n0 + (a1 + b1 * t_lo - q1) * n1 \
+            + (a2 + b2 * t_lo - q2) * n2 - r
+        rate = b0 * n0 + b1 * n1 + b2 * n2
         if rate >= 0.0:
             return -1.0, n0, n1, n2
         if s0 <= 0.0:
@@ -73,16 +81,16 @@ def wall_time(A, B, i, r, wall, t_lo):
         if end < 2:
             # end caps: body centre vs a sphere of radius r at the end point
             o = 1 if end == 0 else 4
-            d0 = A[i, 0] - wall[o]
-            d1 = A[i, 1] - wall[o + 1]
-            d2 = A[i, 2] - wall[o + 2]
-            e0, e1, e2 = B[i, 0], B[i, 1], B[i, 2]
+            d0 = a0 - wall[o]
+            d1 = a1 - wall[o + 1]
+            d2 = a2 - wall[o + 2]
+            e0, e1, e2 = b0, b1, b2
         else:
             # side: the components perpendicular to the segment
-            d0 = A[i, 0] - wall[1]
-            d1 = A[i, 1] - wall[2]
-            d2 = A[i, 2] - wall[3]
-            e0, e1, e2 = B[i, 0], B[i, 1], B[i, 2]
+            d0 = a0 - wall[1]
+            d1 = a1 - wall[2]
+            d2 = a2 - wall[3]
+            e0, e1, e2 = b0, b1, b2
             k = (d0 * u0 + d1 * u1 + d2 * u2) / uu
             d0, d1, d2 = d0 - k * u0, d1 - k * u1, d2 - k * u2
             k = (e0 * u0 + e1 * u1 + e2 * u2) / uu
@@ -106,9 +114,9 @@ def wall_time(A, B, i, r, wall, t_lo):
         if t > 1.0:
             continue
         # where along the segment is the contact? the side only counts between the ends
-        x0 = A[i, 0] + B[i, 0] * t - wall[1]
-        x1 = A[i, 1] + B[i, 1] * t - wall[2]
-        x2 = A[i, 2] + B[i, 2] * t - wall[3]
+        x0 = a0 + b0 * t - wall[1]
+        x1 = a1 + b1 * t - wall[2]
+        x2 = a2 + b2 * t - wall[3]
         k = (x0 * u0 + x1 * u1 + x2 * u2) / uu
         if end == 2 and not (0.0 <= k <= 1.0):
             continue
@@ -142,26 +150,3 @@ def exit_time(A, B, tb, i, j, R, t_in, L):
     root = math.sqrt(disc)
     s = -c / (b + root) if b > 0.0 else (root - b) / a     # the later root, cancellation-free
     return min(t_lo + s, 1.0)
-
-
-@kernel
-def pair_contacts(A, B, tb, pairs, L, rules):
-    """Narrow phase: (times, i, j) of the candidate pairs that touch within the step."""
-    radius = rules.radius
-    m = pairs.shape[0]
-    ct = np.empty(m)
-    ci = np.empty(m, np.int64)
-    cj = np.empty(m, np.int64)
-    k = 0
-    for q in range(m):
-        i = pairs[q, 0]
-        j = pairs[q, 1]
-        resp = allowed(rules, rules.kind, i, j)
-        t = pair_time(A, B, i, j, radius[i] + radius[j], max(tb[i], tb[j]), L,
-                       resp in TOUCH_ENDS or resp == SENSOR)
-        if t >= 0.0:
-            ct[k] = t
-            ci[k] = i
-            cj[k] = j
-            k += 1
-    return ct[:k], ci[:k], cj[:k]

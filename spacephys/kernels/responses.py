@@ -14,6 +14,7 @@ from . import libm
 from .codes import (BODIES_GONE, BOUNCE, BREAK_A, DEFLECTED, DESTROY_A, DESTROY_B,
                     DESTROY_BOTH, ELASTIC, EV_BOUNCE, EV_DESTROY, EV_MERGE, EV_WALL, MERGE,
                     REFLECTING, SENSOR, UNTOUCHED)
+from . import shapes as kshapes
 from .rules import wrap
 from .state import record
 
@@ -47,7 +48,7 @@ def _velocity_at(V0, V1, D, k, t, out):
 
 @kernel
 def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rules, dt, t0,
-             L, state):
+             L, state, shapes):
     """Apply response resp to the contact of i and j at time t of the step. Returns
     UNTOUCHED when nothing changed a trajectory, DEFLECTED when velocities changed,
     BODIES_GONE when a body was removed or merged (the caller must refresh what depends on
@@ -81,6 +82,9 @@ def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rul
     closing = 0.0
     for c in range(3):
         closing += (uj[c] - ui[c]) * n[c]             # < 0 when approaching
+    if shapes is not None:
+        if shapes.shape[i] >= 0 or shapes.shape[j] >= 0:
+            dist, closing = kshapes.contact(shapes, i, j, t, pi, pj, ui, uj, radius, n, point)
     fixed_i = rules.fixed[i]
     fixed_j = rules.fixed[j]
     when = t0 + t * dt
@@ -93,31 +97,38 @@ def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rul
         fi, fj = _fractions(mass[i], mass[j], fixed_i, fixed_j)
         if resp == ELASTIC:
             e = 1.0
-        for c in range(3):
-            if resp == ELASTIC and mass[i] == mass[j] and not fixed_i and not fixed_j:
-                # equal masses swap their normal velocities exactly (Laird & Jamin, Basic Game
-                # Physics: identical balls swap velocities): u_i - (u_i.n) n + (u_j.n) n, which is u_j itself head-on
-                ni = ui[0] * n[0] + ui[1] * n[1] + ui[2] * n[2]
-                nj = uj[0] * n[0] + uj[1] * n[1] + uj[2] * n[2]
-                di = (ui[c] - ni * n[c] + nj * n[c]) - ui[c]
-                dj = (uj[c] - nj * n[c] + ni * n[c]) - uj[c]
+        lost = -1.0
+        if shapes is not None:
+            if shapes.shape[i] >= 0 or shapes.shape[j] >= 0:
+                lost = kshapes.bounce(shapes, i, j, t, e, n, closing, mass, rules.fixed, A, B,
+                                      D, tb, pi, pj, dt)
+        if lost < 0.0:
+            for c in range(3):
+                if resp == ELASTIC and mass[i] == mass[j] and not fixed_i and not fixed_j:
+                    # equal masses swap their normal velocities exactly (Laird & Jamin, Basic
+                    # Game Physics: identical balls swap velocities): u_i - (u_i.n) n
+                    # + (u_j.n) n, which is u_j itself head-on
+                    ni = ui[0] * n[0] + ui[1] * n[1] + ui[2] * n[2]
+                    nj = uj[0] * n[0] + uj[1] * n[1] + uj[2] * n[2]
+                    di = (ui[c] - ni * n[c] + nj * n[c]) - ui[c]
+                    dj = (uj[c] - nj * n[c] + ni * n[c]) - uj[c]
+                else:
+                    di = (1.0 + e) * fi * closing * n[c]
+                    dj = -(1.0 + e) * fj * closing * n[c]
+                D[i, c] += di
+                D[j, c] += dj
+                B[i, c] += di * dt
+                B[j, c] += dj * dt
+            for c in range(3):
+                A[i, c] = pi[c] - B[i, c] * t
+                A[j, c] = pj[c] - B[j, c] * t
+            tb[i] = t
+            tb[j] = t
+            if fixed_i or fixed_j:
+                reduced = mass[j] if fixed_i else mass[i]
             else:
-                di = (1.0 + e) * fi * closing * n[c]
-                dj = -(1.0 + e) * fj * closing * n[c]
-            D[i, c] += di
-            D[j, c] += dj
-            B[i, c] += di * dt
-            B[j, c] += dj * dt
-        for c in range(3):
-            A[i, c] = pi[c] - B[i, c] * t
-            A[j, c] = pj[c] - B[j, c] * t
-        tb[i] = t
-        tb[j] = t
-        if fixed_i or fixed_j:
-            reduced = mass[j] if fixed_i else mass[i]
-        else:
-            reduced = mass[i] * fj          # m_i m_j / (m_i + m_j)
-        lost = 0.5 * (1.0 - e * e) * reduced * closing * closing
+                reduced = mass[i] * fj          # m_i m_j / (m_i + m_j)
+            lost = 0.5 * (1.0 - e * e) * reduced * closing * closing
         record(state, EV_BOUNCE, ids[i], ids[j], when, t * dt, point, n, -closing, lost, dist)
         if resp == ELASTIC or resp == BOUNCE:
             meet(rules, i, j, t)        # a contact may begin
@@ -199,9 +210,21 @@ def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rul
 
 @kernel
 def respond_wall(i, t, n0, n1, n2, e, A, B, tb, V0, V1, D, mass, radius, ids, rules, dt, t0,
-                  state):
-    """Reflect body i off a wall (immovable) with restitution e: v -= (1 + e) (v . n) n."""
+                  state, k, shapes):
+    """Reflect body i off a wall (immovable) with restitution e: v -= (1 + e) (v . n) n
+    (a compound body's circle k: its point, turning it)."""
     n = np.array([n0, n1, n2])
+    if shapes is not None:
+        if k >= 0:
+            point = np.empty(3)
+            un, lost = kshapes.bounce_wall(shapes, i, k, t, e, n, A, B, D, V0, V1, radius, mass,
+                                           rules.fixed, dt, point)
+            if un >= 0.0 or rules.fixed[i]:
+                return UNTOUCHED
+            tb[i] = t
+            record(state, EV_WALL, ids[i], -1, t0 + t * dt, t * dt, point, -n, -un, lost,
+                   radius[i])
+            return DEFLECTED
     u = np.empty(3)
     _velocity_at(V0, V1, D, i, t, u)
     un = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]

@@ -38,6 +38,8 @@ FIELDS = (
                      # it (ignored by it), -1
     "group",         # (n,) int64 collision groups (bodies of one group > 0 never meet), or
                      # (0,) when no body has one
+    "shapes",        # kernels/shapes.Shapes: the compound hitboxes, or None when every body
+                     # is round (the pass then compiles none of their code)
     "giants",        # (G,) int64 rows of bodies far larger than the cell: tested against all
     "gridded",       # (n,) int8: how the broad phase's grid takes each body (codes.py:
                      # OUT_OF_GRID, IN_GRID, FOLLOWS)
@@ -79,7 +81,7 @@ def make(scratch, **fields):
               "box_restitution": float(fields["box_restitution"]),
               "cell": float(fields["cell"]), "dim": int(fields["dim"]),
               "found": np.empty((16, 2), np.int64), "found_t": np.empty(16),
-              "nfound": np.zeros(1, np.int64)}
+              "nfound": np.zeros(1, np.int64), "shapes": fields.get("shapes")}
     return _make(*(fields[name] for name in FIELDS))
 
 

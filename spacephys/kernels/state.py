@@ -107,4 +107,6 @@ def record(state, kind, a, b, time, t_in_step, point, normal, speed, lost, dista
     ev.speed = speed
     ev.energy_lost = lost
     ev.distance = distance
+    ev.circle_a = -1                                   # kernels/shapes.name names them
+    ev.circle_b = -1
     state.count[0] = k + 1

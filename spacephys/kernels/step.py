@@ -59,6 +59,7 @@ from .arrays import copy_into
 from .codes import BODIES_GONE, FAILED, NONFINITE, REMOVED
 from .forces import hoist as hoist_forces, implements_by_users
 from .collide import collide_step
+from .shapes import keep_start
 from .rules import periods as box_periods
 from .control import after_step, begin_step, end_burn, flush, undo_turns
 
@@ -151,7 +152,16 @@ def begin(state, rules, actors, ht, t0, dt, keep, last):
     collisions or actors (the family may undo the step); last: the call's last step."""
     _keep(ht, keep or ht.starts, last)       # the start state: for an undo, or ht.starts
     if actors is not None:
+        _keep_orientations(rules)
         begin_step(ht, t0, dt, periods(rules))
+
+
+@kernel
+def _keep_orientations(rules):
+    """The compound bodies' orientations at the step's start (kernels/shapes.py)."""
+    if rules is None:
+        return
+    keep_start(rules.shapes)
 
 
 @kernel(lean=True)

@@ -9,6 +9,7 @@ from .._jit import kernel
 from .codes import (BOUNCE, ELASTIC, EV_CONTACT_BEGIN, EV_CONTACT_END, EV_SENSOR_BEGIN,
                     EV_SENSOR_END, SENSOR)
 from .arrays import stable_order
+from . import shapes as kshapes
 from .impact import exit_time
 from .rules import allowed, wrap
 from .state import record, row_of
@@ -18,10 +19,10 @@ from .state import record, row_of
 # rounding, a settling one's e g dt^2; a visible gap is a separation
 CONTACT_SLOP = 1e-4
 @kernel
-def _touch_event(state, rules, kind, i, j, t, dt, t0, L):
+def _touch_event(state, rules, kind, i, j, t, dt, t0, L, shapes):
     """Record a begin or end event of rows i, j at fraction t of the step, from their lines:
     the contact point on i's surface, the unit normal i -> j, the closing speed, the centre
-    distance."""
+    distance (compound bodies: of the circles closest to touching, which it names)."""
     A, B = rules.A, rules.B
     pi = np.empty(3)
     n = np.empty(3)
@@ -36,12 +37,26 @@ def _touch_event(state, rules, kind, i, j, t, dt, t0, L):
     point = np.empty(3)
     for c in range(3):
         point[c] = pi[c] + n[c] * rules.radius[i]
+    first = state.count[0]
+    if shapes is not None:
+        if shapes.shape[i] >= 0 or shapes.shape[j] >= 0:
+            pj = np.empty(3)
+            ui = np.empty(3)
+            uj = np.empty(3)
+            for c in range(3):
+                pj[c] = pi[c] + n[c] * dist if dist > 0.0 else pi[c]
+                ui[c] = B[i, c] / dt
+                uj[c] = B[j, c] / dt
+            dist, closing = kshapes.contact(shapes, i, j, t, pi, pj, ui, uj, rules.radius, n,
+                                            point)
+            closing = -closing
     record(state, kind, state.ids[i], state.ids[j], t0 + t * dt, t * dt, point, n, closing,
            0.0, dist)
+    kshapes.name(shapes, state, first)
 
 
 @kernel
-def touches(state, rules, dt, t0, L):
+def touches(state, rules, dt, t0, L, shapes):
     """The step's begin and end events, and the pairs in touch at its end (rules.touch).
 
     A sensor pair is in touch while the bodies overlap: sensor_begin when it starts (its
@@ -109,7 +124,16 @@ def touches(state, rules, dt, t0, L):
         reach = R if sensor else R * (1.0 + CONTACT_SLOP)
         live = alive[i] and alive[j]
         now = False
-        if live and (resp == SENSOR if sensor else (resp == ELASTIC or resp == BOUNCE)):
+        compound = False
+        if shapes is not None:
+            compound = shapes.shape[i] >= 0 or shapes.shape[j] >= 0
+        if live and (resp == SENSOR if sensor else (resp == ELASTIC or resp == BOUNCE)) \
+                and compound:
+            slop = reach - R                     # a gap of circles, not of centres
+            if shapes is not None:
+                now = kshapes.gap(shapes, A, B, i, j, 1.0, L, radius) <= slop and \
+                    (sensor or was > 0 or kshapes.gap(shapes, A, B, i, j, 2.0, L, radius) <= slop)
+        elif live and (resp == SENSOR if sensor else (resp == ELASTIC or resp == BOUNCE)):
             d2 = 0.0
             ahead = 0.0
             for c in range(3):
@@ -140,6 +164,11 @@ def touches(state, rules, dt, t0, L):
         if not now and (was or begins):
             if not live:
                 t_out = tb[j] if not alive[j] and (alive[i] or tb[j] < tb[i]) else tb[i]
+            elif compound:
+                t_out = tb[i]
+                if shapes is not None:
+                    t_out = kshapes.exit_time(shapes, A, B, tb, i, j, reach - R,
+                                              t_in if t_in < np.inf else 0.0, L, radius)
             else:
                 t_out = exit_time(A, B, tb, i, j, reach, t_in if t_in < np.inf else 0.0, L)
             ev_kind[ne] = EV_SENSOR_END if sensor else EV_CONTACT_END
@@ -151,4 +180,4 @@ def touches(state, rules, dt, t0, L):
     rank = stable_order(ev_t, ne)
     for r in range(ne):
         e = rank[r]
-        _touch_event(state, rules, ev_kind[e], ev_i[e], ev_j[e], ev_t[e], dt, t0, L)
+        _touch_event(state, rules, ev_kind[e], ev_i[e], ev_j[e], ev_t[e], dt, t0, L, shapes)

@@ -2,7 +2,8 @@
 
 Per-call costs (best of alternating repeats of many calls): step(1) and advance(1/60) on two
 bodies against REBOUND's sim.steps(1); a duel (a fixed star, two ships with held controls,
-collisions on): step(1) and control(); leapfrog batched in one call on 2 to 5 bodies;
+collisions on): step(1) and control(), and step(1) with compound hulls (three circles a ship)
+against the round duel's; leapfrog batched in one call on 2 to 5 bodies;
 snapshot + restore and digest of the game's duel and of 10 000 bodies (against REBOUND's
 sim.copy()); the
 Spacewar! loop of docs/guide/game-loop.md, run as pasted; threads beside two busy processes; a jitted user force
@@ -41,14 +42,20 @@ def _two_bodies(dt):
     return w
 
 
-def _duel():
-    """A fixed star, two ships with held controls, collisions on (2D, 120 Hz)."""
-    from ..entities import ShipSpec
+# a long hull of three circles, as long as the round hull is wide (the same bounding radius)
+HULL = ((1.4, 0.0), (0.0, 0.0), (-1.4, 0.0)), (0.6, 0.8, 0.6)
+
+
+def _duel(compound=False):
+    """A fixed star, two ships with held controls, collisions on (2D, 120 Hz); compound:
+    each ship's hitbox the three circles of HULL."""
+    from ..entities import Circles, ShipSpec
     from ..world import World
     w = World(dim=2, dt=1 / 120)
     w.add_body(1e4, (0.0, 0.0), radius=10.0, kind="star", fixed=True)
+    shape = dict(shape=Circles(*HULL)) if compound else dict(radius=2.0)
     hull = ShipSpec(dry_mass=1.0, fuel_mass=1e6, max_thrust=1.0, exhaust_speed=1e9,
-                    turn_rate=2.0, radius=2.0)
+                    turn_rate=2.0, **shape)
     v = math.sqrt(1e4 / 100.0)
     a = w.add_ship(hull, (100.0, 0.0), (0.0, v), heading=math.pi / 2)
     b = w.add_ship(hull, (-100.0, 0.0), (0.0, -v), heading=-math.pi / 2)
@@ -67,10 +74,11 @@ def _calls(quick):
     frame = _two_bodies(1 / 60)
     frame_sim = peer.simulation(frame, "leapfrog", gravity="basic")
     duel, ship = _duel()
+    long_duel, _ = _duel(compound=True)
     # the star pulls, the ships do not (as in spacephys, where actors are passive)
     duel_sim = peer.simulation(duel, "leapfrog", gravity="basic", n_active=1)
     duel_sim.collision = "line"
-    for call in (w.step, sim.steps, duel.step, frame_sim.steps):
+    for call in (w.step, sim.steps, duel.step, frame_sim.steps, long_duel.step):
         call(1)
     frame.advance(1 / 60)
     best = _per_call({
@@ -79,6 +87,7 @@ def _calls(quick):
         "advance(1/60), one step of 2 bodies": lambda: frame.advance(1 / 60),
         "REBOUND sim.steps(1), 2 bodies, dt = 1/60": lambda: frame_sim.steps(1),
         "duel step(1)": lambda: duel.step(1),
+        "duel step(1), compound hulls": lambda: long_duel.step(1),
         "REBOUND sim.steps(1), 3 bodies, collisions line": lambda: duel_sim.steps(1),
         "duel control()": lambda: duel.control(ship, throttle=0.5, turn=0.1),
     }, repeats, count)
@@ -88,6 +97,8 @@ def _calls(quick):
             ("advance(1/60), one step of 2 bodies", "REBOUND sim.steps(1), 2 bodies, dt = 1/60",
              8e-6),
             ("duel step(1)", "REBOUND sim.steps(1), 3 bodies, collisions line", 10e-6),
+            ("duel step(1), compound hulls", "REBOUND sim.steps(1), 3 bodies, collisions line",
+             1.5 * best["duel step(1)"]),
             ("duel control()", None, 2e-6)):
         row = {"case": ours, "spacephys_s": best[ours], "target_s": target}
         if theirs:
@@ -249,6 +260,11 @@ def format_overhead(r):
         ratio = f"{c['ratio']:.2f}x" if "ratio" in c else "-"
         lines.append(f"| {c['case']} | {us(c['spacephys_s'])} | {theirs} | {ratio} | "
                      f"<= {us(c['target_s'])} |")
+    calls = {c["case"]: c["spacephys_s"] for c in r["calls"]}
+    if "duel step(1), compound hulls" in calls:
+        lines += ["", f"compound hulls (three circles a ship) / round hulls, duel step(1): "
+                  f"{calls['duel step(1), compound hulls'] / calls['duel step(1)']:.2f}x "
+                  f"(target <= 1.50x)"]
     lines += ["", "| leapfrog, batched | spacephys per step | REBOUND per step | ours / theirs |",
               "|---|---|---|---|"]
     for b in r["batched"]:
