@@ -5,6 +5,12 @@ kernels/queries.py.
 
 A body is a disc (2D) or sphere (3D) of its radius; a distance is the gap between a point
 and its surface (0 inside it). Each query's answers are sorted by distance, then id.
+
+A compound body (World.add_body(..., shape=sp.Circles(...))) is its circles, not its bounding
+circle: when the World has any, each query hands the kernels every compound candidate's
+circles as entries of their own (the body's id, where they are now) in its place, and maps
+the answers back to bodies (`_Circles`). A World without one runs the kernels on its own
+columns, as it always did.
 """
 from dataclasses import dataclass
 
@@ -118,6 +124,84 @@ def _state(world):
     return world.driver.view("pos", "radius", "ids")
 
 
+@dataclass(frozen=True)
+class _Circles:
+    """The entries the kernels search when compound bodies are among the candidates: the
+    World's n rows as they are (a round body is its own entry, row i), then one entry per
+    circle of a compound body (entry n + c: circle c of w.circles()); a compound body's own
+    row is never a candidate, its circles are."""
+    pos: np.ndarray            # (n + C, 3) centres
+    radius: np.ndarray         # (n + C,)
+    ident: np.ndarray          # (n + C,) the body's id (a circle: its body's)
+    rows: np.ndarray           # (m,) int64 the candidate entries, ascending
+    body: np.ndarray           # (n + C,) int64 the body's row of each entry
+    circle: np.ndarray         # (n + C,) int64 the circle's index in its body, -1 for a row
+    compound: np.ndarray       # (n,) bool: the rows that are compound bodies
+    most: int                  # the most circles of a candidate body (1 with none)
+
+
+def _compound(world):
+    """w.circles() (ids, circle index, centres, radii), or None when no body is compound (a
+    World that never had one has no shape column: not even the call)."""
+    if not world.driver.has(editing.SHAPE):
+        return None
+    got = world.circles()
+    return got if got[0].size else None
+
+
+def _circles(world, rows):
+    """A _Circles of the candidate rows `rows`, or None when the World has no compound body
+    (the queries then run on its own columns, as before there were any)."""
+    got = _compound(world)
+    if got is None:
+        return None
+    cid, k, centres, cr = got
+    pos, radius, ids = _state(world)
+    n, dim = world.n, world.dim
+    crow = np.asarray(world.index_of(cid), np.int64)
+    compound = np.zeros(n, bool)
+    compound[crow] = True
+    p = np.zeros((n + cid.size, 3))
+    p[:n] = pos
+    p[n:, :dim] = centres
+    wanted = np.zeros(n, bool)
+    wanted[rows] = True
+    mine = wanted[crow]
+    entries = np.r_[rows[~compound[rows]], n + np.flatnonzero(mine)].astype(np.int64)
+    per = np.bincount(crow[mine], minlength=n)
+    return _Circles(p, np.r_[radius, cr].astype(np.float64),
+                    np.r_[ids, cid].astype(np.int64), np.sort(entries),
+                    np.r_[np.arange(n), crow].astype(np.int64),
+                    np.r_[np.full(n, -1), k].astype(np.int64), compound,
+                    max(int(per.max()) if per.size else 1, 1))
+
+
+def _once(group, body, n):
+    """The indices of the first row of each (group, body) pair, in their order: a body met
+    through several of its circles kept once, where it was met first (nearest)."""
+    _, first = np.unique(group.astype(np.int64) * max(n, 1) + body, return_index=True)
+    return np.sort(first)
+
+
+def _bodies(x, offsets, hits, dist):
+    """(query (H,), entry (H,), distance (H,)) of the kernels' hits among a _Circles'
+    entries (offsets, hits, dist as kq.overlaps returns them), each body once per query, at
+    its first (nearest) entry; in their order."""
+    q = np.repeat(np.arange(offsets.size - 1), np.diff(offsets))
+    keep = _once(q, x.body[hits], x.compound.size)
+    return q[keep], hits[keep], dist[keep]
+
+
+def _image(d, period):
+    """As kernels/queries._image, in numpy, on rows d (H, 3): each difference taken to its
+    nearest periodic image (period 0: as it is)."""
+    wraps = period > 0.0
+    if not wraps.any():
+        return d
+    size = np.where(wraps, period, 1.0)
+    return np.where(wraps, d - size * np.floor(d / size + 0.5), d)
+
+
 def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=None):
     """Bodies within distance r of each center (their surface: a body of radius R counts
     from |d| <= r + R): a Hits. centers (dim,) or (Q, dim); r >= 0, a number or (Q,)."""
@@ -126,6 +210,14 @@ def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=N
     rows = _candidates(world, kinds, mask, ignore, filter)
     pos, radius, ids = _state(world)
     lo, period = _box(world)
+    x = _circles(world, rows)
+    if x is not None:            # a compound body: within r of one of its circles
+        offsets, hits, dist = kq.overlaps(x.pos, x.radius, x.ident, x.rows, lo, period, c,
+                                          np.ascontiguousarray(reach, np.float64),
+                                          np.zeros((c.shape[0], 3)), 0)
+        q, hits, dist = _bodies(x, offsets, hits, dist)
+        return Hits(np.searchsorted(q, np.arange(c.shape[0] + 1)).astype(np.int64),
+                    x.ident[hits], dist)
     offsets, hits, dist = kq.overlaps(pos, radius, ids, rows, lo, period, c,
                                       np.ascontiguousarray(reach, np.float64),
                                       np.zeros((c.shape[0], 3)), 0)
@@ -146,6 +238,23 @@ def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
     rows = _candidates(world, kinds, mask, ignore, filter)
     pos, radius, ids = _state(world)
     box_lo, period = _box(world)
+    x = _circles(world, rows)
+    if x is not None:            # a compound body: when one of its circles overlaps the box
+        mid = 0.5 * (a + b)
+        offsets, hits, dist = kq.overlaps(x.pos, x.radius, x.ident, x.rows, box_lo, period,
+                                          mid, np.zeros(a.shape[0]), 0.5 * (b - a), 1)
+        q, hits, dist = _bodies(x, offsets, hits, dist)
+        # its distance: of its own centre (not the circle's) from the box's centre
+        body = x.body[hits]
+        shaped = x.compound[body]
+        if shaped.any():
+            d = _image(pos[body[shaped]] - mid[q[shaped]], period)
+            dist = dist.copy()
+            dist[shaped] = np.sqrt((d * d).sum(axis=1))
+            order = np.lexsort((x.ident[hits], dist, q))
+            q, hits, dist = q[order], hits[order], dist[order]
+        return Hits(np.searchsorted(q, np.arange(a.shape[0] + 1)).astype(np.int64),
+                    x.ident[hits], dist)
     offsets, hits, dist = kq.overlaps(pos, radius, ids, rows, box_lo, period, 0.5 * (a + b),
                                       np.zeros(a.shape[0]), 0.5 * (b - a), 1)
     return Hits(offsets, ids[hits], dist)
@@ -159,9 +268,36 @@ def nearest(world, points, k=1, kinds=None, mask=None, ignore=None, filter=None)
     rows = _candidates(world, kinds, mask, ignore, filter)
     pos, radius, ids = _state(world)
     lo, period = _box(world)
+    x = _circles(world, rows)
+    if x is not None:
+        return _nearest_bodies(x, lo, period, p, k)
     hits, dist = kq.nearest(pos, radius, ids, rows, lo, period, p, k)
     out = np.where(hits >= 0, ids[np.maximum(hits, 0)], -1) if ids.size else hits
     return out, dist
+
+
+def _nearest_bodies(x, lo, period, p, k):
+    """nearest among a _Circles' entries: a compound body at the gap to its nearest circle.
+    The k nearest bodies are the first k distinct among the (k - 1) m + 1 nearest entries (m:
+    the most circles of a body), a body first where its nearest circle is."""
+    K = max(min((k - 1) * x.most + 1, x.rows.size), 1)
+    hits, dist = kq.nearest(x.pos, x.radius, x.ident, x.rows, lo, period, p, K)
+    Q = p.shape[0]
+    body = np.where(hits >= 0, x.body[np.maximum(hits, 0)], -1)
+    q = np.repeat(np.arange(Q), K)
+    found = body.reshape(-1) >= 0
+    keep = np.zeros(Q * K, bool)
+    first = np.flatnonzero(found)[_once(q[found], body.reshape(-1)[found], x.compound.size)]
+    keep[first] = True
+    keep = keep.reshape(Q, K)
+    rank = np.cumsum(keep, axis=1) - 1
+    take = keep & (rank < k)
+    out = np.full((Q, k), -1, np.int64)
+    out_d = np.full((Q, k), np.inf)
+    qq, cc = np.nonzero(take)
+    out[qq, rank[qq, cc]] = x.ident[hits[qq, cc]]
+    out_d[qq, rank[qq, cc]] = dist[qq, cc]
+    return out, out_d
 
 
 @dataclass(frozen=True)
@@ -169,14 +305,16 @@ class RayHits:
     """What a batch of Q rays hit: those of ray q are the rows offsets[q]:offsets[q+1] (at
     most one with first=True), nearest first; ray_hits[q] gives them as a RayHits of one
     ray's rows (offsets [0, m]). Per ray, its nearest hit: `hit` (Q,) whether it met
-    anything, `body` its id or -1, `wall` its wall index or -1, `distance` or inf: a miss
-    is hit False, never a wall."""
+    anything, `body` its id or -1, `wall` its wall index or -1, `circle` the circle of a
+    compound body it met or -1, `distance` or inf: a miss is hit False, never a wall."""
     offsets: np.ndarray        # (Q + 1,) int64
     ids: np.ndarray            # (H,) int64 body ids, -1 where a wall was hit
     walls: np.ndarray          # (H,) int64 wall indices (w.walls), -1 where a body was hit
     distances: np.ndarray      # (H,) [length] along the ray
     points: np.ndarray         # (H, dim) where the ray meets the surface
     normals: np.ndarray        # (H, dim) unit, against the ray
+    circles: np.ndarray        # (H,) int64 the index of the circle met in its compound
+    #                            body's Circles (w.shape(id)); -1 for a round body or a wall
 
     def __len__(self):
         return self.offsets.size - 1
@@ -184,7 +322,8 @@ class RayHits:
     def __getitem__(self, q):
         a, b = self.offsets[q], self.offsets[q + 1]
         return RayHits(np.array([0, b - a]), self.ids[a:b], self.walls[a:b],
-                       self.distances[a:b], self.points[a:b], self.normals[a:b])
+                       self.distances[a:b], self.points[a:b], self.normals[a:b],
+                       self.circles[a:b])
 
     def counts(self):
         """(Q,) int64: how many hits each ray has."""
@@ -213,6 +352,13 @@ class RayHits:
         """(Q,) int64: the index (w.walls) of the wall each ray met first; -1 where its
         nearest hit is a body, or it met nothing."""
         return self._first(self.walls, -1)
+
+    @property
+    def circle(self):
+        """(Q,) int64: the index of the circle (in its body's Circles) of the compound body
+        each ray met first; -1 where its nearest hit is a round body or a wall, or it met
+        nothing."""
+        return self._first(self.circles, -1)
 
     @property
     def distance(self):
@@ -300,7 +446,8 @@ def raycast(world, origins, directions, max_distance, kinds=None, mask=None, fir
     one, nearest first (ties: bodies by id, then walls by index). A ray that starts inside
     a body meets it at distance 0 with the normal against the ray, unless the body is in
     `ignore`. Periodic boundaries: the ray runs on through the opposite side (bodies); walls
-    do not repeat."""
+    do not repeat. A compound body is met only at its circles (circles: which), once per
+    ray (first=False: at the nearer one)."""
     o = _points("origins", origins, world.dim)
     d = _points("directions", directions, world.dim)
     if d.shape[0] != o.shape[0]:
@@ -321,10 +468,15 @@ def _cast(world, o, d, tmax, extra, skip, rows, first, walls):
     their own rows) against the candidate rows: o, d (Q, 3), d unit; tmax (Q,)."""
     pos, radius, ids = _state(world)
     lo, period = _box(world)
-    offsets, hits, t = kq.raycasts(pos, radius, ids, rows, lo, period, o, d, tmax, extra,
-                                   skip, first)
-    ray, point, normal = kq.surfaces(pos, period, o, d, offsets, hits, t)
-    body = (ray, ids[hits], np.full(hits.size, -1), t, point, normal)
+    x = _circles(world, rows)
+    if x is not None:
+        body = _cast_circles(x, lo, period, o, d, tmax, extra, skip, first)
+    else:
+        offsets, hits, t = kq.raycasts(pos, radius, ids, rows, lo, period, o, d, tmax,
+                                       extra, skip, first)
+        ray, point, normal = kq.surfaces(pos, period, o, d, offsets, hits, t)
+        body = (ray, ids[hits], np.full(hits.size, -1), t, point, normal,
+                np.full(hits.size, -1))
     if walls and world.walls.shape[0]:
         wt, wn = _wall_hits(world, o, d, tmax, extra)
         if first:
@@ -336,22 +488,54 @@ def _cast(world, o, d, tmax, extra, skip, rows, first, walls):
             wray, wk = np.nonzero(np.isfinite(wt))
             wtt = wt[wray, wk]
         wall = (wray, np.full(wray.size, -1), wk, wtt, o[wray] + wtt[:, None] * d[wray],
-                wn[wray, wk])
+                wn[wray, wk], np.full(wray.size, -1))
         parts = [np.concatenate([b, w]) for b, w in zip(body, wall)]
-        kind = np.r_[np.zeros(hits.size), np.ones(wray.size)]
+        kind = np.r_[np.zeros(body[0].size), np.ones(wray.size)]
         order = np.lexsort((parts[2], parts[1], kind, parts[3], parts[0]))
         parts = [p[order] for p in parts]
         if first:                              # the nearest of body and wall per ray
             keep = np.r_[True, parts[0][1:] != parts[0][:-1]] if parts[0].size else \
                 np.zeros(0, bool)
             parts = [p[keep] for p in parts]
-        ray, rid, rwall, t, point, normal = parts
+        ray, rid, rwall, t, point, normal, circle = parts
     else:
-        ray, rid, rwall = body[0], body[1], body[2]
+        ray, rid, rwall, t, point, normal, circle = body
     offsets = np.searchsorted(ray, np.arange(o.shape[0] + 1))
     dim = world.dim
     return RayHits(offsets.astype(np.int64), rid.astype(np.int64), rwall.astype(np.int64), t,
-                   point[:, :dim], normal[:, :dim])
+                   point[:, :dim], normal[:, :dim], circle.astype(np.int64))
+
+
+def _cast_circles(x, lo, period, o, d, tmax, extra, skip, first):
+    """_cast's body hits among a _Circles' entries: (ray, ids, walls (-1), t, point, normal,
+    circle), a body once per ray (where its nearest circle is met), normals from the circle's
+    centre. A cast whose skip (its own row) is a compound body cannot leave out its several
+    entries in the kernel: those casts take every hit (first=False) and drop their own."""
+    multi = np.zeros(o.shape[0], bool)
+    own = skip >= 0
+    multi[own] = x.compound[skip[own]]
+    got = []
+    for rays, many in ((np.flatnonzero(~multi), first), (np.flatnonzero(multi), False)):
+        if got and not rays.size:
+            continue
+        oo, dd = o[rays], d[rays]
+        sk = np.where(multi[rays], -1, skip[rays]).astype(np.int64)   # a round row: entry i
+        offsets, hits, t = kq.raycasts(x.pos, x.radius, x.ident, x.rows, lo, period, oo, dd,
+                                       np.ascontiguousarray(tmax[rays]),
+                                       np.ascontiguousarray(extra[rays]), sk, many)
+        ray, point, normal = kq.surfaces(x.pos, period, oo, dd, offsets, hits, t)
+        ray = rays[ray]
+        keep = x.body[hits] != skip[ray]
+        got.append((ray[keep], hits[keep], t[keep], point[keep], normal[keep]))
+    ray, hits, t, point, normal = (np.concatenate(c) for c in zip(*got))
+    order = np.lexsort((x.ident[hits], t, ray))            # per ray: by t, then id
+    ray, hits, t, point, normal = ray[order], hits[order], t[order], point[order], \
+        normal[order]
+    keep = _once(ray, x.body[hits], x.compound.size)
+    if first:                                              # the nearest per ray
+        keep = keep[np.r_[True, ray[keep][1:] != ray[keep][:-1]]] if keep.size else keep
+    ray, hits, t, point, normal = ray[keep], hits[keep], t[keep], point[keep], normal[keep]
+    return ray, x.ident[hits], np.full(hits.size, -1), t, point, normal, x.circle[hits]
 
 
 def shapecast(world, shape, displacement, kinds=None, mask=None, walls=True, ignore=None,
@@ -361,7 +545,10 @@ def shapecast(world, shape, displacement, kinds=None, mask=None, walls=True, ign
     radius, the body itself ignored) or (pos (dim,) or (Q, dim), radius >= 0: a number or
     (Q,)). A RayHits of at most one hit per shape: distances along the move (distance /
     |displacement| is the time of impact, 0..1), points the shape's centre at first
-    contact, normals from what it meets toward it."""
+    contact, normals from what it meets toward it. A compound body met is met at one of its
+    circles (circles: which); a compound body cast casts each of its circles from where it
+    is now (not turning on the way), the earliest contact its hit, its point the body's
+    centre then."""
     if isinstance(shape, tuple):
         if len(shape) != 2:
             raise ValueError(f"shape = {shape!r}: a body id, ids, or (pos, radius)")
@@ -383,6 +570,47 @@ def shapecast(world, shape, displacement, kinds=None, mask=None, walls=True, ign
     if np.any(length == 0.0):
         q = int(np.flatnonzero(length == 0.0)[0])
         raise ValueError(f"displacement[{q}] is zero: a shape cast needs a move")
+    rows = _candidates(world, kinds, mask, ignore, filter)
+    got = None if isinstance(shape, tuple) else _compound(world)
+    if got is not None:
+        crow = np.asarray(world.index_of(got[0]), np.int64)
+        if np.isin(skip, crow).any():          # a compound shape: each of its circles cast
+            return _compound_shapecast(world, o, unit, length, extra, skip, rows, walls,
+                                       crow, got[2], got[3])
     return _cast(world, o, unit, length, np.ascontiguousarray(extra, float),
-                 np.ascontiguousarray(skip, np.int64),
-                 _candidates(world, kinds, mask, ignore, filter), True, walls)
+                 np.ascontiguousarray(skip, np.int64), rows, True, walls)
+
+
+def _compound_shapecast(world, o, unit, length, extra, skip, rows, walls, crow, centres,
+                        cr):
+    """shapecast of bodies (skip: their rows) some of which are compound: each circle of a
+    compound shape cast from where it is now (the body not turning on the way), and each
+    shape's earliest hit kept (ties as _cast's: bodies by id, then walls by index), its
+    point moved back to the body's centre."""
+    dim = world.dim
+    by = np.argsort(crow, kind="stable")
+    crow, centres, cr = crow[by], centres[by], cr[by]
+    a = np.searchsorted(crow, skip, "left")
+    b = np.searchsorted(crow, skip, "right")
+    count = np.where(b > a, b - a, 1)                   # a round shape: one cast, itself
+    shape = np.repeat(np.arange(skip.size), count)
+    k = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    oo = o[shape].copy()
+    ee = np.asarray(extra, float)[shape].copy()
+    circ = (b > a)[shape]
+    c = a[shape][circ] + k[circ]
+    oo[circ, :dim] = centres[c]
+    ee[circ] = cr[c]
+    res = _cast(world, oo, np.ascontiguousarray(unit[shape]),
+                np.ascontiguousarray(length[shape]), ee, skip[shape].astype(np.int64), rows,
+                True, walls)
+    ray = np.repeat(np.arange(len(res)), res.counts())
+    q = shape[ray]
+    order = np.lexsort((res.walls, res.ids, res.walls >= 0, res.distances, q))
+    q, ray = q[order], ray[order]
+    first = order[np.r_[True, q[1:] != q[:-1]]] if q.size else order
+    ray = np.repeat(np.arange(len(res)), res.counts())[first]
+    shift = (o[shape[ray]] - oo[ray])[:, :dim]          # the cast circle -> the body's centre
+    return RayHits(np.searchsorted(shape[ray], np.arange(skip.size + 1)).astype(np.int64),
+                   res.ids[first], res.walls[first], res.distances[first],
+                   res.points[first] + shift, res.normals[first], res.circles[first])

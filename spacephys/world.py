@@ -1249,7 +1249,9 @@ class World:
         sp.RayHits: per hit ids, walls, distances, points, normals (hits[q] for ray q), the
         nearest per ray (first=True) or every one, nearest first; per ray hit, body, wall,
         distance of its nearest. A ray from inside a body meets it at 0: ignore= the
-        shooter. Periodic boundaries: rays run on through the seam."""
+        shooter. Periodic boundaries: rays run on through the seam. A compound body is met
+        at its circles (per hit `circles`, per ray `circle`: which one; -1 round or a
+        wall), as every query meets them."""
         from .queries import raycast
         return raycast(self, origins, directions, max_distance, self._query_kinds(kinds),
                        mask, first, walls, ignore, filter)
@@ -1260,7 +1262,8 @@ class World:
         displacement ((dim,) or (Q, dim), not zero): shape a body id or ids (their pos and
         radius; the body itself ignored) or (pos, radius). An sp.RayHits of at most one hit
         per shape: distances along the move (over |displacement|: the time of impact),
-        points the shape's centre at first contact, normals toward it."""
+        points the shape's centre at first contact, normals toward it. A compound body
+        (met, or cast as `shape`) is its circles, as they are now."""
         from .queries import shapecast
         return shapecast(self, shape, displacement, self._query_kinds(kinds), mask, walls,
                          ignore, filter)

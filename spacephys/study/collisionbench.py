@@ -32,7 +32,7 @@ def circle_field(n, seed=0, dim=2):
 def _detection_pass(w, brute=False):
     """One broad + narrow phase pass over the step the bodies' velocities make: seconds,
     candidate pairs, contacts."""
-    from ..kernels import broadphase, impact
+    from ..kernels import broadphase, collide
     n = w.n
     plan = w.tables()
     A = np.zeros((n, 3))
@@ -47,7 +47,7 @@ def _detection_pass(w, brute=False):
         pairs = broadphase.brute_pairs(A, B, tb, plan.alive, plan.rules, lo, hi)
     else:
         pairs, _ = broadphase.candidate_pairs(A, B, tb, plan.alive, plan.rules, lo, hi)
-    contacts = impact.pair_contacts(A, B, tb, pairs, L, plan.rules)[0].size
+    contacts = collide.pair_contacts(A, B, tb, pairs, L, plan.rules, None)[0].size
     return time.perf_counter() - start, len(pairs), contacts
 
 

@@ -83,7 +83,7 @@ def split(w, repeats=3):
     times of impact), responses (the whole collision pass less those two: resolving in time
     order, later passes), guidance (turning, guidance, thrust, fuses), gravity."""
     from ..events import EVENT_DTYPE
-    from ..kernels import broadphase, collide, control, forces, impact
+    from ..kernels import broadphase, collide, control, forces
     from ..kernels import state as kstate
     from ..kernels import step as kstep
     n = w.n
@@ -111,8 +111,8 @@ def split(w, repeats=3):
     pairs, _ = broadphase.candidate_pairs(A, B, tb, plan.alive, rules, lo, hi)
     out = {"broad_ms": best(timed(lambda: broadphase.candidate_pairs(A, B, tb, plan.alive, rules,
                                                                   lo, hi))),
-           "narrow_ms": best(timed(lambda: impact.pair_contacts(A, B, tb, pairs, np.zeros(3),
-                                                                 rules)))}
+           "narrow_ms": best(timed(lambda: collide.pair_contacts(A, B, tb, pairs, np.zeros(3),
+                                                                  rules, None)))}
 
     # the whole pass on one copy of the tables, its inputs put back before each repeat (a
     # fresh copy's scratch would be paid for in page faults the real step does not see)
