@@ -173,11 +173,37 @@ def purge_stale():
     try:
         if stamp.exists() and stamp.read_text() == digest:
             return
-        for f in files():
-            f.unlink(missing_ok=True)
         stamp.parent.mkdir(parents=True, exist_ok=True)
-        tmp = stamp.with_suffix(f".{os.getpid()}")
-        tmp.write_text(digest)
-        tmp.replace(stamp)
+        # one process at a time: test workers import side by side, and one that purged after
+        # another had stamped and begun to cache would delete half of that one's new files
+        # (an index without its code, or code under another's index)
+        with _locked(stamp.with_suffix(".lock")):
+            if stamp.exists() and stamp.read_text() == digest:
+                return
+            for f in files():
+                f.unlink(missing_ok=True)
+            tmp = stamp.with_suffix(f".{os.getpid()}")
+            tmp.write_text(digest)
+            tmp.replace(stamp)
     except OSError:
         pass    # another process is at it; sources cannot change under a read-only install
+
+
+class _locked:
+    """An exclusive lock on a file while the block runs (fcntl's; none where it is
+    missing: Windows, whose test runs are not side by side here)."""
+
+    def __init__(self, path):
+        self.path = path
+
+    def __enter__(self):
+        self.fd = os.open(self.path, os.O_CREAT | os.O_RDWR)
+        try:
+            import fcntl
+            fcntl.flock(self.fd, fcntl.LOCK_EX)
+        except ImportError:
+            pass
+        return self
+
+    def __exit__(self, *exc):
+        os.close(self.fd)             # closing releases the lock

@@ -166,6 +166,10 @@ class Driver:
                 clock = w._actors.clock        # assignment from a tuple costs a microsecond)
                 clock[0] = w._t_base
                 clock[1] = w._steps
+            if w._forces.rails.ids.shape[0]:     # and the rails' (kernels/rails.settle)
+                clock = w._forces.rails.clock
+                clock[0] = w._t_base
+                clock[1] = w._steps
             done, status = w._stepper.run(plan, frames, w._dt, nsteps,
                                           w._t_base + w._steps * w._dt)
             if timing is not None:

@@ -12,6 +12,7 @@ import numpy as np
 from . import _validate as check
 from . import measures
 from .entities import Circles, ExplosionSpec
+from .rails import elements as rails_elements
 from .steppers import INEXTENSIBLE
 
 # kinds whose bodies feel gravity but do not pull unless told to (active=True): their mass is
@@ -300,6 +301,10 @@ def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, 
             shape is None and shape_of(w, body_id) is not None)):
         raise ValueError(f"radius of {body_id}: a compound body's radius is its shape's "
                          f"bounding radius; set its shape (or shape=False, round)")
+    if (pos is not None or vel is not None) and \
+            w._forces.rails.parent_of(int(w._b.ids[i])) is not None:
+        raise ValueError(f"pos/vel of {body_id}: it is on rails (its orbit places it); "
+                         f"take it off with set_rails({body_id}, None) first")
     if mass is not None and w._actors.is_actor(i):
         raise ValueError(f"mass of {body_id}: a ship's or missile's mass is dry + fuel; "
                          f"use set_fuel")
@@ -446,3 +451,46 @@ def tether_rows(w):
         w._set_up()
         rows = rows[keep]
     return rows if len(rows) else None
+
+
+# ---------------------------------------------------------------- rails
+def set_rails(w, body, about, why_not=None):
+    """World.set_rails: checked, then done; nothing changes on refusal."""
+    i = w.index_of(body, "id")
+    rails = w._forces.rails
+    if about is None:
+        rails.drop(int(w._b.ids[i]))
+        w._invalidate()
+        return
+    p = w.index_of(about, "about")
+    if p == i:
+        raise ValueError(f"about = {about}: a body cannot be on rails about itself")
+    body, about = int(w._b.ids[i]), int(w._b.ids[p])
+    up = about
+    while up is not None:
+        if up == body:
+            raise ValueError(f"about = {about}: its rails lead back to {body} (a cycle)")
+        up = rails.parent_of(up)
+    if why_not:
+        raise ValueError(f"id = {body}: {why_not}")
+    b = w._b
+    if w._actors.is_actor(i):
+        raise ValueError(f"id = {body} is a ship or missile: it flies on its engines, not on "
+                         f"rails")
+    if b.fixed[i]:
+        raise ValueError(f"id = {body} is fixed: it does not move, on rails or off them")
+    # two free bodies: their separation's Kepler orbit has G (m_parent + m_body); about a
+    # fixed parent, which no pull moves, G m_parent
+    mu = w.G * (float(b.mass[p]) + (0.0 if b.fixed[p] else float(b.mass[i])))
+    if not mu > 0.0:
+        raise ValueError(f"about = {about}: it and the body have no mass (G m = {mu}): no "
+                         f"orbit to put it on")
+    r = b.pos[i] - b.pos[p]
+    v = b.vel[i] - b.vel[p]
+    try:
+        orbit = rails_elements(r, v, mu, w.t)
+    except ValueError as e:
+        raise ValueError(f"id = {body} about {about}: {e}") from None
+    rails.put(body, about, orbit)
+    w._invalidate()
+

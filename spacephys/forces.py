@@ -19,6 +19,7 @@ from .kernels import forces as kforces
 from .kernels import gravity as kgravity
 from .kernels import tethers as ktethers
 from .kernels.pairs import PAIRS_FROM
+from .rails import Rails
 
 # the gravity models by name, each with a code (kernels/gravity.py has their tables and
 # functions)
@@ -85,6 +86,7 @@ class ForceField:
         self.tether_params = np.zeros((0, 4))          # kernels/tethers.py's params
         self.tether_next = 0                  # the next tether's id
         self.built = None                     # the last table's TetherArrays (their breaks)
+        self.rails = Rails()                  # the bodies on rails (spacephys/rails.py)
 
     @staticmethod
     def checked_theta(theta):
@@ -196,11 +198,12 @@ class ForceField:
 
     # ------------------------------------------------------------ the table
     def table(self, mass, ids, src, passive, still, held, threads, tether_rows=None,
-              fixed=None, pos=None):
+              fixed=None, pos=None, rails=None):
         """The kernels' Forces for the bodies mass, ids (n,); src, passive, still: int64 rows;
         held : (n, 6) or None; threads : (1,) int64 shared with World's ThreadChoice, or None
         (the scene's force loops never run on threads); tether_rows (T, 2): the tethers'
-        ends' rows (None without tethers), fixed (n,) and pos (n, 3) the bodies' now."""
+        ends' rows (None without tethers), fixed (n,) and pos (n, 3) the bodies' now; rails:
+        the kernels' RailsArrays (Rails.table), or None."""
         tape = self.tape.table_for(src, ids[src]) if self.tape is not None else None
         self.built = None if tether_rows is None else \
             ktethers.make(tether_rows, self.tether_params, fixed, pos)
@@ -208,7 +211,7 @@ class ForceField:
                             passive=passive, still=still, held=held,
                             user=self.typed_user(mass.shape[0]),
                             drag=self.drag if self.drag[0] > 0.0 else None, tape=tape,
-                            threads=threads, tethers=self.built)
+                            threads=threads, tethers=self.built, rails=rails)
 
     def model(self, ns, exact=False):
         """The gravity model's table (kernels/gravity.py) for ns pulling bodies (None: no
@@ -276,7 +279,7 @@ class ForceField:
                                    for fn, _ in self.user],
                 "user_params": [p.copy() for _, p in self.user],
                 "tether_ids": self.tether_ids.copy(), "tether_params": self.tether_params.copy(),
-                "tether_next": self.tether_next}
+                "tether_next": self.tether_next, **self.rails.state()}
 
     @classmethod
     def from_state(cls, dim, s):
@@ -298,6 +301,7 @@ class ForceField:
         f.tether_params = np.array(s.get("tether_params", np.zeros((0, 4))),
                                    np.float64).reshape(-1, 4)
         f.tether_next = int(s.get("tether_next", 0))
+        f.rails = Rails.from_state(s)
         f.built = None
         return f
 

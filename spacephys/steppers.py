@@ -228,6 +228,10 @@ INEXTENSIBLE = ("an inextensible tether's force holds against every other accele
                 "which the Kepler drifts do not show it; give the tether a stiffness (a "
                 "spring), or use another integrator")
 
+RAILS_REFUSED = ("Wisdom-Holman drifts every body along its Jacobi Kepler orbit and cannot "
+                 "take one moved from outside; put bodies on rails with another integrator "
+                 "(leapfrog, yoshida4, rk4, gauss_radau)")
+
 
 class WisdomHolman(Stepper):
     """Wisdom-Holman in Jacobi coordinates about the heaviest pulling body; carries nothing
@@ -241,6 +245,9 @@ class WisdomHolman(Stepper):
     def check(self, world, sources, actors):
         if world._forces.inextensible:
             raise ValueError(f"integrator {self.spec.name!r}: {INEXTENSIBLE}")
+        if len(world._forces.rails):
+            raise ValueError(f"integrator {self.spec.name!r} with bodies on rails: "
+                             f"{RAILS_REFUSED}")
         if world.gravity != "direct":
             raise ValueError(f"integrator {self.spec.name!r} needs gravity='direct' with a "
                              f"dominant body among the bodies (gravity={world.gravity!r}: no "

@@ -31,7 +31,7 @@ from .kernels import state as kstate
 from .kernels.codes import BOUNDARIES, RESPONSES
 from .kernels.rules import SCRATCH
 from .state import Bodies
-from .steppers import Plan, stepper_for
+from .steppers import RAILS_REFUSED, Plan, stepper_for
 from .units import get_units
 
 STEP_CONTROLS = ("auto", "pulling", "all")
@@ -622,6 +622,23 @@ class World:
         radii (C,))."""
         return editing.circles(self, body)
 
+    def set_rails(self, body, about):
+        """Put a body on rails: from now on it moves along the Kepler orbit of its present
+        state about body `about` (ellipse or hyperbola; mu = G (m_about + m_body) now, G
+        m_about for a fixed parent; the parent itself integrated or on rails), never integrated: it pulls the others and
+        feels nothing, and does not drift (kernels/rails.py solves Kepler's equation at
+        each force evaluation's time). about=None takes it off rails, integrated again from
+        where its rails had it. Its parent's removal takes it off rails. Not with
+        Wisdom-Holman (its Jacobi drifts cannot take a body moved from outside)."""
+        why = RAILS_REFUSED if self.integrator.startswith("wisdom_holman") else None
+        editing.set_rails(self, body, about, why if about is not None else None)
+
+    @property
+    def rails(self):
+        """(R,) structured (spacephys.rails.RAILS_DTYPE): id, about, a (negative: a
+        hyperbola), e and period (inf: a hyperbola) of each body on rails."""
+        return self._forces.rails.listing()
+
     def tether(self, a, b, length=None, *, stiffness=None, rigid=False, break_force=None):
         """Join bodies a and b with a tether of length `length` [length] (default: their
         distance now); returns its id (World.tethers lists them).
@@ -1086,12 +1103,17 @@ class World:
         work = self._forces.work(n, sources[0].size)
         threads = self._threads.min_pairs if self._threads.mode != "never" and \
             self._forces.threaded(work) else None
+        rails = self._forces.rails.table(b.lookup)
         forces = self._forces.table(b.mass[:n], b.ids[:n], *sources,
                                     b.held[:n] if HELD in b.columns else None, threads,
-                                    self._tether_rows(), b.fixed[:n], b.pos[:n])
+                                    self._tether_rows(), b.fixed[:n], b.pos[:n], rails)
+        immovable = b.fixed[:n]
+        if rails is not None:          # a body on rails: no contact moves it
+            immovable = immovable.copy()
+            immovable[rails.rows] = True
         rules = self._collisions.table(b.kind[:n].astype(np.int64), b.radius[:n],
                                        b.category[:n], b.mask[:n], editing.optional(self, editing.GROUP),
-                                       b.fixed[:n], self._actors.owners(), self._dim,
+                                       immovable, self._actors.owners(), self._dim,
                                        b.index, scratch, *self._shape_columns(n))
         plan = Plan(self, state, forces, rules, self._actors.table(actors),
                     self._stepper.method(self, sources), alive, work)
@@ -1381,4 +1403,4 @@ JOURNALED = ("step", "advance", "watch_energy", "shift_origin", "move_to_center_
              "add_plane", "add_segment", "clear_walls", "set_boundary", "add_ship", "control",
              "set_heading", "set_fuel", "plan", "launch", "explode", "apply_force",
              "apply_acceleration", "add_force", "set_force_params", "remove_force",
-             "tether", "untether")
+             "tether", "untether", "set_rails")

@@ -28,6 +28,7 @@ from numba.experimental import structref
 from .._jit import TableType, field_type, implements, kernel, read
 from . import gravity
 from . import libm
+from . import rails as krails
 from . import tethers as ktethers
 
 # the signature of a user force: (t [time], pos (n, 3), vel (n, 3), mass (n,), ids (n,) int64,
@@ -67,6 +68,7 @@ FIELDS = (
                    # (World's ThreadChoice sets it between calls), or None: never (no
                    # threaded loop compiled)
     "tethers",     # kernels/tethers.TetherArrays, or None
+    "rails",       # kernels/rails.RailsArrays: the bodies on rails, or None
 )
 structref.define_proxy(Forces, ForcesType, list(FIELDS))
 
@@ -83,15 +85,15 @@ def _make(*fields):
 
 
 def make(mass, ids, *, gravity, src, passive, still, held=None, user=None, drag=None,
-         tape=None, threads=None, tethers=None):
+         tape=None, threads=None, tethers=None, rails=None):
     """A Forces table for the bodies mass, ids (n,); arrays are shared, not copied (a change
     to drag or to a held force between steps needs no new table). gravity : a model table
     of kernels/gravity.py or None; held (n, 6), user (UserForces), drag (4,), tape
-    (kernels/tape.TapeArrays), threads (1,) int64, tethers (kernels/tethers.TetherArrays):
-    each None when the scene has none."""
+    (kernels/tape.TapeArrays), threads (1,) int64, tethers (kernels/tethers.TetherArrays),
+    rails (kernels/rails.RailsArrays): each None when the scene has none."""
     fields = dict(gravity=gravity, mass=mass, ids=ids, src=src, passive=passive, still=still,
                   everyone=np.arange(mass.shape[0], dtype=np.int64), held=held, user=user,
-                  drag=drag, tape=tape, threads=threads, tethers=tethers)
+                  drag=drag, tape=tape, threads=threads, tethers=tethers, rails=rails)
     return _make(*(fields[name] for name in FIELDS))
 
 
@@ -116,14 +118,17 @@ def accelerations(fx, t, pos, vel, out, targets, with_drag):
     rows (fx.everyone, fx.src, fx.passive or any subset); with_drag : add -k (v - wind) (the
     splittings and Wisdom-Holman apply drag in their kicks instead, see kick). The force
     loops run on threads from fx.threads[0] pair evaluations on (never with threads None):
-    the same bits either way. Gravity, held forces, user forces, drag, in that order; zero
-    for immovable bodies; then the tethers: springs, and the inextensible tethers'
+    the same bits either way. First the bodies on rails are put where their orbits have
+    them at t (kernels/rails.py); then gravity, held forces, user forces, drag, in that
+    order; zero for immovable bodies; then the tethers: springs, and the inextensible tethers'
     constraint forces, which hold against all of these (kernels/tethers.py: they need every
-    row's). Kernels call it (numba runs _accelerations, see below).
+    row's); last, zero for the bodies on rails. Kernels call it (numba runs _accelerations,
+    see below).
     """
 
 
 def _accelerations(fx, t, pos, vel, out, targets, with_drag):
+    krails.place(fx.rails, t, pos, vel)
     gravity.pull(fx.gravity, fx.tape, fx.src, fx.passive, pos, fx.mass, out, targets,
                  fx.threads)
     _add_held(fx.held, fx.mass, out, targets)
@@ -132,6 +137,7 @@ def _accelerations(fx, t, pos, vel, out, targets, with_drag):
         _add_drag(fx.drag, vel, out, targets)
     _hold_still(fx.still, out)
     ktethers.add(fx.tethers, pos, vel, fx.mass, out, targets)
+    krails.hold(fx.rails, out)
 
 
 # A step loop evaluates forces thousands of times a call, so accelerations is compiled

@@ -394,7 +394,7 @@ def _split(a):
 
 
 @kernel
-def _times(a, b):
+def two_product(a, b):
     """a b = p + e exactly, p the rounded product (Dekker's product, without fused
     multiply-add)."""
     p = a * b
@@ -429,7 +429,7 @@ def pow(x, y):
     b = k * _LN2_LO + _log1p_reduced(m - 1.0)
     hi = a + b
     lo = (b - (hi - a)) if abs(a) >= abs(b) else (a - (hi - b))
-    t, err = _times(y, hi)
+    t, err = two_product(y, hi)
     err += y * lo
     if t > 709.782712893384:
         return math.inf
@@ -482,4 +482,4 @@ def _twins(names):
 
 py = _twins(["_horner", "_sin_poly", "_cos_poly", "_floor", "_reduce", "sin", "cos", "tan", "exp", "_scale", "_pow2",
              "_log1p_reduced", "log", "log1p", "_atan_small", "atan", "atan2", "asin", "acos",
-             "sinh", "cosh", "atanh", "asinh", "cbrt", "_split", "_times", "pow"])
+             "sinh", "cosh", "atanh", "asinh", "cbrt", "_split", "two_product", "pow"])

@@ -29,6 +29,7 @@ Around each round run does, for every family:
     the tape        a prediction's tape plays the pulling bodies or records them
                     (kernels/tape.py; None elsewhere, and compiled out)
     <advance>       the family's integration
+    rails.settle    the bodies on rails where their orbits have them at the round's end
     the NaN check   for a family that undoes a non-finite round (Wisdom-Holman)
     undo(...)       a failed round taken back (Gauss-Radau, Wisdom-Holman)
     tethers.settle  inextensible tethers' drift projected away; tethers pulling past their
@@ -52,6 +53,7 @@ from numba import types
 
 from .._jit import implements, is_table, kernel
 from . import control
+from . import rails
 from . import state as kstate
 from . import tape
 from . import tethers
@@ -342,6 +344,7 @@ def run(state, forces, rules, actors, frames, method, dt, nsteps, t0):
             undo(state, actors)
             finish(method, carry)
             return done, status(state, False) | FAILED
+        rails.settle(fx.rails, done + k, dt, pos, vel)  # the bodies on rails, exact
         tape.integrated(fx.tape, src, pos, vel, mass, played)
         tethers.settle(fx.tethers, state, t, dt)
         removed = end(state, rules, actors, ht, t, dt)

@@ -1,0 +1,154 @@
+"""Bodies on rails (World.set_rails; its checks are in editing.py): a body moved along the
+Kepler orbit of its state about a parent body, never integrated (the kernels:
+kernels/rails.py). This module turns a state into an orbit's elements and keeps the World's
+rails (in its ForceField).
+
+The elements (kernels/rails.ELEMENTS) are computed once, when the body is put on rails, from
+its place and velocity relative to its parent and mu = G (m_parent + m_body) then (G m_parent
+about a fixed parent). The mean
+motion n = sqrt(mu / |a|^3) is computed to 40 digits (the decimal module: exact from the
+doubles given) and kept as a double-double, so that the phase after 10^6 periods is right to
+rounding; the rest of the geometry is float64 from kernels/libm (the same bits everywhere).
+"""
+import math
+from decimal import Decimal, localcontext
+
+import numpy as np
+
+from .kernels import rails as krails
+from .kernels.libm import py as libm
+
+RAILS_DTYPE = np.dtype([("id", np.int64), ("about", np.int64), ("a", np.float64),
+                        ("e", np.float64), ("period", np.float64)])
+
+# how near a parabola an orbit may be (|1 - e|): nearer, the conic's a and b lose their digits
+PARABOLIC = 1e-9
+
+
+def _mean_motion(r, v, mu):
+    """(n_hi, n_lo, alpha): the mean motion sqrt(mu |alpha|^3) as a double-double, and
+    alpha = 2/|r| - |v|^2/mu = 1/a, from the doubles r, v (3,) and mu, to 40 digits."""
+    with localcontext() as ctx:
+        ctx.prec = 40
+        R = sum(Decimal(float(x)) ** 2 for x in r).sqrt()
+        V2 = sum(Decimal(float(x)) ** 2 for x in v)
+        M = Decimal(float(mu))
+        alpha = 2 / R - V2 / M
+        n = (M * abs(alpha) ** 3).sqrt()
+        hi = float(n)
+        return hi, float(n - Decimal(hi)), float(alpha)
+
+
+def elements(r, v, mu, t0):
+    """The orbit (krails.ELEMENTS,) of relative place r and velocity v (3,) about a parent of
+    gravitational parameter mu, at time t0. ValueError for a radial or a near-parabolic orbit
+    (field 'id')."""
+    r = np.asarray(r, float)
+    v = np.asarray(v, float)
+    h = np.cross(r, v)
+    hn = float(np.sqrt(h @ h))
+    rn = float(np.sqrt(r @ r))
+    if rn == 0.0 or hn <= 1e-12 * rn * float(np.sqrt(v @ v) + 1e-300):
+        raise ValueError("a radial orbit (no angular momentum about its parent): rails need a "
+                         "conic with a plane")
+    n_hi, n_lo, alpha = _mean_motion(r, v, mu)
+    evec = np.cross(v, h) / mu - r / rn
+    e = float(np.sqrt(evec @ evec))
+    if abs(1.0 - e) < PARABOLIC:
+        raise ValueError(f"an orbit of eccentricity {e!r}: within {PARABOLIC} of a parabola, "
+                         f"which rails do not hold; change its speed slightly")
+    what = h / hn
+    P = evec / e if e > 1e-13 else r / rn        # a circle: the pericentre where it is now
+    Q = np.cross(what, P)
+    a = abs(1.0 / alpha)
+    x, y = float(r @ P), float(r @ Q)
+    if e < 1.0:
+        b = a * math.sqrt(1.0 - e * e)        # sqrt is correctly rounded everywhere
+        E = libm.atan2(y / b, x / a + e)
+        M0 = E - e * libm.sin(E)
+    else:
+        b = a * math.sqrt(e * e - 1.0)
+        H = libm.asinh(y / b)
+        M0 = e * libm.sinh(H) - H
+    out = np.zeros(krails.ELEMENTS)
+    out[[krails.T0, krails.ECC, krails.A, krails.B]] = t0, e, a, b
+    out[krails.PX:krails.PX + 3] = P
+    out[krails.QX:krails.QX + 3] = Q
+    out[[krails.N_HI, krails.N_LO, krails.M0, krails.MU]] = n_hi, n_lo, M0, mu
+    return out
+
+
+class Rails:
+    """The World's bodies on rails (kept by its ForceField): ids (R, 2) [body id, parent id]
+    and their orbits (R, ELEMENTS), in the order they were put on rails."""
+
+    def __init__(self, ids=None, orbits=None):
+        self.ids = np.zeros((0, 2), np.int64) if ids is None else \
+            np.array(ids, np.int64).reshape(-1, 2)
+        self.orbits = np.zeros((0, krails.ELEMENTS)) if orbits is None else \
+            np.array(orbits, np.float64).reshape(-1, krails.ELEMENTS)
+        self.clock = np.zeros(2)        # [time base, steps]: the driver sets it per call
+
+    def __len__(self):
+        return len(self.ids)
+
+    def parent_of(self, body):
+        """The parent id of a body on rails, or None."""
+        hit = np.flatnonzero(self.ids[:, 0] == body)
+        return int(self.ids[hit[0], 1]) if hit.size else None
+
+    def put(self, body, parent, orbit):
+        self.drop(body)
+        self.ids = np.vstack([self.ids, [[body, parent]]])
+        self.orbits = np.vstack([self.orbits, orbit[None]])
+
+    def drop(self, body):
+        keep = self.ids[:, 0] != body
+        self.ids, self.orbits = self.ids[keep], self.orbits[keep]
+
+    def table(self, lookup):
+        """krails.RailsArrays for the rows lookup(ids) gives (-1: gone), parents before their
+        children; None without rails. A body whose parent is gone is dropped (it returns to
+        integration), as is a gone body's entry."""
+        if not len(self):
+            return None
+        rows = lookup(self.ids[:, 0])
+        parents = lookup(self.ids[:, 1])
+        keep = (rows >= 0) & (parents >= 0)
+        if not keep.all():
+            self.ids, self.orbits = self.ids[keep], self.orbits[keep]
+            return self.table(lookup)
+        order = self._parents_first()
+        return krails.RailsArrays(rows[order].astype(np.int64),
+                                  parents[order].astype(np.int64),
+                                  np.ascontiguousarray(self.orbits[order]), self.clock)
+
+    def _parents_first(self):
+        """The entries' order with every parent on rails before its children."""
+        depth = np.zeros(len(self), np.int64)
+        index = {int(b): k for k, b in enumerate(self.ids[:, 0])}
+        for k in range(len(self)):
+            p = int(self.ids[k, 1])
+            while p in index:
+                depth[k] += 1
+                p = int(self.ids[index[p], 1])
+        return np.argsort(depth, kind="stable")
+
+    def listing(self):
+        """World.rails: a RAILS_DTYPE row per body on rails."""
+        out = np.zeros(len(self), RAILS_DTYPE)
+        out["id"], out["about"] = self.ids[:, 0], self.ids[:, 1]
+        e = self.orbits[:, krails.ECC]
+        a = self.orbits[:, krails.A]
+        out["e"] = e
+        out["a"] = np.where(e < 1.0, a, -a)
+        n = self.orbits[:, krails.N_HI]
+        out["period"] = np.where(e < 1.0, 2.0 * np.pi / n, np.inf)
+        return out
+
+    def state(self):
+        return {"rails_ids": self.ids.copy(), "rails_orbits": self.orbits.copy()}
+
+    @classmethod
+    def from_state(cls, s):
+        return cls(s.get("rails_ids"), s.get("rails_orbits"))
