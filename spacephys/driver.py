@@ -162,14 +162,9 @@ class Driver:
                 at = frame_at[frame_at > consumed] - consumed
                 frames = (at,) + sink.frame_buffers(at.size, w._b.n)
             timing = w._threads.begin(plan.work, nsteps)
-            if plan.actors is not None:        # a plan's clock (element-wise: a slice
-                clock = w._actors.clock        # assignment from a tuple costs a microsecond)
-                clock[0] = w._t_base
-                clock[1] = w._steps
-            if w._forces.rails.ids.shape[0]:     # and the rails' (kernels/rails.settle)
-                clock = w._forces.rails.clock
-                clock[0] = w._t_base
-                clock[1] = w._steps
+            for clock in plan.clocks:          # the actors' plans' and the rails' clocks
+                clock[0] = w._t_base           # (element-wise: a slice assignment from a
+                clock[1] = w._steps            # tuple costs a microsecond)
             done, status = w._stepper.run(plan, frames, w._dt, nsteps,
                                           w._t_base + w._steps * w._dt)
             if timing is not None:

@@ -1115,8 +1115,11 @@ class World:
                                        b.category[:n], b.mask[:n], editing.optional(self, editing.GROUP),
                                        immovable, self._actors.owners(), self._dim,
                                        b.index, scratch, *self._shape_columns(n))
-        plan = Plan(self, state, forces, rules, self._actors.table(actors),
-                    self._stepper.method(self, sources), alive, work)
+        kactors = self._actors.table(actors)
+        clocks = ((self._actors.clock,) if kactors is not None else ()) + \
+            ((self._forces.rails.clock,) if rails is not None else ())
+        plan = Plan(self, state, forces, rules, kactors, self._stepper.method(self, sources),
+                    alive, work, clocks)
         self._plan = plan
         measures.check_precision(self, b.pos[:n, :self._dim])
         return plan
