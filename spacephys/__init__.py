@@ -33,6 +33,7 @@ _LAZY = {
     "Filter": "queries",
     "sweep": "sweeps", "read_sweep": "sweeps", "Sweep": "sweeps", "SweepRun": "sweeps",
     "compile": "precompile", "Compiled": "precompile",
+    "Ephemeris": "ephemeris",
 }
 
 __all__ = [
@@ -47,7 +48,7 @@ __all__ = [
     "recommend", "Recommendation",
     "Elements", "elements_to_state", "state_from_elements", "state_to_elements",
     "true_anomaly", "kepler_state", "period", "solve_kepler",
-    "Burn", "hohmann", "lambert", "Prediction", "Hits", "RayHits", "Filter",
+    "Burn", "hohmann", "lambert", "Prediction", "Hits", "RayHits", "Filter", "Ephemeris",
     "sweep", "read_sweep", "Sweep", "SweepRun",
     "set_threads", "get_threads",
     "__version__",

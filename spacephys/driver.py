@@ -162,6 +162,9 @@ class Driver:
                 at = frame_at[frame_at > consumed] - consumed
                 frames = (at,) + sink.frame_buffers(at.size, w._b.n)
             timing = w._threads.begin(plan.work, nsteps)
+            if plan.until is not None and w._t_base + (w._steps + nsteps) * w._dt > plan.until:
+                raise ValueError(f"n = {nsteps}: the ephemerides flown end at t = "
+                                 f"{plan.until}, before the steps would (t = {w.t})")
             for clock in plan.clocks:          # the actors' plans' and the rails' clocks
                 clock[0] = w._t_base           # (element-wise: a slice assignment from a
                 clock[1] = w._steps            # tuple costs a microsecond)

@@ -454,10 +454,13 @@ def tether_rows(w):
 
 
 # ---------------------------------------------------------------- rails
-def set_rails(w, body, about, why_not=None):
+def set_rails(w, body, about, why_not=None, ephemeris=None, entry=None):
     """World.set_rails: checked, then done; nothing changes on refusal."""
     i = w.index_of(body, "id")
     rails = w._forces.rails
+    if ephemeris is not None:
+        _on_ephemeris(w, i, about, why_not, ephemeris, entry)
+        return
     if about is None:
         rails.drop(int(w._b.ids[i]))
         w._invalidate()
@@ -494,3 +497,23 @@ def set_rails(w, body, about, why_not=None):
     rails.put(body, about, orbit)
     w._invalidate()
 
+
+def _on_ephemeris(w, i, about, why_not, ephemeris, entry):
+    """set_rails(body, ephemeris=...): checked, then done."""
+    from .ephemeris import Ephemeris
+    body = int(w._b.ids[i])
+    if not isinstance(ephemeris, Ephemeris):
+        raise ValueError(f"ephemeris = {ephemeris!r}: expected an sp.Ephemeris")
+    if about is not None:
+        raise ValueError(f"about = {about} with an ephemeris: the ephemeris places the body")
+    if why_not:
+        raise ValueError(f"id = {body}: {why_not}")
+    if w._actors.is_actor(i) or w._b.fixed[i]:
+        raise ValueError(f"id = {body}: a ship, a missile or a fixed body cannot fly an "
+                         f"ephemeris")
+    row, coef = ephemeris.row(body if entry is None else entry)
+    if not ephemeris.covers(w.t):
+        raise ValueError(f"ephemeris: it covers {ephemeris.start} to {ephemeris.end}, not "
+                         f"the World's time {w.t}")
+    w._forces.rails.put_ephemeris(body, row, coef)
+    w._invalidate()

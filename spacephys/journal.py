@@ -25,6 +25,10 @@ def encode(value):
         return {"__spec__": type(value).__name__,
                 "fields": {f.name: encode(getattr(value, f.name))
                            for f in dataclasses.fields(value)}}
+    if type(value).__name__ == "Ephemeris":       # its polynomials, whole
+        return {"__ephemeris__": {"ids": encode(value.ids), "start": value.start,
+                                  "length": value.length, "coef": encode(value.coef),
+                                  "dim": value.dim}}
     if isinstance(value, CPUDispatcher):          # a user force: by module and name
         return {"__function__": f"{value.py_func.__module__}:{value.py_func.__qualname__}"}
     if isinstance(value, (list, tuple)):
@@ -43,6 +47,11 @@ def decode(value):
         if "__spec__" in value:
             return _SPECS[value["__spec__"]](**{k: decode(v)
                                                for k, v in value["fields"].items()})
+        if "__ephemeris__" in value:
+            from .ephemeris import Ephemeris
+            e = value["__ephemeris__"]
+            return Ephemeris(decode(e["ids"]), e["start"], e["length"], decode(e["coef"]),
+                             e["dim"])
         if "__function__" in value:
             from .forces import importable
             return importable(value["__function__"])

@@ -82,18 +82,20 @@ class Rails:
     """The World's bodies on rails (kept by its ForceField): ids (R, 2) [body id, parent id]
     and their orbits (R, ELEMENTS), in the order they were put on rails."""
 
-    def __init__(self, ids=None, orbits=None):
+    def __init__(self, ids=None, orbits=None, ephemerides=None):
         self.ids = np.zeros((0, 2), np.int64) if ids is None else \
             np.array(ids, np.int64).reshape(-1, 2)
         self.orbits = np.zeros((0, krails.ELEMENTS)) if orbits is None else \
             np.array(orbits, np.float64).reshape(-1, krails.ELEMENTS)
         self.clock = np.zeros(2)        # [time base, steps]: the driver sets it per call
+        # the bodies on ephemerides: id -> (their E_* row (ELEMENTS,), coef (count, 3, terms))
+        self.ephemerides = dict(ephemerides or {})
 
     def __len__(self):
         return len(self.ids)
 
     def parent_of(self, body):
-        """The parent id of a body on rails, or None."""
+        """The parent id of a body on rails (-1: on an ephemeris), or None."""
         hit = np.flatnonzero(self.ids[:, 0] == body)
         return int(self.ids[hit[0], 1]) if hit.size else None
 
@@ -102,9 +104,22 @@ class Rails:
         self.ids = np.vstack([self.ids, [[body, parent]]])
         self.orbits = np.vstack([self.orbits, orbit[None]])
 
+    def put_ephemeris(self, body, row, coef):
+        """Body on an ephemeris: its E_* row and coefficients (count, 3, terms)."""
+        self.put(body, -1, row)
+        self.ephemerides[int(body)] = coef
+
     def drop(self, body):
         keep = self.ids[:, 0] != body
         self.ids, self.orbits = self.ids[keep], self.orbits[keep]
+        self.ephemerides.pop(int(body), None)
+
+    @property
+    def until(self):
+        """The last time every ephemeris flown covers (None: none flown)."""
+        ends = [row[krails.E_START] + row[krails.E_COUNT] * row[krails.E_LENGTH]
+                for row, parent in zip(self.orbits, self.ids[:, 1]) if parent < 0]
+        return min(ends) if ends else None
 
     def table(self, lookup):
         """krails.RailsArrays for the rows lookup(ids) gives (-1: gone), parents before their
@@ -113,15 +128,30 @@ class Rails:
         if not len(self):
             return None
         rows = lookup(self.ids[:, 0])
-        parents = lookup(self.ids[:, 1])
-        keep = (rows >= 0) & (parents >= 0)
+        on_ephemeris = self.ids[:, 1] < 0
+        parents = np.where(on_ephemeris, -1, lookup(np.maximum(self.ids[:, 1], 0)))
+        keep = (rows >= 0) & ((parents >= 0) | on_ephemeris)
         if not keep.all():
-            self.ids, self.orbits = self.ids[keep], self.orbits[keep]
+            for body in self.ids[~keep, 0]:
+                self.drop(int(body))
             return self.table(lookup)
         order = self._parents_first()
+        orbits = self.orbits[order].copy()
+        terms = max([c.shape[2] for c in self.ephemerides.values()], default=1)
+        blocks = []
+        first = 0
+        for k, body in enumerate(self.ids[order, 0]):
+            coef = self.ephemerides.get(int(body))
+            if coef is not None:
+                orbits[k, krails.E_FIRST] = first
+                block = np.zeros((coef.shape[0], 3, terms))
+                block[:, :, :coef.shape[2]] = coef
+                blocks.append(block)
+                first += coef.shape[0]
+        coef = np.concatenate(blocks) if blocks else np.zeros((0, 3, 1))
         return krails.RailsArrays(rows[order].astype(np.int64),
                                   parents[order].astype(np.int64),
-                                  np.ascontiguousarray(self.orbits[order]), self.clock)
+                                  np.ascontiguousarray(orbits), coef, self.clock)
 
     def _parents_first(self):
         """The entries' order with every parent on rails before its children."""
@@ -138,17 +168,36 @@ class Rails:
         """World.rails: a RAILS_DTYPE row per body on rails."""
         out = np.zeros(len(self), RAILS_DTYPE)
         out["id"], out["about"] = self.ids[:, 0], self.ids[:, 1]
-        e = self.orbits[:, krails.ECC]
+        kepler = self.ids[:, 1] >= 0
+        e = np.where(kepler, self.orbits[:, krails.ECC], np.nan)
         a = self.orbits[:, krails.A]
         out["e"] = e
-        out["a"] = np.where(e < 1.0, a, -a)
+        out["a"] = np.where(kepler, np.where(e < 1.0, a, -a), np.nan)
         n = self.orbits[:, krails.N_HI]
-        out["period"] = np.where(e < 1.0, 2.0 * np.pi / n, np.inf)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out["period"] = np.where(kepler & (e < 1.0), 2.0 * np.pi / n,
+                                     np.where(kepler, np.inf, np.nan))
         return out
 
     def state(self):
-        return {"rails_ids": self.ids.copy(), "rails_orbits": self.orbits.copy()}
+        bodies = sorted(self.ephemerides)
+        coef = [self.ephemerides[b] for b in bodies]
+        terms = max([c.shape[2] for c in coef], default=1)
+        flat = np.concatenate([np.pad(c, ((0, 0), (0, 0), (0, terms - c.shape[2])))
+                               for c in coef]) if coef else np.zeros((0, 3, 1))
+        return {"rails_ids": self.ids.copy(), "rails_orbits": self.orbits.copy(),
+                "rails_ephemeris_ids": np.array(bodies, np.int64),
+                "rails_ephemeris_coef": flat}
 
     @classmethod
     def from_state(cls, s):
-        return cls(s.get("rails_ids"), s.get("rails_orbits"))
+        r = cls(s.get("rails_ids"), s.get("rails_orbits"))
+        bodies = np.array(s.get("rails_ephemeris_ids", np.zeros(0)), np.int64).reshape(-1)
+        flat = np.array(s.get("rails_ephemeris_coef", np.zeros((0, 3, 1))), np.float64)
+        first = 0
+        for body in bodies:
+            k = int(np.flatnonzero(r.ids[:, 0] == body)[0])
+            count, terms = int(r.orbits[k, krails.E_COUNT]), int(r.orbits[k, krails.E_TERMS])
+            r.ephemerides[int(body)] = flat[first:first + count, :, :terms].copy()
+            first += count
+        return r

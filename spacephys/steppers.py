@@ -286,12 +286,14 @@ class Plan:
     arguments. Rebuilt by World whenever the set of bodies or a setting the tables hold
     changes; arrays are shared with World, so values changed in place need no rebuild."""
     __slots__ = ("world", "state", "forces", "rules", "actors", "method", "alive", "work",
-                 "clocks", "entries")
+                 "clocks", "until", "entries")
 
-    def __init__(self, world, state, forces, rules, actors, method, alive, work, clocks=()):
+    def __init__(self, world, state, forces, rules, actors, method, alive, work, clocks=(),
+                 until=None):
         self.world, self.state, self.forces, self.rules = world, state, forces, rules
         self.actors, self.method, self.alive, self.work = actors, method, alive, work
         self.clocks = clocks     # (2,) arrays the tables share: [time base, steps], per call
+        self.until = until       # the last time the ephemerides flown cover (None: none)
         self.entries = {}
 
     def call(self, kernel, frames, dt, nsteps, t0, label="the step"):

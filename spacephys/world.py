@@ -622,16 +622,21 @@ class World:
         radii (C,))."""
         return editing.circles(self, body)
 
-    def set_rails(self, body, about):
+    def set_rails(self, body, about=None, *, ephemeris=None, entry=None):
         """Put a body on rails: from now on it moves along the Kepler orbit of its present
         state about body `about` (ellipse or hyperbola; mu = G (m_about + m_body) now, G
         m_about for a fixed parent; the parent itself integrated or on rails), never integrated: it pulls the others and
         feels nothing, and does not drift (kernels/rails.py solves Kepler's equation at
         each force evaluation's time). about=None takes it off rails, integrated again from
         where its rails had it. Its parent's removal takes it off rails. Not with
-        Wisdom-Holman (its Jacobi drifts cannot take a body moved from outside)."""
+        Wisdom-Holman (its Jacobi drifts cannot take a body moved from outside).
+        ephemeris : an sp.Ephemeris instead of about: the body follows its polynomials
+        (entry: which of the ephemeris's bodies, default the body's id); stepping past the
+        ephemeris's end is refused."""
         why = RAILS_REFUSED if self.integrator.startswith("wisdom_holman") else None
-        editing.set_rails(self, body, about, why if about is not None else None)
+        editing.set_rails(self, body, about,
+                          why if (about is not None or ephemeris is not None) else None,
+                          ephemeris, entry)
 
     @property
     def rails(self):
@@ -1119,7 +1124,7 @@ class World:
         clocks = ((self._actors.clock,) if kactors is not None else ()) + \
             ((self._forces.rails.clock,) if rails is not None else ())
         plan = Plan(self, state, forces, rules, kactors, self._stepper.method(self, sources),
-                    alive, work, clocks)
+                    alive, work, clocks, self._forces.rails.until)
         self._plan = plan
         measures.check_precision(self, b.pos[:n, :self._dim])
         return plan

@@ -10,10 +10,13 @@ time t: the mean anomaly M = M0 + n (t - t0), with n held as a double-double (n_
 and M reduced modulo 2 pi in double-double arithmetic (Dekker's exact products, no fused
 multiply-add), so that after 10^6 periods the phase is still right to rounding; then
 Kepler's equation, E - e sin E = M (elliptic) or e sinh H - H = M (hyperbolic), by Newton's
-method kept inside a bracket. From + - x / sqrt and kernels/libm: the same bits on every CPU.
+method kept inside a bracket. A body on an ephemeris instead takes its place and velocity from
+piecewise Chebyshev polynomials (`chebyshev`, as JPL's ephemerides are evaluated). From + - x / sqrt and kernels/libm: the same bits on every CPU.
 """
 import math
 from collections import namedtuple
+
+import numpy as np
 
 from .._jit import kernel
 from . import libm
@@ -22,10 +25,17 @@ from . import libm
 T0, ECC, A, B, PX, PY, PZ, QX, QY, QZ, N_HI, N_LO, M0, MU = range(14)
 ELEMENTS = 14
 
+# an ephemeris's row in elements (parent -1): its first time, its segments' length, their
+# count, the first of them in coef, the coefficients per coordinate
+E_START, E_LENGTH, E_COUNT, E_FIRST, E_TERMS = range(5)
+
 RailsArrays = namedtuple("RailsArrays", (
     "rows",       # (R,) int64 rows of the bodies on rails, every parent before its children
-    "parents",    # (R,) int64 their parents' rows
-    "elements",   # (R, ELEMENTS) float64: each orbit (see the module)
+    "parents",    # (R,) int64 their parents' rows; -1: on an ephemeris
+    "elements",   # (R, ELEMENTS) float64: each orbit (see the module), or its ephemeris's
+                  # row (E_START ...)
+    "coef",       # (C, 3, D) float64: the ephemerides' Chebyshev coefficients, a segment a
+                  # row (spacephys/ephemeris.py)
     "clock",      # (2,) the World's time base and step count at the call's start (World sets
                   # it before each call): a step's end is timed as World.t is
 ))
@@ -120,6 +130,56 @@ def relative(el, t):
 
 
 @kernel(lean=True)
+def chebyshev(coef, row, t):
+    """Place and velocity (x, y, z, vx, vy, vz) at time t of the ephemeris whose row (E_START
+    ...) is given: the segment holding t (the first or last beyond the ends), its polynomials
+    sum_k c_k T_k(s) at s in [-1, 1] and their derivatives (T_k and T_k' by their
+    recurrences)."""
+    length = row[E_LENGTH]
+    count = int(row[E_COUNT])
+    k = int(math.floor((t - row[E_START]) / length))
+    k = min(max(k, 0), count - 1)
+    s = 2.0 * (t - (row[E_START] + k * length)) / length - 1.0
+    seg = int(row[E_FIRST]) + k
+    terms = int(row[E_TERMS])
+    x0 = 0.0
+    x1 = 0.0
+    x2 = 0.0
+    v0 = 0.0
+    v1 = 0.0
+    v2 = 0.0
+    t_prev, t_now = 1.0, s            # T_0, T_1
+    d_prev, d_now = 0.0, 1.0          # T_0', T_1'
+    for j in range(terms):
+        if j == 0:
+            T, D = 1.0, 0.0
+        elif j == 1:
+            T, D = s, 1.0
+        else:
+            T = 2.0 * s * t_now - t_prev
+            D = 2.0 * t_now + 2.0 * s * d_now - d_prev
+            t_prev, t_now = t_now, T
+            d_prev, d_now = d_now, D
+        x0 += coef[seg, 0, j] * T
+        x1 += coef[seg, 1, j] * T
+        x2 += coef[seg, 2, j] * T
+        v0 += coef[seg, 0, j] * D
+        v1 += coef[seg, 1, j] * D
+        v2 += coef[seg, 2, j] * D
+    f = 2.0 / length
+    return x0, x1, x2, v0 * f, v1 * f, v2 * f
+
+
+@kernel
+def chebyshev_many(coef, row, times, out):
+    """chebyshev at each of times (m,) into out (m, 6) (Ephemeris.state)."""
+    for q in range(times.size):
+        r = chebyshev(coef, row, times[q])
+        for c in range(6):
+            out[q, c] = r[c]
+
+
+@kernel(lean=True)
 def place(rails, t, pos, vel):
     """Put every body on rails where its orbit has it at time t (its parent's place and
     velocity in pos, vel plus its own about it: parents first). rails : RailsArrays or None
@@ -130,6 +190,15 @@ def place(rails, t, pos, vel):
     for r in range(rows.size):
         i = rows[r]
         p = parents[r]
+        if p < 0:
+            x, y, z, vx, vy, vz = chebyshev(rails.coef, elements[r], t)
+            pos[i, 0] = x
+            pos[i, 1] = y
+            pos[i, 2] = z
+            vel[i, 0] = vx
+            vel[i, 1] = vy
+            vel[i, 2] = vz
+            continue
         x, y, z, vx, vy, vz = relative(elements[r], t)
         pos[i, 0] = pos[p, 0] + x
         pos[i, 1] = pos[p, 1] + y
@@ -140,14 +209,23 @@ def place(rails, t, pos, vel):
 
 
 @kernel(lean=True)
+def now(rails, t0, steps, dt):
+    """The time after `steps` steps of dt of this call: t0 + steps dt, or with rails World.t's
+    own (its time base + its step count x dt), so that a body on rails sees the same times
+    however a run is cut into calls (a recorded World's calls end at its frames)."""
+    if rails is None:
+        return t0 + steps * dt
+    return rails.clock[0] + (rails.clock[1] + steps) * dt
+
+
+@kernel(lean=True)
 def settle(rails, steps, dt, pos, vel):
     """After a round: put the bodies on rails where their orbits have them once `steps` steps
     of dt of this call are done, at World.t's own time (its time base + its step count x dt,
     not the call's start + steps x dt, which rounds differently)."""
     if rails is None:
         return
-    clock = rails.clock
-    place(rails, clock[0] + (clock[1] + steps) * dt, pos, vel)
+    place(rails, now(rails, 0.0, steps, dt), pos, vel)
 
 
 @kernel(lean=True)
@@ -160,3 +238,46 @@ def hold(rails, out):
         out[i, 0] = 0.0
         out[i, 1] = 0.0
         out[i, 2] = 0.0
+
+
+@kernel
+def fit(times, values, start, length, terms, out):
+    """Least-squares Chebyshev polynomials of `terms` terms through the samples values
+    (m, 3) at times (m,) of one segment [start, start + length]: out (3, terms). The normal
+    equations summed and solved (Gaussian elimination, partial pivoting) in a fixed order:
+    the same coefficients on every CPU (a LAPACK fit would not be)."""
+    m = times.size
+    G = np.zeros((terms, terms))
+    r = np.zeros((terms, 3))
+    T = np.empty(terms)
+    for q in range(m):
+        s = 2.0 * (times[q] - start) / length - 1.0
+        for j in range(terms):
+            T[j] = 1.0 if j == 0 else (s if j == 1 else 2.0 * s * T[j - 1] - T[j - 2])
+        for j in range(terms):
+            for k in range(terms):
+                G[j, k] += T[j] * T[k]
+            for c in range(3):
+                r[j, c] += T[j] * values[q, c]
+    for col in range(terms):                      # elimination with partial pivoting
+        best = col
+        for row in range(col + 1, terms):
+            if abs(G[row, col]) > abs(G[best, col]):
+                best = row
+        if best != col:
+            for k in range(terms):
+                G[col, k], G[best, k] = G[best, k], G[col, k]
+            for c in range(3):
+                r[col, c], r[best, c] = r[best, c], r[col, c]
+        for row in range(col + 1, terms):
+            f = G[row, col] / G[col, col]
+            for k in range(col, terms):
+                G[row, k] -= f * G[col, k]
+            for c in range(3):
+                r[row, c] -= f * r[col, c]
+    for col in range(terms - 1, -1, -1):
+        for c in range(3):
+            acc = r[col, c]
+            for k in range(col + 1, terms):
+                acc -= G[col, k] * out[c, k]
+            out[c, col] = acc / G[col, col]

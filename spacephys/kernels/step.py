@@ -330,7 +330,7 @@ def run(state, forces, rules, actors, frames, method, dt, nsteps, t0):
     removed = False
     while done < nsteps:
         k = span(method, every, frames, frame, done, nsteps)
-        t = t0 + done * dt
+        t = rails.now(fx.rails, t0, done, dt)
         begin(state, rules, actors, ht, t, dt, keep, done + k == nsteps)
         played = tape.playing(fx.tape)       # a prediction's tape (kernels/tape.py)
         if played != was:           # rebound only when it changes: a rebinding costs refcounts

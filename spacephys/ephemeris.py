@@ -1,0 +1,158 @@
+"""Ephemerides: bodies' paths as piecewise Chebyshev polynomials, as JPL's are kept, fitted
+to a run (`Ephemeris.fit`), saved and loaded (HDF5), evaluated (`state`) and flown
+(`World.set_rails(id, ephemeris=eph)`: planets that keep their mutual perturbations at the
+cost of a polynomial's evaluation; kernels/rails.py evaluates them in the step).
+
+Each body's path is split into equal segments of time; in each, x, y and z are sums
+sum_k c_k T_k(s) over s in [-1, 1], fitted by least squares to the run's positions at every
+step (kernels/rails.fit: the same coefficients on every CPU). Velocities are the
+polynomials' derivatives.
+"""
+import math
+
+import numpy as np
+
+from . import _validate as check
+from .kernels import rails as krails
+
+
+class Ephemeris:
+    """Bodies' paths over [start, start + count * length] [time]: ids (B,) int64, the body
+    each is for (the World's ids when fitted; any labels when loaded); coef (B, count, 3,
+    terms) Chebyshev coefficients [length]; dim: 2 or 3, the coordinates state() gives."""
+
+    def __init__(self, ids, start, length, coef, dim=3):
+        self.ids = np.array(ids, np.int64).reshape(-1)
+        self.start = float(start)
+        self.length = float(length)
+        self.coef = np.ascontiguousarray(coef, np.float64)
+        self.dim = int(dim)
+        if self.coef.ndim != 4 or self.coef.shape[0] != self.ids.size or \
+                self.coef.shape[2] != 3:
+            raise ValueError(f"coef has shape {self.coef.shape}: expected "
+                             f"({self.ids.size}, segments, 3, terms)")
+
+    @property
+    def end(self):
+        """The last time it covers [time]."""
+        return self.start + self.coef.shape[1] * self.length
+
+    def covers(self, t0, t1=None):
+        return self.start <= t0 and (t1 if t1 is not None else t0) <= self.end
+
+    def row(self, body):
+        """(kernels/rails E_* row (5,), its coefficients (count, 3, terms)) of one body."""
+        hit = np.flatnonzero(self.ids == body)
+        if not hit.size:
+            raise ValueError(f"body = {body}: not in this ephemeris (it has "
+                             f"{self.ids.tolist()})")
+        row = np.zeros(krails.ELEMENTS)
+        row[[krails.E_START, krails.E_LENGTH, krails.E_COUNT, krails.E_TERMS]] = \
+            self.start, self.length, self.coef.shape[1], self.coef.shape[3]
+        return row, self.coef[hit[0]]
+
+    def state(self, body, times):
+        """Positions and velocities (m, dim) each of `body` at times (m,) (or one time:
+        (dim,) each), from its polynomials; ValueError outside [start, end]."""
+        scalar = np.ndim(times) == 0
+        t = np.atleast_1d(check.floats("times", times))
+        if t.size and not self.covers(float(t.min()), float(t.max())):
+            raise ValueError(f"times from {t.min()} to {t.max()}: this ephemeris covers "
+                             f"{self.start} to {self.end}")
+        row, coef = self.row(body)
+        out = np.empty((t.size, 6))
+        krails.chebyshev_many(coef, row, np.ascontiguousarray(t, np.float64), out)
+        d = self.dim
+        if scalar:
+            return out[0, :d].copy(), out[0, 3:3 + d].copy()
+        return out[:, :d].copy(), out[:, 3:3 + d].copy()
+
+    # ------------------------------------------------------------ fitting
+    @classmethod
+    def fit(cls, world, ids, duration, tolerance=1e-10, terms=14):
+        """Step a copy of `world` for `duration` [time] and fit each of bodies `ids` with
+        Chebyshev polynomials of `terms` terms, segments halved until every sample (a
+        position after each step) is within `tolerance` of its body's orbit size (its
+        largest distance from its mean place over the run). The World is not changed.
+        ValueError when the tolerance needs segments shorter than 2 * terms steps."""
+        ids = np.atleast_1d(np.asarray(ids, np.int64))
+        rows = world.index_of(ids)                    # checks them
+        duration = check.scalar("duration", duration, positive=True)
+        tolerance = check.scalar("tolerance", tolerance, positive=True)
+        terms = check.count("terms", terms)
+        if terms < 2:
+            raise ValueError(f"terms = {terms}: at least 2 (a line)")
+        steps = max(1, math.ceil(duration / world.dt))
+        copy = world.copy()
+        start = copy.t
+        times = np.empty(steps + 1)
+        samples = np.zeros((steps + 1, ids.size, 3))
+        dim = world.dim
+        times[0] = start
+        samples[0, :, :dim] = copy.pos[rows]
+        for k in range(1, steps + 1):
+            copy.step(1)
+            times[k] = copy.t
+            samples[k, :, :dim] = copy.pos[copy.index_of(ids)]
+        size = np.sqrt(((samples - samples.mean(axis=0)) ** 2).sum(axis=2)).max(axis=0)
+        size = np.where(size > 0.0, size, 1.0)
+        total = times[-1] - start
+        count = 1
+        while True:
+            length = total / count
+            coef, worst = cls._fit(times, samples, start, length, count, terms)
+            if np.all(worst <= tolerance * size):
+                return cls(ids, start, length, coef, dim)
+            if steps / (2 * count) < 2 * terms:
+                k = int(np.argmax(worst / size))
+                raise ValueError(
+                    f"tolerance = {tolerance}: body {int(ids[k])} is still "
+                    f"{worst[k] / size[k]:.1e} of its orbit off with segments of "
+                    f"{steps // count} steps; use a smaller dt, more terms or a "
+                    f"larger tolerance")
+            count *= 2
+
+    @staticmethod
+    def _fit(times, samples, start, length, count, terms):
+        """(coef (B, count, 3, terms), the worst distance of each body's samples from its
+        fit (B,))."""
+        B = samples.shape[1]
+        coef = np.zeros((B, count, 3, terms))
+        worst = np.zeros(B)
+        row = np.zeros(krails.ELEMENTS)
+        row[[krails.E_START, krails.E_LENGTH, krails.E_COUNT, krails.E_TERMS]] = \
+            start, length, count, terms
+        for k in range(count):
+            a = start + k * length
+            inside = np.flatnonzero((times >= a) & (times <= a + length))   # both ends
+            t = np.ascontiguousarray(times[inside])
+            for b in range(B):
+                krails.fit(t, np.ascontiguousarray(samples[inside, b]), start + k * length,
+                           length, terms, coef[b, k])
+        out = np.empty((times.size, 6))
+        for b in range(B):
+            krails.chebyshev_many(coef[b], row, times, out)
+            worst[b] = np.sqrt(((out[:, :3] - samples[:, b]) ** 2).sum(axis=1)).max()
+        return coef, worst
+
+    # ------------------------------------------------------------ files
+    def save(self, path):
+        """Write it to an HDF5 file at path."""
+        import h5py
+        with h5py.File(path, "w") as f:
+            f.attrs["format"] = "spacephys ephemeris 1"
+            f.attrs["start"] = self.start
+            f.attrs["length"] = self.length
+            f.attrs["dim"] = self.dim
+            f["ids"] = self.ids
+            f["coef"] = self.coef
+
+    @classmethod
+    def load(cls, path):
+        """An Ephemeris saved by save()."""
+        import h5py
+        with h5py.File(path, "r") as f:
+            if f.attrs.get("format") != "spacephys ephemeris 1":
+                raise ValueError(f"{path}: not a spacephys ephemeris file")
+            return cls(f["ids"][()], f.attrs["start"], f.attrs["length"], f["coef"][()],
+                       int(f.attrs.get("dim", 3)))
