@@ -9,11 +9,25 @@ step (kernels/rails.fit: the same coefficients on every CPU). Velocities are the
 polynomials' derivatives.
 """
 import math
+from pathlib import Path
 
 import numpy as np
 
 from . import _validate as check
 from .kernels import rails as krails
+
+# NAIF ids of the bodies by name (a planet with no body of its own in an SPK file, as Jupiter
+# in DE421, is its barycentre)
+NAIF = {"solar_system_barycenter": 0, "mercury_barycenter": 1, "venus_barycenter": 2,
+        "earth_barycenter": 3, "mars_barycenter": 4, "jupiter_barycenter": 5,
+        "saturn_barycenter": 6, "uranus_barycenter": 7, "neptune_barycenter": 8,
+        "pluto_barycenter": 9, "sun": 10, "mercury": 199, "venus": 299, "moon": 301,
+        "earth": 399, "mars": 499, "jupiter": 5, "saturn": 6, "uranus": 7, "neptune": 8,
+        "pluto": 9}
+J2000 = 2451545.0                     # the Julian date (TDB) of J2000.0
+DAY = 86400.0                         # [s]
+# a unit system's length and time in kilometres and seconds (sp.UNITS names)
+_SCALE = {"si": (1e-3, 1.0), "au-msun-yr": (149597870.7, 365.25 * DAY)}
 
 
 class Ephemeris:
@@ -21,16 +35,28 @@ class Ephemeris:
     each is for (the World's ids when fitted; any labels when loaded); coef (B, count, 3,
     terms) Chebyshev coefficients [length]; dim: 2 or 3, the coordinates state() gives."""
 
-    def __init__(self, ids, start, length, coef, dim=3):
+    def __init__(self, ids, start, length, coef, dim=3, epoch=None, seconds=None):
         self.ids = np.array(ids, np.int64).reshape(-1)
         self.start = float(start)
         self.length = float(length)
         self.coef = np.ascontiguousarray(coef, np.float64)
         self.dim = int(dim)
+        # a real ephemeris's clock: the Julian date (TDB) of its time 0, and the seconds in
+        # its unit of time (None for one fitted to a World: its times are the World's)
+        self.epoch = None if epoch is None else float(epoch)
+        self.seconds = None if seconds is None else float(seconds)
         if self.coef.ndim != 4 or self.coef.shape[0] != self.ids.size or \
                 self.coef.shape[2] != 3:
             raise ValueError(f"coef has shape {self.coef.shape}: expected "
                              f"({self.ids.size}, segments, 3, terms)")
+
+    def time(self, jd):
+        """Its time [its unit] of a Julian date (TDB), for an ephemeris read from an SPK
+        file."""
+        if self.epoch is None:
+            raise ValueError("this ephemeris was fitted to a World: its times are the "
+                             "World's, with no calendar")
+        return (np.asarray(jd, np.float64) - self.epoch) * DAY / self.seconds
 
     @property
     def end(self):
@@ -144,6 +170,9 @@ class Ephemeris:
             f.attrs["start"] = self.start
             f.attrs["length"] = self.length
             f.attrs["dim"] = self.dim
+            if self.epoch is not None:
+                f.attrs["epoch"] = self.epoch
+                f.attrs["seconds"] = self.seconds
             f["ids"] = self.ids
             f["coef"] = self.coef
 
@@ -155,4 +184,93 @@ class Ephemeris:
             if f.attrs.get("format") != "spacephys ephemeris 1":
                 raise ValueError(f"{path}: not a spacephys ephemeris file")
             return cls(f["ids"][()], f.attrs["start"], f.attrs["length"], f["coef"][()],
-                       int(f.attrs.get("dim", 3)))
+                       int(f.attrs.get("dim", 3)), f.attrs.get("epoch"),
+                       f.attrs.get("seconds"))
+
+    # ------------------------------------------------------------ JPL's SPK files
+    @classmethod
+    def from_spk(cls, path, bodies, units=None, start=None, end=None):
+        """The bodies' places relative to the Solar System barycentre from a JPL SPK file
+        (DE421 and its kin: type 2 segments), read through jplephem. bodies : names (NAIF,
+        e.g. "earth", "moon", "jupiter") or NAIF ids, which become the ephemeris's ids;
+        units : None (kilometres and seconds) or "si" or "au-msun-yr" (sp.UNITS); start,
+        end : Julian dates (TDB) to keep (default the file's span). Time 0 is J2000.0 TDB
+        (`time(jd)` converts). A body reached through several segments (the Earth: the
+        Earth-Moon barycentre's, then its own about it) is their sum, refitted on the
+        finest segments (a polynomial restricted to a sub-interval is one of the same
+        degree: exact to rounding)."""
+        from .extras import require
+        require("sp.Ephemeris.from_spk", "jplephem")
+        from jplephem.spk import SPK
+        if units is not None and units not in _SCALE:
+            raise ValueError(f"units = {units!r}: None (km and s) or one of "
+                             f"{', '.join(_SCALE)} (units with a length and a time)")
+        km, seconds = (1.0, 1.0) if units is None else _SCALE[units]
+        codes = [cls._naif(b) for b in np.atleast_1d(np.asarray(bodies, dtype=object))]
+        kernel = SPK.open(str(Path(path)))
+        try:
+            chains = [cls._chain(kernel, code, path) for code in codes]
+            segments = [kernel[pair] for chain in chains for pair in chain]
+            first = max(seg.start_jd for seg in segments)
+            last = min(seg.end_jd for seg in segments)
+            start = first if start is None else check.scalar("start", start)
+            end = last if end is None else check.scalar("end", end)
+            if not first <= start < end <= last:
+                raise ValueError(f"start, end = {start}, {end}: the file covers Julian dates "
+                                 f"{first} to {last}")
+            arrays = [seg.load_array() for seg in segments]
+            length = min(a[1] for a in arrays)                 # days
+            terms = max(a[2].shape[2] for a in arrays)
+            init = arrays[0][0]
+            k0 = math.floor((start - init) / length)
+            k1 = math.ceil((end - init) / length)
+            count = k1 - k0
+            # 2 terms' samples per segment at Chebyshev points of the second kind (both ends)
+            m = 2 * terms
+            s = np.cos(np.pi * np.arange(m)[::-1] / (m - 1))
+            # each sample's date as a whole segment start plus a day fraction (jplephem's
+            # two-part date: a float Julian date alone rounds to 40 microseconds), and its
+            # time from the same two parts
+            seg_start = init + (k0 + np.arange(count)) * length
+            whole = np.repeat(seg_start, m)
+            part = np.tile(0.5 * length * (s + 1.0), count)
+            coef = np.zeros((len(codes), count, 3, terms))
+            t0 = (seg_start[0] - J2000) * DAY / seconds
+            span = length * DAY / seconds
+            t = np.ascontiguousarray((((whole - J2000) * DAY + part * DAY) / seconds)
+                                     .reshape(count, m))
+            for b, chain in enumerate(chains):
+                x = np.zeros((3, whole.size))
+                for pair in chain:
+                    x += kernel[pair].compute(whole, part)
+                x = np.ascontiguousarray((x / km).T.reshape(count, m, 3))
+                for k in range(count):
+                    krails.fit(t[k], x[k], t0 + k * span, span, terms, coef[b, k])
+        finally:
+            kernel.close()
+        return cls(codes, t0, span, coef, 3, J2000, seconds)
+
+    @staticmethod
+    def _naif(body):
+        if isinstance(body, str):
+            code = NAIF.get(body.lower().replace(" ", "_"))
+            if code is None:
+                raise ValueError(f"bodies: {body!r} is not a body name spacephys knows "
+                                 f"({', '.join(sorted(NAIF))}); give its NAIF id")
+            return code
+        if isinstance(body, (int, np.integer)) and not isinstance(body, bool):
+            return int(body)
+        raise ValueError(f"bodies: {body!r} is neither a name nor a NAIF id")
+
+    @staticmethod
+    def _chain(kernel, code, path):
+        """The (centre, target) pairs from the barycentre (0) to body `code`."""
+        parent = {target: centre for centre, target in kernel.pairs}
+        chain = []
+        while code != 0:
+            if code not in parent:
+                raise ValueError(f"bodies: NAIF id {code} is not in {path} (it has "
+                                 f"{sorted(parent)})")
+            chain.append((parent[code], code))
+            code = parent[code]
+        return chain[::-1]

@@ -11,6 +11,7 @@ EXTRAS = {
     "matplotlib": ("matplotlib", "plot"),
     "distributed": ("distributed", "sweep"),
     "pygame": ("pygame-ce", "game"),
+    "jplephem": ("jplephem", "ephemeris"),
 }
 
 
