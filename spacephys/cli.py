@@ -196,6 +196,8 @@ def _sweep(args):
 
 
 def _validate(args):
+    if args.real_sky:
+        return _real_sky(args)
     require("spacephys validate", "rebound")
     from .study import validate
     results = validate.validate(args.problems, args.integrator)
@@ -209,6 +211,22 @@ def _validate(args):
         with open(args.json, "w") as f:
             json.dump(results, f, indent=2)
         print(f"wrote {args.json}")
+    return 0
+
+
+def _real_sky(args):
+    """spacephys validate --real-sky: the Sun, the planets and the Moon against DE421."""
+    require("spacephys validate --real-sky", "jplephem", "skyfield_data")
+    from .study.realsky import HEADER, format_realsky, realsky
+    (newton, lag_newton), (einstein, lag_gr) = realsky(relativity=False), realsky()
+    table = format_realsky(newton, einstein) + (
+        f"\n\nMercury's perihelion after 10 years, ahead of DE421's: {lag_newton:+.3f}\" "
+        f"(Newton), {lag_gr:+.4f}\" (with the correction)")
+    print(table)
+    if args.markdown:
+        with open(args.markdown, "w") as f:
+            f.write(HEADER + table + "\n")
+        print(f"wrote {args.markdown}")
     return 0
 
 
@@ -329,6 +347,10 @@ def main(argv=None):
                      help="only this integrator (repeatable)")
     val.add_argument("--markdown", metavar="PATH", help="also write the table (docs page)")
     val.add_argument("--json", metavar="PATH", help="also write the results as JSON")
+    val.add_argument("--real-sky", action="store_true",
+                     help="instead: the Sun, the planets and the Moon integrated for 10 years "
+                          "from JPL's DE421, against DE421 (with and without general "
+                          "relativity's correction)")
     val.set_defaults(func=_validate)
 
     args = parser.parse_args(argv)

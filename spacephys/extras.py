@@ -12,6 +12,7 @@ EXTRAS = {
     "distributed": ("distributed", "sweep"),
     "pygame": ("pygame-ce", "game"),
     "jplephem": ("jplephem", "ephemeris"),
+    "skyfield_data": ("skyfield-data", "test"),
 }
 
 
