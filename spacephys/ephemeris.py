@@ -189,13 +189,13 @@ class Ephemeris:
 
     # ------------------------------------------------------------ JPL's SPK files
     @classmethod
-    def from_spk(cls, path, bodies, units=None, start=None, end=None):
+    def from_spk(cls, path, bodies, units=None, start=None, end=None, epoch=J2000):
         """The bodies' places relative to the Solar System barycentre from a JPL SPK file
         (DE421 and its kin: type 2 segments), read through jplephem. bodies : names (NAIF,
         e.g. "earth", "moon", "jupiter") or NAIF ids, which become the ephemeris's ids;
         units : None (kilometres and seconds) or "si" or "au-msun-yr" (sp.UNITS); start,
-        end : Julian dates (TDB) to keep (default the file's span). Time 0 is J2000.0 TDB
-        (`time(jd)` converts). A body reached through several segments (the Earth: the
+        end : Julian dates (TDB) to keep (default the file's span); epoch : the Julian date
+        (TDB) of its time 0 (default J2000.0; `time(jd)` converts). A body reached through several segments (the Earth: the
         Earth-Moon barycentre's, then its own about it) is their sum, refitted on the
         finest segments (a polynomial restricted to a sub-interval is one of the same
         degree: exact to rounding)."""
@@ -206,7 +206,7 @@ class Ephemeris:
             raise ValueError(f"units = {units!r}: None (km and s) or one of "
                              f"{', '.join(_SCALE)} (units with a length and a time)")
         km, seconds = (1.0, 1.0) if units is None else _SCALE[units]
-        codes = [cls._naif(b) for b in np.atleast_1d(np.asarray(bodies, dtype=object))]
+        codes = [cls.naif(b) for b in np.atleast_1d(np.asarray(bodies, dtype=object))]
         kernel = SPK.open(str(Path(path)))
         try:
             chains = [cls._chain(kernel, code, path) for code in codes]
@@ -235,9 +235,10 @@ class Ephemeris:
             whole = np.repeat(seg_start, m)
             part = np.tile(0.5 * length * (s + 1.0), count)
             coef = np.zeros((len(codes), count, 3, terms))
-            t0 = (seg_start[0] - J2000) * DAY / seconds
+            epoch = check.scalar("epoch", epoch)
+            t0 = (seg_start[0] - epoch) * DAY / seconds
             span = length * DAY / seconds
-            t = np.ascontiguousarray((((whole - J2000) * DAY + part * DAY) / seconds)
+            t = np.ascontiguousarray((((whole - epoch) * DAY + part * DAY) / seconds)
                                      .reshape(count, m))
             for b, chain in enumerate(chains):
                 x = np.zeros((3, whole.size))
@@ -248,10 +249,11 @@ class Ephemeris:
                     krails.fit(t[k], x[k], t0 + k * span, span, terms, coef[b, k])
         finally:
             kernel.close()
-        return cls(codes, t0, span, coef, 3, J2000, seconds)
+        return cls(codes, t0, span, coef, 3, epoch, seconds)
 
     @staticmethod
-    def _naif(body):
+    def naif(body):
+        """The NAIF id of a body given by name (NAIF's keys) or by its id."""
         if isinstance(body, str):
             code = NAIF.get(body.lower().replace(" ", "_"))
             if code is None:

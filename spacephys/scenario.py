@@ -42,7 +42,9 @@ _PLACE = {"pos": ("vec", None), "vel": ("vec", None), "parent": ("str", None),
           "f": ("float", None)}
 _BODY = {"name": ("str", REQUIRED), "mass": ("float", REQUIRED), "radius": ("float", 0.0),
          "kind": ("str", "body"), "active": ("bool", None), "fixed": ("bool", False),
-         "lifetime": ("float", None), **_PLACE}
+         "lifetime": ("float", None), "rails": ("str", None), "spk": ("any", None), **_PLACE}
+RAILS = ("kepler", "ephemeris")
+_EPHEMERIS = {"file": ("str", REQUIRED), "epoch": ("float", 2451545.0)}
 _RING = {"name": ("str", REQUIRED), "count": ("int", REQUIRED), "parent": ("str", REQUIRED),
          "a": ("range", REQUIRED), "e": ("range", [0.0, 0.0]), "i": ("range", [0.0, 0.0]),
          "mass": ("range", [0.0, 0.0]), "radius": ("range", [0.0, 0.0]),
@@ -72,7 +74,7 @@ _LOG = {"path": ("str", REQUIRED), "every": ("int", None), "every_time": ("float
 _TOP = {"title": ("str", ""), "description": ("str", ""), "world": ("table", REQUIRED),
         "bodies": ("tables", []), "rings": ("tables", []), "ships": ("tables", []), "missiles": ("table", {}),
         "collisions": ("tables", []), "boundary": ("table", None), "walls": ("tables", []),
-        "timeline": ("tables", []), "log": ("table", None)}
+        "timeline": ("tables", []), "log": ("table", None), "ephemeris": ("table", None)}
 
 
 class ScenarioError(ValueError):
@@ -237,8 +239,12 @@ def load_scenario(path_or_text, overrides=None):
             t = chk.table(path, item, schema)
             if t is None:
                 continue
-            _check_place(chk, path, t, names, key)
+            if key == "bodies" and t["rails"] == "ephemeris":
+                _check_ephemeris_body(chk, path, t, names, top, world)
+            else:
+                _check_place(chk, path, t, names, key)
             if key == "bodies":
+                _check_rails(chk, path, t, world)
                 chk.minimum(f"{path}.mass", t["mass"], 0.0)
                 chk.minimum(f"{path}.radius", t["radius"], 0.0)
                 chk.minimum(f"{path}.lifetime", t["lifetime"], 0.0, strict=True)
@@ -297,6 +303,8 @@ def load_scenario(path_or_text, overrides=None):
     _check_kinds(chk, top, world, missiles)
     if top["log"] is not None:
         top["log"] = chk.table("log", top["log"], _LOG)
+    if top["ephemeris"] is not None:
+        top["ephemeris"] = chk.table("ephemeris", top["ephemeris"], _EPHEMERIS)
     if chk.problems:
         raise ScenarioError(source, chk.problems)
     top["missiles"] = missiles
@@ -428,6 +436,40 @@ def _check_world(chk, w):
                                     f"{w['gravity']!r})")
     if w["theta"] is not None and not 0.0 < w["theta"] <= THETA_MAX:
         chk.bad("world.theta", f"must lie in (0, {THETA_MAX}] (got {w['theta']!r})")
+
+
+def _check_rails(chk, path, t, world):
+    rails = t["rails"]
+    if rails is None:
+        return
+    if rails not in RAILS:
+        chk.bad(f"{path}.rails", f"{rails!r} is not a kind of rails; valid: {', '.join(RAILS)}")
+    elif rails == "kepler" and t["parent"] is None:
+        chk.bad(f"{path}.rails", "'kepler' rails are an orbit about a parent: give parent")
+    if world and str(world["integrator"]).startswith("wisdom_holman"):
+        chk.bad(f"{path}.rails", f"integrator {world['integrator']!r} takes no bodies on rails")
+
+
+def _check_ephemeris_body(chk, path, t, names, top, world):
+    """A body on the scenario's ephemeris: its place comes from it (no pos, no parent)."""
+    name = t["name"]
+    if name is not None:
+        if name in names:
+            chk.bad(f"{path}.name", f"{name!r} is used twice (also {names[name]})")
+        names[name] = path
+    if top["ephemeris"] is None:
+        chk.bad(f"{path}.rails", "'ephemeris' rails need the scenario's [ephemeris] table")
+    if t["spk"] is None:
+        chk.bad(f"{path}.spk", "missing: the body's name or NAIF id in the ephemeris")
+    for k in ("pos", "vel", "parent", "a"):
+        if t[k] is not None:
+            chk.bad(f"{path}.{k}", "a body on the ephemeris takes its place from it")
+    if world and world["center_of_mass"]:
+        chk.bad("world.center_of_mass", "the ephemeris sets its bodies' frame (the Solar "
+                                         "System barycentre): no centre-of-mass shift")
+    if world and world["units"] not in ("si", "au-msun-yr"):
+        chk.bad("world.units", f"{world['units']!r}: an ephemeris needs units with a length "
+                               f"and a time ('si' or 'au-msun-yr')")
 
 
 def _check_place(chk, path, t, names, key):
@@ -575,7 +617,31 @@ def _place(w, t, ids):
     return parent.pos + pos[:dim], parent.vel + vel[:dim]
 
 
-def _add_body(w, t, ids):
+def _ephemeris(data, source):
+    """The scenario's ephemeris (sp.Ephemeris.from_spk) for its bodies on it, over its
+    duration, its time 0 at the epoch; None without one."""
+    e = data.get("ephemeris")
+    if e is None:
+        return None
+    from .ephemeris import Ephemeris
+    from .study.realsky import de421_path
+    world = data["world"]
+    bodies = [t["spk"] for t in data["bodies"] if t["rails"] == "ephemeris"]
+    seconds = {"si": 1.0, "au-msun-yr": 365.25 * 86400.0}[world["units"]]
+    days = world["duration"] * seconds / 86400.0
+    with _at(source, "ephemeris"):
+        path = de421_path() if e["file"] == "de421" else e["file"]
+        return Ephemeris.from_spk(path, bodies, units=world["units"], start=e["epoch"] - 1.0,
+                                  end=e["epoch"] + days + 2.0, epoch=e["epoch"])
+
+
+def _add_body(w, t, ids, eph=None):
+    if t["rails"] == "ephemeris":
+        code = eph.naif(t["spk"])
+        pos, vel = eph.state(code, w.t)
+        ids[t["name"]] = w.add_body(t["mass"], pos, vel, radius=t["radius"], kind=t["kind"])
+        w.set_rails(ids[t["name"]], ephemeris=eph, entry=code)
+        return
     pulls = t["active"] if t["active"] is not None else t["kind"] not in PASSIVE_KINDS
     pos, vel = _place(w, {**t, "pulls": pulls}, ids)
     kw = {"radius": t["radius"], "kind": t["kind"], "fixed": t["fixed"]}
@@ -651,9 +717,10 @@ def _build(data, source="<scenario>"):
         for kind in s["kinds"]:
             w.add_kind(kind)
     ids = {}
+    eph = _ephemeris(data, source)
     for k, t in enumerate(data["bodies"]):
         with _at(source, f"bodies[{k}]"):
-            _add_body(w, t, ids)
+            _add_body(w, t, ids, eph)
     for k, ring in enumerate(data["rings"]):
         with _at(source, f"rings[{k}]"):
             _add_ring(w, ring, ids)
@@ -667,6 +734,10 @@ def _build(data, source="<scenario>"):
             ids[t["name"]] = w.add_ship(spec, pos, vel, heading=_heading(t["heading"]))
     if s["center_of_mass"]:
         w.move_to_center_of_mass()
+    for k, t in enumerate(data["bodies"]):
+        if t["rails"] == "kepler":                 # after the shift: an orbit is relative
+            with _at(source, f"bodies[{k}].rails"):
+                w.set_rails(ids[t["name"]], ids[t["parent"]])
     for k, c in enumerate(data["collisions"]):
         with _at(source, f"collisions[{k}]"):
             w.set_collision(c["a"], c["b"], c["response"], restitution=c["restitution"])

@@ -360,3 +360,42 @@ def test_overrides_leave_the_scenario_as_it_was_read():
     result = run_scenario(sc, integrator="rk4", dt=0.002, duration=0.1)
     assert result.world.integrator == "rk4" and result.world.dt == 0.002
     assert sc.data["world"]["integrator"] == "leapfrog" and sc.data["world"]["dt"] == 0.001
+
+
+def test_the_real_solar_system_flies_de421_and_kepler_rails_hold_their_orbit():
+    from spacephys.study.realsky import de421_path
+    sc = load_scenario(ROOT / "spacephys" / "scenarios" / "real_solar_system.toml")
+    w, ids = sc.build()
+    w.step(365)
+    eph = sp.Ephemeris.from_spk(de421_path(), ["earth"], units="au-msun-yr",
+                                start=2451544.0, end=2451545.0 + 400)
+    np.testing.assert_allclose(w.get(ids["earth"]).pos, eph.state(399, w.t)[0], rtol=0,
+                               atol=1e-12)
+    kepler = load_scenario(BASE + """
+[[bodies]]
+name = "planet"
+mass = 0.001
+parent = "star"
+a = 2.0
+e = 0.25
+rails = "kepler"
+""")
+    w, ids = kepler.build()
+    assert list(w.rails["about"]) == [ids["star"]] and w.rails["e"][0] == pytest.approx(0.25)
+
+
+@pytest.mark.parametrize("extra, where", [
+    ('rails = "glued"', "bodies[1].rails"),
+    ('rails = "ephemeris"\nspk = "earth"', "bodies[1].rails"),
+])
+def test_bad_rails_in_a_scenario_are_reported_with_their_path(extra, where):
+    text = BASE + '\n[[bodies]]\nname = "b"\nmass = 0.0\npos = [1.0, 0.0]\n' + extra + "\n"
+    with pytest.raises(ScenarioError) as e:
+        load_scenario(text)
+    assert any(path == where for path, _ in e.value.problems), e.value.problems
+
+
+def test_kepler_rails_need_a_parent():
+    text = BASE + '\n[[bodies]]\nname = "b"\nmass = 0.0\npos = [1.0, 0.0]\nrails = "kepler"\n'
+    with pytest.raises(ScenarioError, match="give parent"):
+        load_scenario(text)
