@@ -76,3 +76,19 @@ def test_the_uniform_field_is_off_by_about_2h_over_r(results):
         # that force error acting for T: 0.5 g (2h/R) T^2 at the highest body
         drift = 0.5 * s["g"] * s["two_h_over_R"] * s["time"] ** 2
         assert c["max_position_error"] == pytest.approx(drift, rel=0.2)
+
+
+def test_the_rails_rows_measure_kepler_rails_and_the_ephemeris_against_the_integrated_run(
+        results):
+    """The outer Solar System flown three ways (docs/models.md#rails): the ephemeris fitted
+    to the integrated run keeps the planets on it (1e-10 of an orbit, the fit's tolerance)
+    and the asteroids near it; Kepler rails drop Jupiter's and Saturn's pulls on each other
+    and drift away by AU in ten Jupiter orbits."""
+    rows = {r["way"]: r for r in results["rails"]["rows"]}
+    assert list(rows) == ["integrated", "kepler rails", "ephemeris"]
+    eph, kepler = rows["ephemeris"]["errors"][-1], rows["kepler rails"]["errors"][-1]
+    assert eph["planets_max"] < 1e-9 and eph["asteroids_max"] < 1e-5
+    assert kepler["planets_max"] > 0.1 and kepler["asteroids_median"] > 1e-4
+    for r in rows.values():
+        assert 0.0 < r["s_per_step"] < 1e-3
+    assert "| ephemeris |" in modelbench.format_models(results)

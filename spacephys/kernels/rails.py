@@ -62,18 +62,18 @@ def eccentric_anomaly(M, e):
     lo, hi = -math.pi, math.pi
     E = M + e * libm.sin(M) if e < 0.8 else (math.pi if M > 0.0 else -math.pi) * 0.9
     for _ in range(100):
-        s = libm.sin(E)
-        f = E - e * s - M
+        f = E - e * libm.sin(E) - M
+        if f == 0.0:
+            return E
         if f > 0.0:
             hi = E
         else:
             lo = E
-        step = f / (1.0 - e * libm.cos(E))
-        new = E - step
-        if not lo < new < hi:
+        new = E - f / (1.0 - e * libm.cos(E))
+        if abs(new - E) <= 4e-16 * (1.0 + abs(E)):
+            return new                         # converged: Newton's step is rounding
+        if not lo <= new <= hi:
             new = 0.5 * (lo + hi)
-        if abs(new - E) <= 4e-16 * (1.0 + abs(E)) or hi - lo <= 4e-16 * (1.0 + abs(E)):
-            return new
         E = new
     return E
 
@@ -87,16 +87,17 @@ def hyperbolic_anomaly(M, e):
     H = libm.asinh(M / e)
     for _ in range(200):
         f = e * libm.sinh(H) - H - M
+        if f == 0.0:
+            return H
         if f > 0.0:
             hi = H
         else:
             lo = H
-        step = f / (e * libm.cosh(H) - 1.0)
-        new = H - step
-        if not lo < new < hi:
-            new = 0.5 * (lo + hi)
-        if abs(new - H) <= 4e-16 * (1.0 + abs(H)) or hi - lo <= 4e-16 * (1.0 + abs(H)):
+        new = H - f / (e * libm.cosh(H) - 1.0)
+        if abs(new - H) <= 4e-16 * (1.0 + abs(H)):
             return new
+        if not lo <= new <= hi:
+            new = 0.5 * (lo + hi)
         H = new
     return H
 

@@ -101,7 +101,8 @@ def models(quick=False):
         for r in rows:
             r["us_per_body_step"] = r["spacephys_s_per_step"] / r["bodies"] * 1e6
         cases += rows
-    return {**header("models", quick, rebound),
+    from .railsbench import rails
+    return {**header("models", quick, rebound), "rails": rails(quick),
             "orbits": {"dt": dt, "steps": steps, "time": dt * steps, "softening": eps,
                        "body_mass": 1e-9, "star_mass": 1.0, "radii": [1.0, 3.0]},
             "surface": {"g": 9.81, "planet_radius": _R, "max_height": _H, "half_width": _X,
@@ -143,4 +144,7 @@ def format_models(results):
         elif c["model"] == "uniform":
             lines.append(f"{c['case']}: relative force error {c['relative_force_error']:.2e} "
                          f"(2h/R = {f['two_h_over_R']:.2e})")
+    if "rails" in results:
+        from .railsbench import format_rails
+        lines += ["", format_rails(results["rails"])]
     return "\n".join(lines)
