@@ -151,7 +151,9 @@ def clear():
     for f in found:
         f.unlink(missing_ok=True)
     if folders():
-        (folders()[0] / _STAMP).unlink(missing_ok=True)
+        stamp = folders()[0] / _STAMP
+        stamp.unlink(missing_ok=True)
+        stamp.with_suffix(".lock").unlink(missing_ok=True)
     if FOLDER is not None:
         for d in folders():
             shutil.rmtree(d, ignore_errors=True)

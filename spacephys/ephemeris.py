@@ -31,7 +31,7 @@ _SCALE = {"si": (1e-3, 1.0), "au-msun-yr": (149597870.7, 365.25 * DAY)}
 
 
 class Ephemeris:
-    """Bodies' paths over [start, start + count * length] [time]: ids (B,) int64, the body
+    """Bodies' paths from start to start + count * length [time]: ids (B,) int64, the body
     each is for (the World's ids when fitted; any labels when loaded); coef (B, count, 3,
     terms) Chebyshev coefficients [length]; dim: 2 or 3, the coordinates state() gives."""
 
