@@ -18,7 +18,9 @@ from collections import namedtuple
 
 import numpy as np
 
-from .._jit import kernel
+from numba import types
+
+from .._jit import implements, kernel
 from . import libm
 
 # an orbit's row
@@ -180,13 +182,10 @@ def chebyshev_many(coef, row, times, out):
             out[q, c] = r[c]
 
 
-@kernel(lean=True)
-def place(rails, t, pos, vel):
+def _place(rails, t, pos, vel):
     """Put every body on rails where its orbit has it at time t (its parent's place and
     velocity in pos, vel plus its own about it: parents first). rails : RailsArrays or None
     (no rails: nothing)."""
-    if rails is None:
-        return
     rows, parents, elements = rails.rows, rails.parents, rails.elements
     for r in range(rows.size):
         i = rows[r]
@@ -209,36 +208,68 @@ def place(rails, t, pos, vel):
         vel[i, 2] = vel[p, 2] + vz
 
 
-@kernel(lean=True)
-def now(rails, t0, steps, dt):
+def _now(rails, t0, steps, dt):
     """The time after `steps` steps of dt of this call: t0 + steps dt, or with rails World.t's
     own (its time base + its step count x dt), so that a body on rails sees the same times
     however a run is cut into calls (a recorded World's calls end at its frames)."""
-    if rails is None:
-        return t0 + steps * dt
     return rails.clock[0] + (rails.clock[1] + steps) * dt
 
 
-@kernel(lean=True)
-def settle(rails, steps, dt, pos, vel):
+def _settle(rails, steps, dt, pos, vel):
     """After a round: put the bodies on rails where their orbits have them once `steps` steps
     of dt of this call are done, at World.t's own time (its time base + its step count x dt,
     not the call's start + steps x dt, which rounds differently)."""
-    if rails is None:
-        return
     place(rails, now(rails, 0.0, steps, dt), pos, vel)
 
 
-@kernel(lean=True)
-def hold(rails, out):
+def _hold(rails, out):
     """Zero the accelerations of the bodies on rails (they feel nothing)."""
-    if rails is None:
-        return
     for r in range(rails.rows.size):
         i = rails.rows[r]
         out[i, 0] = 0.0
         out[i, 1] = 0.0
         out[i, 2] = 0.0
+
+
+# Each has one body for None (no rails: inlined into its caller, so that a scene without
+# rails compiles nothing more for them) and one for RailsArrays (see step._actor_arrays).
+def place(rails, t, pos, vel):
+    """Put the bodies on rails where their orbits have them at time t (see _place)."""
+
+
+def settle(rails, steps, dt, pos, vel):
+    """The bodies on rails placed after a round (see _settle)."""
+
+
+def hold(rails, out):
+    """Zero the bodies on rails' accelerations (see _hold)."""
+
+
+def now(rails, t0, steps, dt):
+    """The time after `steps` steps of this call (see _now)."""
+
+
+def _plain_now(rails, t0, steps, dt):
+    return t0 + steps * dt
+
+
+def _none(t, *rest):
+    return isinstance(t, types.NoneType)
+
+
+def _table(t, *rest):
+    return not isinstance(t, types.NoneType)
+
+
+# (the None bodies name their arguments: a *args body inlined into a parallel loop does not
+# lower)
+for _stub, _body, _nothing in (
+        (place, _place, lambda rails, t, pos, vel: None),
+        (settle, _settle, lambda rails, steps, dt, pos, vel: None),
+        (hold, _hold, lambda rails, out: None),
+        (now, _now, _plain_now)):
+    implements(_stub, _nothing, _none, inline=True)
+    implements(_stub, _body, _table, lean=True)
 
 
 @kernel
