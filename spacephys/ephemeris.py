@@ -27,7 +27,24 @@ NAIF = {"solar_system_barycenter": 0, "mercury_barycenter": 1, "venus_barycenter
 J2000 = 2451545.0                     # the Julian date (TDB) of J2000.0
 DAY = 86400.0                         # [s]
 # a unit system's length and time in kilometres and seconds (sp.UNITS names)
-_SCALE = {"si": (1e-3, 1.0), "au-msun-yr": (149597870.7, 365.25 * DAY)}
+SCALE = {"si": (1e-3, 1.0), "au-msun-yr": (149597870.7, 365.25 * DAY)}
+
+
+def de421_path():
+    """Where the skyfield-data package keeps JPL's DE421."""
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")         # it warns of its Earth-rotation file's age
+        from skyfield_data import get_skyfield_data_path
+    return str(Path(get_skyfield_data_path()) / "de421.bsp")
+
+
+def _row(start, length, count, terms):
+    """An ephemeris's kernels/rails E_* row (ELEMENTS,)."""
+    row = np.zeros(krails.ELEMENTS)
+    row[[krails.E_START, krails.E_LENGTH, krails.E_COUNT, krails.E_TERMS]] = \
+        start, length, count, terms
+    return row
 
 
 class Ephemeris:
@@ -72,10 +89,8 @@ class Ephemeris:
         if not hit.size:
             raise ValueError(f"body = {body}: not in this ephemeris (it has "
                              f"{self.ids.tolist()})")
-        row = np.zeros(krails.ELEMENTS)
-        row[[krails.E_START, krails.E_LENGTH, krails.E_COUNT, krails.E_TERMS]] = \
-            self.start, self.length, self.coef.shape[1], self.coef.shape[3]
-        return row, self.coef[hit[0]]
+        return _row(self.start, self.length, self.coef.shape[1], self.coef.shape[3]), \
+            self.coef[hit[0]]
 
     def state(self, body, times):
         """Positions and velocities (m, dim) each of `body` at times (m,) (or one time:
@@ -145,9 +160,7 @@ class Ephemeris:
         B = samples.shape[1]
         coef = np.zeros((B, count, 3, terms))
         worst = np.zeros(B)
-        row = np.zeros(krails.ELEMENTS)
-        row[[krails.E_START, krails.E_LENGTH, krails.E_COUNT, krails.E_TERMS]] = \
-            start, length, count, terms
+        row = _row(start, length, count, terms)
         for k in range(count):
             a = start + k * length
             inside = np.flatnonzero((times >= a) & (times <= a + length))   # both ends
@@ -202,10 +215,10 @@ class Ephemeris:
         from .extras import require
         require("sp.Ephemeris.from_spk", "jplephem")
         from jplephem.spk import SPK
-        if units is not None and units not in _SCALE:
+        if units is not None and units not in SCALE:
             raise ValueError(f"units = {units!r}: None (km and s) or one of "
-                             f"{', '.join(_SCALE)} (units with a length and a time)")
-        km, seconds = (1.0, 1.0) if units is None else _SCALE[units]
+                             f"{', '.join(SCALE)} (units with a length and a time)")
+        km, seconds = (1.0, 1.0) if units is None else SCALE[units]
         codes = [cls.naif(b) for b in np.atleast_1d(np.asarray(bodies, dtype=object))]
         kernel = SPK.open(str(Path(path)))
         try:

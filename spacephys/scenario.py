@@ -452,11 +452,7 @@ def _check_rails(chk, path, t, world):
 
 def _check_ephemeris_body(chk, path, t, names, top, world):
     """A body on the scenario's ephemeris: its place comes from it (no pos, no parent)."""
-    name = t["name"]
-    if name is not None:
-        if name in names:
-            chk.bad(f"{path}.name", f"{name!r} is used twice (also {names[name]})")
-        names[name] = path
+    _register(chk, path, t, names)
     if top["ephemeris"] is None:
         chk.bad(f"{path}.rails", "'ephemeris' rails need the scenario's [ephemeris] table")
     if t["spk"] is None:
@@ -467,17 +463,22 @@ def _check_ephemeris_body(chk, path, t, names, top, world):
     if world and world["center_of_mass"]:
         chk.bad("world.center_of_mass", "the ephemeris sets its bodies' frame (the Solar "
                                          "System barycentre): no centre-of-mass shift")
-    if world and world["units"] not in ("si", "au-msun-yr"):
+    if world and world["units"] not in ("si", "au-msun-yr"):       # ephemeris.SCALE's
         chk.bad("world.units", f"{world['units']!r}: an ephemeris needs units with a length "
                                f"and a time ('si' or 'au-msun-yr')")
 
 
-def _check_place(chk, path, t, names, key):
+def _register(chk, path, t, names):
+    """Note the table's name (refused when used twice)."""
     name = t["name"]
     if name is not None:
         if name in names:
             chk.bad(f"{path}.name", f"{name!r} is used twice (also {names[name]})")
         names[name] = path
+
+
+def _check_place(chk, path, t, names, key):
+    _register(chk, path, t, names)
     if t["parent"] is None:
         if t["pos"] is None and not chk.has(f"{path}.pos"):
             chk.bad(f"{path}.pos", "missing (or give parent and orbital elements)")
@@ -623,12 +624,10 @@ def _ephemeris(data, source):
     e = data.get("ephemeris")
     if e is None:
         return None
-    from .ephemeris import Ephemeris
-    from .study.realsky import de421_path
+    from .ephemeris import DAY, SCALE, Ephemeris, de421_path
     world = data["world"]
     bodies = [t["spk"] for t in data["bodies"] if t["rails"] == "ephemeris"]
-    seconds = {"si": 1.0, "au-msun-yr": 365.25 * 86400.0}[world["units"]]
-    days = world["duration"] * seconds / 86400.0
+    days = world["duration"] * SCALE[world["units"]][1] / DAY
     with _at(source, "ephemeris"):
         path = de421_path() if e["file"] == "de421" else e["file"]
         return Ephemeris.from_spk(path, bodies, units=world["units"], start=e["epoch"] - 1.0,

@@ -19,6 +19,16 @@ from .cache import ENABLED as CACHING     # False only where no folder can be wr
 
 
 @numba.njit(cache=CACHING)
+def row_of(ids, target):
+    """The row of body id `target` among ids (n,), -1 when it is not alive: a user force
+    finds its bodies by id (rows move when bodies are removed)."""
+    for i in range(ids.size):
+        if ids[i] == target:
+            return i
+    return -1
+
+
+@numba.njit(cache=CACHING)
 def j2(t, pos, vel, mass, ids, params, out):
     """Oblateness of a planet spinning about z: the J2 term of its gravity field.
 
@@ -29,12 +39,7 @@ def j2(t, pos, vel, mass, ids, params, out):
     reaction -m a / M of every body with mass, so momentum is conserved. Does nothing if the
     planet is not alive.
     """
-    target = int(params[0])
-    planet = -1
-    for i in range(ids.size):
-        if ids[i] == target:
-            planet = i
-            break
+    planet = row_of(ids, int(params[0]))
     if planet < 0:
         return
     k = params[1]
@@ -76,12 +81,7 @@ def gr(t, pos, vel, mass, ids, params, out):
     & Williams 1983, A&A 125, 150, in the one-body limit); the Sun takes the reaction
     -m a / M of every body with mass. It turns Mercury's perihelion by 43" a century.
     """
-    target = int(params[0])
-    sun = -1
-    for i in range(ids.size):
-        if ids[i] == target:
-            sun = i
-            break
+    sun = row_of(ids, int(params[0]))
     if sun < 0:
         return
     mu = params[1]

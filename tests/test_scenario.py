@@ -363,7 +363,7 @@ def test_overrides_leave_the_scenario_as_it_was_read():
 
 
 def test_the_real_solar_system_flies_de421_and_kepler_rails_hold_their_orbit():
-    from spacephys.study.realsky import de421_path
+    from spacephys.ephemeris import de421_path
     sc = load_scenario(ROOT / "spacephys" / "scenarios" / "real_solar_system.toml")
     w, ids = sc.build()
     w.step(365)

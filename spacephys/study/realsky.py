@@ -9,10 +9,9 @@ The masses are DE421's (GM in km^3/s^2: Folkner, Williams & Boggs 2008, "The Pla
 Lunar Ephemeris DE 421", JPL IOM 343R-08-003), the Earth and the Moon from the Earth-Moon
 barycentre's GM and their mass ratio.
 """
-import os
-import warnings
-
 import numpy as np
+
+from ..ephemeris import J2000, de421_path
 
 # GM [km^3/s^2] of DE421
 GM = {"sun": 132712440040.944, "mercury": 22032.09, "venus": 324858.592,
@@ -23,8 +22,6 @@ EARTH_MOON_RATIO = 81.30056907419062
 C_KM_S = 299792.458                                    # the speed of light [km/s]
 BODIES = ("sun", "mercury", "venus", "earth", "moon", "mars", "jupiter", "saturn", "uranus",
           "neptune")
-J2000 = 2451545.0
-
 HEADER = """# The real sky: the Solar System against DE421
 
 Regenerate with `spacephys validate --real-sky --markdown docs/realsky.md`. The Sun, the
@@ -40,14 +37,6 @@ the Moon's figures and tides.
 """
 
 
-def de421_path():
-    """Where skyfield-data keeps DE421."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        from skyfield_data import get_skyfield_data_path
-    return os.path.join(get_skyfield_data_path(), "de421.bsp")
-
-
 def _mass(name):
     if name == "earth":
         return GM_EARTH_MOON * EARTH_MOON_RATIO / (1.0 + EARTH_MOON_RATIO)
@@ -56,7 +45,7 @@ def _mass(name):
     return GM[name]
 
 
-def _perihelion(w, eph, ids, sun_pos, sun_vel, pos, vel):
+def _perihelion(sun_pos, sun_vel, pos, vel):
     """Mercury's longitude of perihelion (Omega + omega) [rad] about the Sun."""
     from ..orbits import state_to_elements
     el = state_to_elements(GM["sun"] + GM["mercury"], pos - sun_pos, vel - sun_vel)
@@ -88,10 +77,10 @@ def realsky(years=10, relativity=True, dt_days=1.0):
             want, _ = eph.state(eph.ids[k], w.t)
             out[name].append(float(np.linalg.norm(w.pos[w.index_of(ids[name])] - want)))
     sun, mercury = BODIES.index("sun"), BODIES.index("mercury")
-    ours = _perihelion(w, eph, ids, w.pos[w.index_of(ids["sun"])],
+    ours = _perihelion(w.pos[w.index_of(ids["sun"])],
                        w.vel[w.index_of(ids["sun"])], w.pos[w.index_of(ids["mercury"])],
                        w.vel[w.index_of(ids["mercury"])])
-    theirs = _perihelion(w, eph, ids, *eph.state(eph.ids[sun], w.t),
+    theirs = _perihelion(*eph.state(eph.ids[sun], w.t),
                          *eph.state(eph.ids[mercury], w.t))
     turned = (ours - theirs + np.pi) % (2 * np.pi) - np.pi
     return {name: np.array(d) for name, d in out.items()}, float(np.degrees(turned) * 3600)
