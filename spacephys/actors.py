@@ -247,6 +247,10 @@ class Actors:
         strafe = None if strafe is None else self._command("strafe", strafe, (1, 2))
         b = self.b
         if throttle is not None:
+            if throttle > 0.0 and b.throttle[i] == 0.0:
+                self.w._coasting.release(int(b.ids[i]))   # a thrusting ship is integrated
+            elif throttle == 0.0 and b.throttle[i] > 0.0:
+                self.w._forces.rails.touch()              # it may coast (coast="auto")
             b.throttle[i] = throttle
         if turn is not None:
             if self.w.dim == 2:
@@ -400,6 +404,7 @@ class Actors:
     def plan(self, ship, burns):
         """World.plan (the docstring is there)."""
         new = plans.rows(self.w, ship, burns)
+        self.w._forces.rails.touch()             # a coasting ship's burns end its coasting
         if new.shape[0]:
             self.plans[int(ship)] = new
         else:

@@ -23,6 +23,7 @@ from . import editing, measures
 from .errors import caller_level
 from .events import EVENT_DTYPE
 from .kernels import parties as kparties
+from .kernels import rails as krails
 from .kernels import state as kstate
 from .kernels.codes import FAILED, NONFINITE, REMOVED
 
@@ -35,6 +36,10 @@ class Driver:
 
     def __init__(self, world):
         self.w = world
+        # set by a warped advance(): the most steps a call may integrate (the rest may only
+        # pass in jumps), and how many steps it left untaken
+        self.budget = None
+        self.cut = 0
 
     # ---------------------------------------------------------------- the interface
     def view(self, *names):
@@ -123,6 +128,8 @@ class Driver:
                     if sink is not None:
                         sink.stepped(w, k)
                 left -= k
+                if self.cut:
+                    break
         if sink is not None:
             sink.record_events(w.events)
         if n and (status & NONFINITE or w._watch is not None):
@@ -154,22 +161,40 @@ class Driver:
         w = self.w
         consumed = 0
         status = 0
+        coast = w._coasting
         while nsteps:
+            coasting = coast.active()
+            take = coast.chunk(nsteps) if coasting else nsteps
             plan = w._plan or w.tables()
             first = w._event_count.item(0)
             frames = None
             if frame_at is not None:
                 at = frame_at[frame_at > consumed] - consumed
                 frames = (at,) + sink.frame_buffers(at.size, w._b.n)
-            timing = w._threads.begin(plan.work, nsteps)
-            if plan.until is not None and w._t_base + (w._steps + nsteps) * w._dt > plan.until:
+            if plan.until is not None and w._t_base + (w._steps + take) * w._dt > plan.until:
                 raise ValueError(f"n = {nsteps}: the ephemerides flown end at t = "
                                  f"{plan.until}, before the steps would (t = {w.t})")
             for clock in plan.clocks:          # the actors' plans' and the rails' clocks
                 clock[0] = w._t_base           # (element-wise: a slice assignment from a
                 clock[1] = w._steps            # tuple costs a microsecond)
-            done, status = w._stepper.run(plan, frames, w._dt, nsteps,
-                                          w._t_base + w._steps * w._dt)
+            if frames is None and plan.rails is not None and not plan.free.size and \
+                    coast.blocker(plan) is None:
+                # nothing is integrated: time passes in one jump (the bodies on rails placed
+                # at its end, a step before it in prev)
+                b = w._b
+                krails.jump(plan.rails, take, w._dt, b.pos, b.vel, b.prev)
+                done, status, timing = take, 0, None
+            else:
+                if self.budget is not None:
+                    if not self.budget:
+                        self.cut = nsteps              # the frame's budget is spent
+                        break
+                    take = min(take, self.budget)
+                timing = w._threads.begin(plan.work, take)
+                done, status = w._stepper.run(plan, frames, w._dt, take,
+                                              w._t_base + w._steps * w._dt)
+                if self.budget is not None:
+                    self.budget -= done
             if timing is not None:
                 w._threads.end(timing, done)
             if w._event_count[0] > w._events.shape[0]:
@@ -199,6 +224,8 @@ class Driver:
             if status & FAILED:
                 w._b.prev[:w._b.n] = w._b.pos[:w._b.n]   # nothing to interpolate
                 w._stepper.failed(w, done)
+            if coasting:
+                coast.caught_up()
             nsteps -= done
             consumed += done
             if w._warning:

@@ -469,6 +469,10 @@ def set_rails(w, body, about, why_not=None, ephemeris=None, entry=None):
     if p == i:
         raise ValueError(f"about = {about}: a body cannot be on rails about itself")
     body, about = int(w._b.ids[i]), int(w._b.ids[p])
+    k = rails.entry(about)
+    if k is not None and rails.coast[k]:
+        raise ValueError(f"about = {about}: it coasts (World.coast), and no body is put on "
+                         f"rails about a coasting body")
     up = about
     while up is not None:
         if up == body:

@@ -10,10 +10,12 @@ from .kernels.codes import EV_WALL as WALL, EV_LAUNCH as LAUNCH
 from .kernels.codes import EV_BURNOUT as BURNOUT, EV_FUEL_EMPTY as FUEL_EMPTY
 from .kernels.codes import EV_DETONATION as DETONATION, EV_EXPIRY as EXPIRY
 from .kernels.codes import EV_TETHER_BREAK as TETHER_BREAK
+from .kernels.codes import EV_SOI_ENTER as SOI_ENTER, EV_SOI_EXIT as SOI_EXIT
 
 __all__ = ["EVENT_DTYPE", "EVENT_KINDS", "upgrade", "BOUNCE", "MERGE", "DESTROY", "SENSOR_BEGIN",
            "SENSOR_END", "CONTACT_BEGIN", "CONTACT_END", "WALL", "LAUNCH", "BURNOUT",
-           "FUEL_EMPTY", "DETONATION", "EXPIRY", "TETHER_BREAK", "kind_name"]
+           "FUEL_EMPTY", "DETONATION", "EXPIRY", "TETHER_BREAK", "SOI_ENTER", "SOI_EXIT",
+           "kind_name"]
 
 EVENT_DTYPE = np.dtype([
     ("kind", np.int16),          # one of EVENT_KINDS
@@ -47,7 +49,10 @@ a the missile, b its target, the point the missile was at, normal toward the tar
 speed, distance the miss distance; expiry: a the body whose lifetime ended; tether_break:
 a and b the tether's ends (World.tether's a, b), at the end of the step whose tension passed
 its break_force, the point midway, normal a -> b, speed the ends' separating speed,
-energy_lost the spring energy it held, distance the ends' distance."""
+energy_lost the spring energy it held, distance the ends' distance; soi_enter and soi_exit
+(World.coast): a the coasting body, b the body whose sphere of influence it entered or left,
+at the time it crossed the sphere, the point a was at, normal toward b, speed their relative
+speed, distance the sphere's radius."""
 
 
 # the fields events had before they named their bodies' kinds and tags, and their circles

@@ -263,11 +263,14 @@ class ForceField:
 
     # ------------------------------------------------------------ state
     def motion(self):
-        """What moves with the tables kept (worldstate.Motion): drag and wind."""
-        return self.drag.copy()
+        """What moves with the tables kept (worldstate.Motion): drag and wind, and the
+        coasting bodies' orbits."""
+        return self.drag.copy(), self.rails.motion()
 
-    def set_motion(self, drag):
-        self.drag[:] = drag
+    def set_motion(self, m):
+        """Back to motion m; whether the tables built still hold."""
+        self.drag[:] = m[0]
+        return self.rails.set_motion(m[1])
 
     def state(self):
         """The named fields a checkpoint keeps (see docs/runlog.md)."""

@@ -19,7 +19,7 @@ from .kernels import rails as krails
 from .kernels.libm import py as libm
 
 RAILS_DTYPE = np.dtype([("id", np.int64), ("about", np.int64), ("a", np.float64),
-                        ("e", np.float64), ("period", np.float64)])
+                        ("e", np.float64), ("period", np.float64), ("coasting", np.bool_)])
 
 # how near a parabola an orbit may be (|1 - e|): nearer, the conic's a and b lose their digits
 PARABOLIC = 1e-9
@@ -80,29 +80,79 @@ def elements(r, v, mu, t0):
 
 class Rails:
     """The World's bodies on rails (kept by its ForceField): ids (R, 2) [body id, parent id]
-    and their orbits (R, ELEMENTS), in the order they were put on rails."""
+    and their orbits (R, ELEMENTS), in the order they were put on rails; coast (R,) whether
+    each is a coasting body (spacephys/coasting.py: it changes parent at spheres of influence),
+    and for those the search's progress (kernels/coast.search): due (R,) and event (R, 2)
+    [kind, the entry entered]."""
 
-    def __init__(self, ids=None, orbits=None, ephemerides=None):
+    def __init__(self, ids=None, orbits=None, ephemerides=None, coast=None, due=None,
+                 event=None):
         self.ids = np.zeros((0, 2), np.int64) if ids is None else \
             np.array(ids, np.int64).reshape(-1, 2)
         self.orbits = np.zeros((0, krails.ELEMENTS)) if orbits is None else \
             np.array(orbits, np.float64).reshape(-1, krails.ELEMENTS)
+        R = len(self.ids)
+        self.coast = np.zeros(R, bool) if coast is None else np.array(coast, bool).reshape(R)
+        self.due = self.orbits[:, krails.T0].copy() if due is None else \
+            np.array(due, np.float64).reshape(R)
+        self.event = np.zeros((R, 2), np.int64) if event is None else \
+            np.array(event, np.int64).reshape(R, 2)
         self.clock = np.zeros(2)        # [time base, steps]: the driver sets it per call
         # the bodies on ephemerides: id -> (their E_* row (ELEMENTS,), coef (count, 3, terms))
         self.ephemerides = dict(ephemerides or {})
+        self.built = None               # the last table (RailsArrays) and its entries' order
+        self.near = 0.0                 # World.coast_near
+        self.version = 0                # changed by every change of the entries (touch)
+        self.active = bool(self.coast.any())   # anything coasts, or may (auto)
+        self.auto = False               # World.coast_auto
 
     def __len__(self):
         return len(self.ids)
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        state["built"] = None                 # the tables': a copy builds its own
+        return state
 
     def parent_of(self, body):
         """The parent id of a body on rails (-1: on an ephemeris), or None."""
         hit = np.flatnonzero(self.ids[:, 0] == body)
         return int(self.ids[hit[0], 1]) if hit.size else None
 
-    def put(self, body, parent, orbit):
+    def entry(self, body):
+        """The index of a body's entry, or None."""
+        hit = np.flatnonzero(self.ids[:, 0] == body)
+        return int(hit[0]) if hit.size else None
+
+    def touch(self):
+        """Something the coasting bodies' next events depend on changed (coasting.py keeps
+        what it found until then)."""
+        self.version += 1
+        self.active = self.auto or bool(self.coast.any())
+
+    def put(self, body, parent, orbit, coast=False):
         self.drop(body)
         self.ids = np.vstack([self.ids, [[body, parent]]])
         self.orbits = np.vstack([self.orbits, orbit[None]])
+        self.coast = np.append(self.coast, bool(coast))
+        self.due = np.append(self.due, orbit[krails.T0])
+        self.event = np.vstack([self.event, np.zeros((1, 2), np.int64)])
+        self.built = None
+        self.touch()
+
+    def switch(self, k, parent, parent_row, orbit):
+        """Entry k (a coasting body's) about a new parent from now on: in the table built too
+        (coasting bodies come last in it, so the order stays parents first)."""
+        self.touch()
+        self.ids[k, 1] = parent
+        self.orbits[k] = orbit
+        self.due[k] = orbit[krails.T0]
+        self.event[k] = 0
+        if self.built is not None:
+            table, order = self.built
+            at = int(np.flatnonzero(order == k)[0])
+            table.elements[at] = orbit
+            table.parents[at] = parent_row
 
     def put_ephemeris(self, body, row, coef):
         """Body on an ephemeris: its E_* row and coefficients (count, 3, terms)."""
@@ -111,8 +161,13 @@ class Rails:
 
     def drop(self, body):
         keep = self.ids[:, 0] != body
+        if keep.all():
+            return
         self.ids, self.orbits = self.ids[keep], self.orbits[keep]
+        self.coast, self.due, self.event = self.coast[keep], self.due[keep], self.event[keep]
         self.ephemerides.pop(int(body), None)
+        self.built = None
+        self.touch()
 
     @property
     def until(self):
@@ -123,8 +178,8 @@ class Rails:
 
     def table(self, lookup):
         """krails.RailsArrays for the rows lookup(ids) gives (-1: gone), parents before their
-        children; None without rails. A body whose parent is gone is dropped (it returns to
-        integration), as is a gone body's entry."""
+        children and coasting bodies last; None without rails. A body whose parent is gone is
+        dropped (it returns to integration), as is a gone body's entry."""
         if not len(self):
             return None
         rows = lookup(self.ids[:, 0])
@@ -149,25 +204,29 @@ class Rails:
                 blocks.append(block)
                 first += coef.shape[0]
         coef = np.concatenate(blocks) if blocks else np.zeros((0, 3, 1))
-        return krails.RailsArrays(rows[order].astype(np.int64),
-                                  parents[order].astype(np.int64),
-                                  np.ascontiguousarray(orbits), coef, self.clock)
+        table = krails.RailsArrays(rows[order].astype(np.int64),
+                                   parents[order].astype(np.int64),
+                                   np.ascontiguousarray(orbits), coef, self.clock)
+        self.built = (table, order)
+        return table
 
     def _parents_first(self):
-        """The entries' order with every parent on rails before its children."""
+        """The entries' order with every parent on rails before its children, the coasting
+        bodies (which no body is on rails about) last."""
         depth = np.zeros(len(self), np.int64)
         index = {int(b): k for k, b in enumerate(self.ids[:, 0])}
-        for k in range(len(self)):
+        for k in np.flatnonzero(~self.coast):
             p = int(self.ids[k, 1])
             while p in index:
                 depth[k] += 1
                 p = int(self.ids[index[p], 1])
+        depth[self.coast] = len(self) + 1
         return np.argsort(depth, kind="stable")
 
     def listing(self):
         """World.rails: a RAILS_DTYPE row per body on rails."""
         out = np.zeros(len(self), RAILS_DTYPE)
-        out["id"], out["about"] = self.ids[:, 0], self.ids[:, 1]
+        out["id"], out["about"], out["coasting"] = self.ids[:, 0], self.ids[:, 1], self.coast
         kepler = self.ids[:, 1] >= 0
         e = np.where(kepler, self.orbits[:, krails.ECC], np.nan)
         a = self.orbits[:, krails.A]
@@ -187,11 +246,42 @@ class Rails:
                                for c in coef]) if coef else np.zeros((0, 3, 1))
         return {"rails_ids": self.ids.copy(), "rails_orbits": self.orbits.copy(),
                 "rails_ephemeris_ids": np.array(bodies, np.int64),
-                "rails_ephemeris_coef": flat}
+                "rails_ephemeris_coef": flat, "rails_coast": self.coast.copy(),
+                "rails_due": self.due.copy(), "rails_event": self.event.copy(),
+                "coast_near": self.near, "coast_auto": self.auto}
+
+    def motion(self):
+        """What changes as coasting bodies change parent (worldstate.Motion); None without
+        them."""
+        if not self.coast.any():
+            return None
+        return (self.ids.copy(), self.orbits.copy(), self.coast.copy(), self.due.copy(),
+                self.event.copy())
+
+    def set_motion(self, m):
+        """Back to motion m; whether the tables built still hold (the same bodies about the
+        same parents: their orbits are written into the table in place)."""
+        if m is None:
+            return not self.coast.any()
+        ids, orbits, coast, due, event = m
+        same = self.built is not None and np.array_equal(self.ids, ids) and \
+            np.array_equal(self.coast, coast)
+        self.ids, self.orbits, self.coast = ids.copy(), orbits.copy(), coast.copy()
+        self.due, self.event = due.copy(), event.copy()
+        self.touch()
+        if not same:
+            self.built = None
+            return False
+        table, order = self.built
+        table.elements[:] = self.orbits[order]
+        return True
 
     @classmethod
     def from_state(cls, s):
-        r = cls(s.get("rails_ids"), s.get("rails_orbits"))
+        r = cls(s.get("rails_ids"), s.get("rails_orbits"), coast=s.get("rails_coast"),
+                due=s.get("rails_due"), event=s.get("rails_event"))
+        r.near, r.auto = float(s.get("coast_near", 0.0)), bool(s.get("coast_auto", False))
+        r.touch()
         bodies = np.array(s.get("rails_ephemeris_ids", np.zeros(0)), np.int64).reshape(-1)
         flat = np.array(s.get("rails_ephemeris_coef", np.zeros((0, 3, 1))), np.float64)
         first = 0

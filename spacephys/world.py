@@ -11,12 +11,14 @@ nothing else reads its private attributes (docs/architecture.md).
 """
 import copy
 import math
+from typing import NamedTuple, Optional
 
 import numpy as np
 
 from . import _validate as check
 from ._jit import ThreadChoice, announced
 from .actors import Actors
+from .coasting import Coasting
 from .collisions import CollisionRules
 from .driver import Driver
 # Body is sp.Body; PASSIVE_KINDS is read from here (scenario.py)
@@ -107,13 +109,17 @@ class World:
         -k (v - wind) (an atmosphere: the wind resistance of Laird & Jamin, *Basic Game Physics*)
     wind : (dim,)
         the air's velocity [length/time] (default 0)
+    coast : None | "auto"
+        "auto": every ship that does not thrust coasts on patched conics (World.coast)
     """
 
     def __init__(self, dim=2, *, units="game", G=None, integrator="leapfrog", dt=1 / 240,
                  softening=0.0, gravity="direct", g=None, central_mass=None, central_pos=None,
                  tolerance=1e-9, max_step=None, min_step=0.0, step_control="auto",
                  max_substeps=16, capacity=64, seed=0, drag=0.0, wind=None, theta=None,
-                 quadrupole=None):
+                 quadrupole=None, coast=None):
+        if coast not in (None, "auto"):
+            raise ValueError(f"coast = {coast!r}: must be None or 'auto'")
         if isinstance(dim, bool) or not isinstance(dim, (int, np.integer)) or dim not in (2, 3):
             raise ValueError(f"dim = {dim!r}: must be the integer 2 or 3")
         dim = int(dim)
@@ -134,6 +140,8 @@ class World:
         self._dim = dim
         self._units = unit_system
         self._forces = forces
+        forces.rails.auto = coast == "auto"
+        forces.rails.touch()
         self._b = Bodies(capacity)
         self._kinds = list(DEFAULT_KINDS)
         self._collisions = CollisionRules(len(DEFAULT_KINDS))
@@ -641,8 +649,59 @@ class World:
     @property
     def rails(self):
         """(R,) structured (spacephys.rails.RAILS_DTYPE): id, about, a (negative: a
-        hyperbola), e and period (inf: a hyperbola) of each body on rails."""
+        hyperbola), e, period (inf: a hyperbola) and coasting (set by coast()) of each body
+        on rails."""
         return self._forces.rails.listing()
+
+    def coast(self, ids, on=True):
+        """Patched conics: each body of ids (an id or ids) moves on the Kepler conic of its
+        dominant body from now on, changing parent where it crosses a sphere of influence
+        (Laplace's radius of a body on Kepler rails: set_rails), with events soi_exit and
+        soi_enter at the times found; it returns to integration when it thrusts (control,
+        a plan's burn), comes down to its parent's surface or within coast_near of an
+        integrated body, or on coast(ids, False). Not for a body on rails, fixed,
+        tethered, a missile or a thrusting ship (ValueError naming it; nothing changes).
+        spacephys/coasting.py has the rules."""
+        self._coasting.coast(ids, bool(on))
+
+    @property
+    def coasting(self):
+        """(C,) int64 ids of the coasting bodies."""
+        r = self._forces.rails
+        return r.ids[r.coast, 0].copy()
+
+    @property
+    def coast_auto(self):
+        """Whether every ship that does not thrust coasts by itself (World(coast="auto"))."""
+        return self._forces.rails.auto
+
+    @coast_auto.setter
+    @journaled_setter("coast_auto")
+    def coast_auto(self, on):
+        if not isinstance(on, (bool, np.bool_)):
+            raise ValueError(f"coast_auto = {on!r}: must be True or False")
+        self._forces.rails.auto = bool(on)
+        self._forces.rails.touch()
+        self._set_up()
+
+    @property
+    def coast_near(self):
+        """The distance [length] beyond the two surfaces within which a coasting body
+        returns to integration (0 by default: at the step before contact)."""
+        return self._forces.rails.near
+
+    @coast_near.setter
+    @journaled_setter("coast_near")
+    def coast_near(self, value):
+        self._forces.rails.near = check.scalar("coast_near", value, minimum=0.0)
+        self._set_up()
+
+    @property
+    def warp(self):
+        """The last advance()'s time warp: Warp(asked, granted, reason), granted the factor
+        the frame ran at and reason why it is less than asked (None when it is not); None
+        before any advance()."""
+        return self._warp
 
     def tether(self, a, b, length=None, *, stiffness=None, rigid=False, break_force=None):
         """Join bodies a and b with a tether of length `length` [length] (default: their
@@ -830,6 +889,8 @@ class World:
         self._setup = None                 # the setup snapshots share (worldstate.Setup)
         self._token = object()             # whose snapshots restore() takes: this World's
         self._driver = Driver(self)        # its step driver, and its extensions' interface
+        self._coasting = Coasting(self)    # its patched conics (their state: the rails')
+        self._warp = None                  # the last advance()'s Warp
 
     # ---------------------------------------------------------------- collisions
     def _kind_list(self, kind, field):
@@ -1125,6 +1186,11 @@ class World:
             ((self._forces.rails.clock,) if rails is not None else ())
         plan = Plan(self, state, forces, rules, kactors, self._stepper.method(self, sources),
                     alive, work, clocks, self._forces.rails.until)
+        moving = ~b.fixed[:n]
+        if rails is not None:
+            moving[rails.rows] = False
+        plan.free = np.flatnonzero(moving)
+        plan.rails = rails
         self._plan = plan
         measures.check_precision(self, b.pos[:n, :self._dim])
         return plan
@@ -1157,26 +1223,42 @@ class World:
         turned into an error must find the World consistent)."""
         self._warning = message
 
-    def advance(self, frame_time):
+    def advance(self, frame_time, warp=1.0):
         """Fixed-step accumulator for variable frame time; returns alpha in [0, 1).
 
-        Adds frame_time [time] to the accumulator and takes as many whole steps of dt as fit,
-        at most max_substeps (the excess goes to dropped_time, so a slow frame slows the
-        simulation down instead of making the next frame slower still). Draw
+        Adds frame_time [time] x warp to the accumulator and takes as many whole steps of dt
+        as fit, at most max_substeps (the excess goes to dropped_time, so a slow frame slows
+        the simulation down instead of making the next frame slower still). Draw
         w.interpolate(alpha), between the states before and after the last step.
+
+        warp : simulated time per frame time (> 0, finite). When nothing is integrated
+        (every body that moves is on rails or coasting, and no ship turns) time passes in
+        jumps, whatever the warp, and events between frames are found by time; otherwise at
+        most max_substeps steps are integrated a frame, so the warp granted is less:
+        w.warp says what was asked, granted, and why.
         """
         if type(frame_time) is not float or not 0.0 <= frame_time < math.inf:
             frame_time = check.scalar("frame_time", frame_time, minimum=0.0)
+        warped = type(warp) is not float or warp != 1.0
+        if warped:
+            warp = check.scalar("warp", warp, positive=True)
+            if not math.isfinite(warp):
+                raise ValueError(f"warp = {warp}: must be finite")
         dt = self._dt
-        acc = self._accumulator + frame_time
+        acc = self._accumulator + frame_time * warp
         # a hair of slack so that 4 frames of dt/4 make one step, not 0.99999 of one
         whole = acc / dt * (1.0 + 1e-12)
-        if whole >= self._max_substeps + 1:          # also a frame of inf steps
+        reason = self._coasting.why_integrated() if warped else None
+        cap = math.inf if warped and reason is None else self._max_substeps
+        if whole >= cap + 1:          # also a frame of inf steps
             n, left, dropped = self._max_substeps, 0.0, acc - self._max_substeps * dt
         else:
             n = int(whole)
             left, dropped = max(acc - n * dt, 0.0), 0.0
         steps = self._steps
+        driver = self._driver
+        if warped:
+            driver.budget, driver.cut = self._max_substeps, 0
         try:
             self.step(n)                 # the only part that can fail: nothing changed before
         except InstabilityError:
@@ -1184,8 +1266,20 @@ class World:
                 self._accumulator = left
                 self._dropped += dropped
             raise
+        finally:
+            driver.budget = None
+        if driver.cut:                   # a body integrated from within the frame: its budget
+            dropped += driver.cut * dt
+            reason = reason or self._coasting.why_integrated() or "a body became integrated"
+            driver.cut = 0
         self._accumulator = left
         self._dropped += dropped
+        if warped:
+            granted = warp if not dropped else \
+                max(warp - dropped / frame_time, 0.0) if frame_time > 0 else warp
+            self._warp = Warp(warp, granted, reason if granted < warp else None)
+        else:
+            self._warp = NO_WARP
         return min(left / dt, 0.9999999999999999)
 
     def interpolate(self, alpha):
@@ -1405,10 +1499,20 @@ class World:
                 f"integrator={self.integrator!r}, dt={self._dt!r}, t={self.t!r})")
 
 
+class Warp(NamedTuple):
+    """World.warp: the last advance()'s time warp."""
+    asked: float
+    granted: float
+    reason: Optional[str]     # why granted < asked (a body integrated, a ship turning)
+
+
+NO_WARP = Warp(1.0, 1.0, None)
+
+
 # the calls a run log records (journal.py): every public method that changes the World
 JOURNALED = ("step", "advance", "watch_energy", "shift_origin", "move_to_center_of_mass",
              "add_kind", "add_body", "add_bodies", "set_body", "remove", "set_collision",
              "add_plane", "add_segment", "clear_walls", "set_boundary", "add_ship", "control",
              "set_heading", "set_fuel", "plan", "launch", "explode", "apply_force",
              "apply_acceleration", "add_force", "set_force_params", "remove_force",
-             "tether", "untether", "set_rails")
+             "tether", "untether", "set_rails", "coast")

@@ -183,8 +183,8 @@ class Motion:
             if p.moves:
                 p.set(w, self.world[p.key])
         w._b.set_motion(self.bodies)
-        w._forces.set_motion(self.forces)
-        if not w._collisions.set_motion(self.collisions, w._plan):
+        held = w._forces.set_motion(self.forces)
+        if not w._collisions.set_motion(self.collisions, w._plan) or not held:
             w._plan = None
         w._actors.set_motion(self.actors)
         if self.carried is None:
@@ -345,8 +345,8 @@ class Snapshot:
             w._event_count[0] = k
         else:
             WORLD[-1].set(w, self.events)
-        w._forces.set_motion(self.drag)
-        fits = w._collisions.set_touching(self.touch)
+        held = w._forces.set_motion(self.drag)
+        fits = w._collisions.set_touching(self.touch) and held
         w._actors.restore(self.actors)
         w._stepper.load(self.carried)
         w._watch = self.watch
@@ -378,6 +378,9 @@ def digest(w):
         _feed(h, p.get(w))
     h.update(w._events[:w._event_count[0]])
     h.update(w._forces.drag)
+    coasting = w._forces.rails.motion()
+    if coasting is not None:
+        _feed(h, coasting)
     h.update(w._collisions.touch[:w._collisions.ntouch[0]])
     w._actors.digest(h)
     carried = w._stepper.state()

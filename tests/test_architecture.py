@@ -63,7 +63,7 @@ def test_no_module_imports_itself_back():
 # attributes; everything else (predictions, their tape, queries, run logs, the tools) reaches
 # it through its public API and World.driver
 PARTS = {"world", "driver", "worldstate", "editing", "measures", "state", "forces",
-         "collisions", "actors", "steppers"}
+         "collisions", "actors", "steppers", "coasting"}
 
 
 def _private(name):

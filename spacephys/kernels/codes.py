@@ -33,12 +33,14 @@ EV_BOUNCE, EV_MERGE, EV_DESTROY, EV_SENSOR_BEGIN, EV_WALL = 1, 2, 3, 4, 5
 EV_LAUNCH, EV_BURNOUT, EV_FUEL_EMPTY, EV_DETONATION, EV_EXPIRY = 6, 7, 8, 9, 10
 EV_SENSOR_END, EV_CONTACT_BEGIN, EV_CONTACT_END = 11, 12, 13
 EV_TETHER_BREAK = 14
+EV_SOI_ENTER, EV_SOI_EXIT = 15, 16
 EVENT_KINDS = {EV_BOUNCE: "bounce", EV_MERGE: "merge", EV_DESTROY: "destroy",
                EV_SENSOR_BEGIN: "sensor_begin", EV_WALL: "wall", EV_LAUNCH: "launch",
                EV_BURNOUT: "burnout", EV_FUEL_EMPTY: "fuel_empty",
                EV_DETONATION: "detonation", EV_EXPIRY: "expiry",
                EV_SENSOR_END: "sensor_end", EV_CONTACT_BEGIN: "contact_begin",
-               EV_CONTACT_END: "contact_end", EV_TETHER_BREAK: "tether_break"}
+               EV_CONTACT_END: "contact_end", EV_TETHER_BREAK: "tether_break",
+               EV_SOI_ENTER: "soi_enter", EV_SOI_EXIT: "soi_exit"}
 
 # missile guidance laws (kernels/control.py)
 NO_GUIDANCE, PURSUIT, PROPORTIONAL = 0, 1, 2

@@ -273,6 +273,19 @@ for _stub, _body, _nothing in (
 
 
 @kernel
+def jump(rails, steps, dt, pos, vel, prev):
+    """Time passes with nothing integrated (time warp, World.advance): the bodies on rails
+    where their orbits have them after `steps` steps of this call, and their places one step
+    before into prev (what World.interpolate draws from)."""
+    place(rails, now(rails, 0.0, steps - 1, dt), pos, vel)
+    for r in range(rails.rows.size):
+        i = rails.rows[r]
+        for c in range(3):
+            prev[i, c] = pos[i, c]
+    place(rails, now(rails, 0.0, steps, dt), pos, vel)
+
+
+@kernel
 def fit(times, values, start, length, terms, out):
     """Least-squares Chebyshev polynomials of `terms` terms through the samples values
     (m, 3) at times (m,) of one segment [start, start + length]: out (3, terms). The normal

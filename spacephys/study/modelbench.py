@@ -101,8 +101,10 @@ def models(quick=False):
         for r in rows:
             r["us_per_body_step"] = r["spacephys_s_per_step"] / r["bodies"] * 1e6
         cases += rows
+    from .coastbench import coasting
     from .railsbench import rails
     return {**header("models", quick, rebound), "rails": rails(quick),
+            "coasting": coasting(quick),
             "orbits": {"dt": dt, "steps": steps, "time": dt * steps, "softening": eps,
                        "body_mass": 1e-9, "star_mass": 1.0, "radii": [1.0, 3.0]},
             "surface": {"g": 9.81, "planet_radius": _R, "max_height": _H, "half_width": _X,
@@ -147,4 +149,7 @@ def format_models(results):
     if "rails" in results:
         from .railsbench import format_rails
         lines += ["", format_rails(results["rails"])]
+    if "coasting" in results:
+        from .coastbench import format_coasting
+        lines += ["", format_coasting(results["coasting"])]
     return "\n".join(lines)

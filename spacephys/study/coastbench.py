@@ -1,0 +1,177 @@
+"""`spacephys bench models`, its coasting part (World.coast, patched conics, time warp):
+
+- warp: a planet with three moons on Kepler rails and ships coasting on orbits about it,
+  some crossing the moons' spheres of influence; what a frame (1/60 s) costs at warp x10^6,
+  and what integrating the same ships for that frame would cost (their time per step with
+  the moons on rails, times the steps a frame holds);
+- transfer: a Hohmann transfer from Earth's orbit to Mars's (the Sun, Earth and Mars on
+  rails; Earth 0.3 rad behind the ship at its start, Mars 0.05 rad ahead of it on arrival:
+  no sphere is crossed), flown coasting (on the Sun's conic) and integrated (Gauss-Radau,
+  pulled by all three), and how far apart the two ships are on arrival (the coasting one
+  drops Earth's and Mars's pulls);
+- lunar flyby: a ship from a 200 km Earth orbit at nearly escape speed, timed to pass the
+  Moon (on rails), flown coasting (patched conics: the Moon's sphere entered and left) and
+  integrated, and how far apart they are a set time after the flyby.
+"""
+import math
+import time
+
+import numpy as np
+
+AU = 1.495978707e11
+
+
+def _warp_scene(ships, seed=2):
+    """(World, ship ids): the planet (fixed) with three moons on rails and `ships` on
+    orbits from 1.1 to 16 planet radii, 10 % of them reaching the moons' orbits (seed 2:
+    none comes down to a surface in 600 frames; one that does is integrated, and caps the
+    warp)."""
+    import spacephys as sp
+    rng = np.random.default_rng(seed)
+    w = sp.World(3, units="si", dt=1.0)
+    M = 5.97e24
+    planet = w.add_body(M, (0.0, 0.0, 0.0), fixed=True, radius=6.4e6)
+    for k, (a, m) in enumerate([(1.5e8, 1e21), (3.8e8, 7.3e22), (6e8, 5e21)]):
+        ang = 2.1 * k
+        v = math.sqrt(w.G * M / a)
+        moon = w.add_body(m, (a * math.cos(ang), a * math.sin(ang), 0.0),
+                          (-v * math.sin(ang), v * math.cos(ang), 0.0), radius=1e5)
+        w.set_rails(moon, planet)
+    r = rng.uniform(7e6, 1e8, ships)
+    ang = rng.uniform(0, 2 * np.pi, ships)
+    boost = np.where(rng.uniform(size=ships) < 0.1, rng.uniform(1.2, 1.3, ships),
+                     rng.uniform(1.0, 1.1, ships))
+    v = np.sqrt(w.G * M / r) * boost
+    pos = np.stack([r * np.cos(ang), r * np.sin(ang), rng.uniform(-1e5, 1e5, ships)], 1)
+    vel = np.stack([-v * np.sin(ang), v * np.cos(ang), np.zeros(ships)], 1)
+    ids = w.add_bodies(1e4, pos, vel, radius=10.0)
+    return w, [int(i) for i in ids]
+
+
+def warp(ships=1000, frames=600, warp_factor=1e6):
+    """A frame's cost at the warp, the events in the run, and the integrated equivalent."""
+    w, ids = _warp_scene(ships)
+    w.coast(ids)
+    w.advance(1 / 60, warp=warp_factor)            # compiled, searched once
+    events = 0
+    t0 = time.perf_counter()
+    for _ in range(frames):
+        w.advance(1 / 60, warp=warp_factor)
+        events += len(w.events)
+    per_frame = (time.perf_counter() - t0) / frames
+    integrated, _ = _warp_scene(ships)
+    integrated.step(2)
+    from .timing import per_step, steps_for
+    step = per_step(integrated.step, steps_for(integrated.step, 0.2), 3)
+    steps = warp_factor / 60 / w.dt
+    return {"ships": ships, "warp": warp_factor, "frames": frames,
+            "days": w.t / 86400.0, "s_per_frame": per_frame, "events": events,
+            "coasting_at_end": int(len(w.coasting)), "granted": w.warp.granted,
+            "integrated_s_per_step": step, "integrated_s_per_frame": step * steps}
+
+
+def _pair(build, duration, dt_coast):
+    """(coasting World, integrated World, ship id) built by build(coast) and flown
+    `duration`; the integrated one with Gauss-Radau."""
+    a, ship = build("leapfrog", dt_coast)
+    a.coast(ship)
+    b, _ = build("gauss_radau", dt_coast)
+    t0 = time.perf_counter()
+    a.step(round(duration / a.dt))
+    t_coast = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    b.step(round(duration / b.dt))
+    t_full = time.perf_counter() - t0
+    return a, b, ship, t_coast, t_full
+
+
+def _hohmann(integrator, dt):
+    import spacephys as sp
+    from ..orbits import elements_to_state
+    w = sp.World(3, units="si", dt=dt, integrator=integrator, tolerance=1e-12)
+    sun = w.add_body(1.989e30, (0.0, 0.0, 0.0), fixed=True, radius=7e8)
+    mu = w.G * 1.989e30
+    a_e, a_m = 1.0 * AU, 1.524 * AU
+    t_transfer = math.pi * math.sqrt(((a_e + a_m) / 2) ** 3 / mu)
+    n_m = math.sqrt(mu / a_m ** 3)
+    earth = w.add_body(5.97e24, *elements_to_state(w.G * 1.989e30, a_e, 0.0, 0.0, 0.0, 0.0,
+                                                   M=-0.3), radius=6.4e6)
+    mars = w.add_body(6.42e23, *elements_to_state(w.G * 1.989e30, a_m, 0.0, 0.0, 0.0, 0.0,
+                                                  M=math.pi - n_m * t_transfer + 0.05),
+                      radius=3.4e6)
+    for p in (earth, mars):
+        w.set_rails(p, sun)
+    v_peri = math.sqrt(mu * (2 / a_e - 2 / (a_e + a_m)))
+    ship = w.add_body(1e4, (a_e, 0.0, 0.0), (0.0, v_peri, 0.0), radius=10.0)
+    return w, ship
+
+
+def _flyby(integrator, dt):
+    import spacephys as sp
+    w = sp.World(3, units="si", dt=dt, integrator=integrator, tolerance=1e-12)
+    M = 5.972e24
+    earth = w.add_body(M, (0.0, 0.0, 0.0), fixed=True, radius=6.371e6)
+    a_moon = 3.844e8
+    mu = w.G * M
+    r0 = 6.571e6
+    v0 = math.sqrt(2 * mu / r0) * 0.9995           # apogee near the Moon's distance
+    a = 1 / (2 / r0 - v0 * v0 / mu)
+    # the time to reach the Moon's distance on this ellipse (Kepler's equation)
+    e = 1 - r0 / a
+    E = math.acos((1 - a_moon / a) / e)
+    t_moon = (E - e * math.sin(E)) * math.sqrt(a ** 3 / mu)
+    nu = 2 * math.atan(math.sqrt((1 + e) / (1 - e)) * math.tan(E / 2))
+    n = math.sqrt(mu / a_moon ** 3)
+    phase = nu - n * t_moon + 0.02                   # the Moon a little ahead there
+    v_moon = math.sqrt(mu / a_moon)
+    moon = w.add_body(7.342e22, (a_moon * math.cos(phase), a_moon * math.sin(phase), 0.0),
+                      (-v_moon * math.sin(phase), v_moon * math.cos(phase), 0.0),
+                      radius=1.737e6)
+    w.set_rails(moon, earth)
+    ship = w.add_body(1e4, (r0, 0.0, 0.0), (0.0, v0, 0.0), radius=10.0)
+    return w, ship
+
+
+def trips(quick=False):
+    """The transfer and the flyby, each flown coasting and integrated."""
+    out = []
+    for name, build, duration, dt in (
+            ("Hohmann transfer Earth -> Mars", _hohmann, 258.9 * 86400, 3600.0),
+            ("lunar flyby", _flyby, 8 * 86400, 10.0)):
+        a, b, ship, t_coast, t_full = _pair(build, duration, dt)
+        i, j = a.index_of(ship), b.index_of(ship)
+        apart = float(np.linalg.norm(a.pos[i] - b.pos[j]))
+        out.append({"trip": name, "days": duration / 86400, "apart_m": apart,
+                    "distance_m": float(np.linalg.norm(b.pos[j])),
+                    "coasting_s": t_coast, "integrated_s": t_full,
+                    "events": [str(k) for k in _kinds(a)]})
+    return out
+
+
+def _kinds(w):
+    from ..events import kind_name
+    return [kind_name(k) for k in w.events["kind"]]
+
+
+def coasting(quick=False):
+    return {"warp": warp(200 if quick else 1000, 120 if quick else 600),
+            "trips": trips(quick)}
+
+
+def format_coasting(r):
+    """The coasting part's lines."""
+    wr = r["warp"]
+    lines = [f"coasting: {wr['ships']} ships about a planet with three moons on rails, "
+             f"warp x{wr['warp']:.0e}, frames of 1/60 s: {wr['s_per_frame'] * 1e3:.2f} ms a "
+             f"frame ({wr['days']:.0f} days in {wr['frames']} frames, {wr['events']} "
+             f"sphere changes, {wr['coasting_at_end']} still coasting, granted "
+             f"x{wr['granted']:.0e}); integrating them instead: "
+             f"{wr['integrated_s_per_step'] * 1e6:.0f} us a step, "
+             f"{wr['integrated_s_per_frame']:.1f} s a frame", "",
+             "| trip | days | coasting vs integrated, apart | distance | coasting | "
+             "integrated (Gauss-Radau) |", "|---|---|---|---|---|---|"]
+    for t in r["trips"]:
+        lines.append(f"| {t['trip']} | {t['days']:.1f} | {t['apart_m'] / 1e3:,.0f} km | "
+                     f"{t['distance_m'] / 1e3:,.0f} km | {t['coasting_s'] * 1e3:.1f} ms | "
+                     f"{t['integrated_s'] * 1e3:.1f} ms |")
+    return "\n".join(lines)
