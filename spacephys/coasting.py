@@ -49,9 +49,11 @@ class Coasting:
         # the tables are those of `key`
         self.key = None
         self.quiet = -math.inf
+        self.layout = None             # (key, what the search reads): _layout
 
     def __getstate__(self):
-        return {"w": self.w, "key": None, "quiet": -math.inf}    # (the key holds tables)
+        return {"w": self.w, "key": None, "quiet": -math.inf,     # (the keys hold tables)
+                "layout": None}
 
     @property
     def rails(self):
@@ -177,31 +179,38 @@ class Coasting:
             parent = min(inside)[1]
 
     # ---------------------------------------------------------------- the driver's calls
-    def chunk(self, nsteps):
+    def chunk(self, nsteps, jumping=False):
         """Before a kernel call of up to nsteps steps: bodies set to coast by coast="auto",
         coasting bodies that must be integrated from now released; returns how many steps to
-        take before the next event (>= 1)."""
+        take before the next event (>= 1). jumping: time passes in one jump (nothing is
+        integrated), and the changes of parent within it are made first, each at its own
+        time: only a return to integration ends it."""
         w = self.w
         dt = w._dt
         t = w.t
         end = t + nsteps * dt
-        if self.key == (self.rails.version, w._plan) and end <= self.quiet:
+        if self.key == (self.rails.version, w._plan, jumping) and end <= self.quiet:
             return nsteps
         rails = self.rails
         quiet = math.inf
         if rails.auto:
             quiet = self._auto(t)
         if not rails.coast.any():
-            self._keep(quiet)
+            self._keep(quiet, jumping)
             return nsteps
         limit = nsteps
         safe = self._safe(t, dt)
         if not rails.coast.any():
-            self._keep(quiet)
+            self._keep(quiet, jumping)
             return nsteps
         if safe is not None:
             limit = min(limit, max(int(safe // dt), 1))
             quiet = min(quiet, t + safe)
+        if jumping:           # nothing integrated: the changes within the jump made first
+            self._apply(end, False)
+            if not rails.coast.any():
+                self._keep(quiet, jumping)
+                return nsteps
         entries, kinds = self._search(end)
         due = rails.due[entries]
         quiet = min(quiet, float(due.min()))
@@ -211,37 +220,47 @@ class Coasting:
                 steps = int(math.floor((due[j] - t) / dt))
                 if steps <= 0:
                     self._release(int(rails.ids[entries[j], 0]))
-                    return self.chunk(nsteps)
+                    return self.chunk(nsteps, jumping)
             else:                                  # the step holding the change of parent
                 steps = max(int(math.ceil((due[j] - t) / dt)), 1)
             limit = min(limit, steps)
-        self._keep(quiet)
+        self._keep(quiet, jumping)
         return max(int(limit), 1)
 
-    def _keep(self, quiet):
-        self.key = (self.rails.version, self.w._plan or self.w.tables())
+    def _keep(self, quiet, jumping):
+        self.key = (self.rails.version, self.w._plan or self.w.tables(), jumping)
         self.quiet = quiet
 
     def caught_up(self):
-        """After a kernel call or a jump: the changes of parent due by now, each at its own
-        time (a body's second change in the same call too), and its events."""
+        """After a kernel call: the changes of parent due by now, each at its own time (a
+        body's second change in the same call too), and their events."""
         w = self.w
         rails = self.rails
         t = w.t
-        if self.key == (rails.version, w._plan) and t < self.quiet or not rails.coast.any():
+        if self.key is not None and self.key[:2] == (rails.version, w._plan) and \
+                t < self.quiet or not rails.coast.any():
             return
+        if self._apply(t, True):
+            self.place()
+
+    def _apply(self, until, surfaces):
+        """Apply the changes of parent (and with `surfaces` the returns to integration) due
+        at or before `until`, in time order, searching again after each; whether any
+        coasting body moved to a new conic."""
+        rails = self.rails
         moved = False
-        while True:
-            entries, kinds = self._search(t)
+        while rails.coast.any():
+            entries, kinds = self._search(until)
             due = rails.due[entries]
-            now = (kinds != kcoast.NO_EVENT) & (due <= t)
+            now = (kinds != kcoast.NO_EVENT) & (due <= until)
+            if not surfaces:
+                now &= kinds != kcoast.SURFACE
             if not now.any():
                 break
             order = np.argsort(due[now], kind="stable")
             for k in entries[now][order]:
                 moved |= self._change(int(k))
-        if moved:
-            self.place()
+        return moved
 
     def place(self):
         """Every body on rails where its orbit has it now (after a change of parent)."""
@@ -282,11 +301,17 @@ class Coasting:
         return None
 
     # ---------------------------------------------------------------- inside
-    def _search(self, until):
-        """Run the search for every coasting body up to `until`: (entries (C,), kinds (C,))."""
+    def _layout(self):
+        """What the search and the gaps read besides the progress, kept while the rails and
+        tables are those it was made for: (entries (C,), soi (R,), parent (C,), kids_start,
+        kids, parent_soi, reach (C,), window (C,), the coasting bodies' rows (C,), their
+        parents' rows (C,), the rows of the bodies whose gaps are watched)."""
         w = self.w
         rails = self.rails
-        entries = np.flatnonzero(rails.coast)
+        key = (rails.version, w._plan)
+        if self.layout is not None and self.layout[0] == key:
+            return self.layout[1]
+        entries = np.flatnonzero(rails.coast).astype(np.int64)
         b = w._b
         parents = rails.ids[entries, 1]
         keys, parent = np.unique(parents, return_inverse=True)
@@ -298,16 +323,34 @@ class Coasting:
         flat = np.concatenate(kids).astype(np.int64) if kids else np.zeros(0, np.int64)
         own = [rails.entry(int(p)) for p in keys]
         parent_soi = np.array([np.inf if k is None else soi[k] for k in own])
-        radius = b.radius[b.lookup(parents)] + b.radius[b.lookup(rails.ids[entries, 0])] + \
+        reach = b.radius[b.lookup(parents)] + b.radius[b.lookup(rails.ids[entries, 0])] + \
             rails.near
-        el = rails.orbits
-        n = el[entries, krails.N_HI]
-        window = np.where(el[entries, krails.ECC] < 1.0, 0.25 * 2.0 * np.pi / n, 1.0 / n)
-        due = rails.due[entries].copy()
-        kind = rails.event[entries, 0].copy()
-        other = rails.event[entries, 1].copy()
-        kcoast.search(el, entries.astype(np.int64), soi, parent.astype(np.int64), kids_start,
-                      flat, parent_soi, radius, window, float(until), due, kind, other)
+        n = rails.orbits[entries, krails.N_HI]
+        window = np.where(rails.orbits[entries, krails.ECC] < 1.0, 0.25 * 2.0 * np.pi / n,
+                          1.0 / n)
+        plan = w._plan or w.tables()
+        kepler = rails.ids[kepler, 0]
+        still = np.flatnonzero(b.fixed[:b.n])
+        if kepler.size and still.size:
+            still = still[~np.isin(still, b.lookup(kepler))]
+        ephem = b.lookup(rails.ids[rails.ids[:, 1] < 0, 0])
+        others = np.concatenate([plan.free, still, ephem]).astype(np.int64)
+        got = (entries, soi, parent.astype(np.int64), kids_start, flat, parent_soi, reach,
+               window, b.lookup(rails.ids[entries, 0]).astype(np.int64),
+               b.lookup(parents).astype(np.int64), others)
+        self.layout = ((rails.version, plan), got)
+        return got
+
+    def _search(self, until):
+        """Run the search for every coasting body up to `until`: (entries (C,), kinds (C,))."""
+        rails = self.rails
+        entries, soi, parent, kids_start, kids, parent_soi, reach, window = \
+            self._layout()[:8]
+        due = rails.due[entries]
+        kind = rails.event[entries, 0]
+        other = rails.event[entries, 1]
+        kcoast.search(rails.orbits, entries, soi, parent, kids_start, kids, parent_soi, reach,
+                      window, float(until), due, kind, other)
         rails.due[entries] = due
         rails.event[entries, 0] = kind
         rails.event[entries, 1] = other
@@ -417,22 +460,14 @@ class Coasting:
         w = self.w
         rails = self.rails
         b = w._b
-        entries = np.flatnonzero(rails.coast)
-        coasting = b.lookup(rails.ids[entries, 0])
+        layout = self._layout()
+        entries, coasting, parents, others = layout[0], layout[8], layout[9], layout[10]
         limit = None
-        plan = w._plan or w.tables()
-        kepler = rails.ids[~rails.coast & (rails.ids[:, 1] >= 0), 0]
-        still = np.flatnonzero(b.fixed[:b.n])
-        if kepler.size and still.size:
-            still = still[~np.isin(still, b.lookup(kepler))]
-        ephem = b.lookup(rails.ids[rails.ids[:, 1] < 0, 0])
-        others = np.concatenate([plan.free, still, ephem]).astype(np.int64)
         release = []
         if others.size:
             out = np.empty(coasting.size)
-            kcoast.gaps(b.pos, b.vel, b.radius, coasting.astype(np.int64),
-                        b.lookup(rails.ids[entries, 1]).astype(np.int64), float(rails.near),
-                        others, out)
+            kcoast.gaps(b.pos, b.vel, b.radius, coasting, parents, float(rails.near), others,
+                        out)
             release = [int(x) for x in rails.ids[entries[out < dt], 0]]
             rest = out[out >= dt]
             if rest.size and rest.min() < math.inf:

@@ -136,6 +136,11 @@ class Driver:
             measures.check_health(w, t0, status)
         return status
 
+    def _jumps(self, plan):
+        """Whether time may pass in one jump: bodies on rails, and nothing integrated."""
+        return plan.rails is not None and not plan.free.size and \
+            self.w._coasting.blocker(plan) is None
+
     def _begin_events(self):
         """This step's events open with the launches made since the last one."""
         w = self.w
@@ -164,8 +169,17 @@ class Driver:
         coast = w._coasting
         while nsteps:
             coasting = coast.active()
-            take = coast.chunk(nsteps) if coasting else nsteps
             plan = w._plan or w.tables()
+            jumping = frame_at is None and self._jumps(plan)
+            take = nsteps
+            if coasting:
+                take = coast.chunk(nsteps, jumping)
+                if w._plan is not plan:            # bodies were released: integrated now
+                    plan = w._plan or w.tables()
+                    if jumping and not self._jumps(plan):
+                        jumping = False
+                        take = coast.chunk(nsteps, False)
+                        plan = w._plan or w.tables()
             first = w._event_count.item(0)
             frames = None
             if frame_at is not None:
@@ -177,8 +191,7 @@ class Driver:
             for clock in plan.clocks:          # the actors' plans' and the rails' clocks
                 clock[0] = w._t_base           # (element-wise: a slice assignment from a
                 clock[1] = w._steps            # tuple costs a microsecond)
-            if frames is None and plan.rails is not None and not plan.free.size and \
-                    coast.blocker(plan) is None:
+            if jumping:
                 # nothing is integrated: time passes in one jump (the bodies on rails placed
                 # at its end, a step before it in prev)
                 b = w._b

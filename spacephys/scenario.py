@@ -35,7 +35,8 @@ _WORLD = {"dim": ("int", 2), "units": ("str", "game"), "G": ("float", None),
           "gravity": ("str", "direct"), "g": ("vec", None), "central_mass": ("float", None),
           "central_pos": ("vec", None), "softening": ("float", 0.0), "seed": ("int", 0),
           "kinds": ("strs", []), "center_of_mass": ("bool", False), "drag": ("float", 0.0),
-          "wind": ("vec", None), "theta": ("float", None), "quadrupole": ("bool", None)}
+          "wind": ("vec", None), "theta": ("float", None), "quadrupole": ("bool", None),
+          "coast": ("str", None)}
 _PLACE = {"pos": ("vec", None), "vel": ("vec", None), "parent": ("str", None),
           "a": ("float", None), "e": ("float", 0.0), "i": ("float", 0.0),
           "Omega": ("float", 0.0), "omega": ("float", 0.0), "M": ("float", None),
@@ -49,7 +50,7 @@ _RING = {"name": ("str", REQUIRED), "count": ("int", REQUIRED), "parent": ("str"
          "a": ("range", REQUIRED), "e": ("range", [0.0, 0.0]), "i": ("range", [0.0, 0.0]),
          "mass": ("range", [0.0, 0.0]), "radius": ("range", [0.0, 0.0]),
          "kind": ("str", "asteroid"), "seed": ("int", 0), "total_mass": ("float", None),
-         "active": ("bool", None), "Omega": ("range", None)}
+         "active": ("bool", None), "Omega": ("range", None), "coast": ("bool", False)}
 _SHIP = {"name": ("str", REQUIRED), "spec": ("table", REQUIRED), "heading": ("any", None),
          **_PLACE}
 _COLLISION = {"a": ("str", REQUIRED), "b": ("str", REQUIRED), "response": ("str", REQUIRED),
@@ -430,6 +431,8 @@ def _check_world(chk, w):
         chk.bad("world.g", "missing: gravity = 'uniform' needs the field vector g")
     if w["gravity"] == "central" and w["central_mass"] is None:
         chk.bad("world.central_mass", "missing: gravity = 'central' needs it")
+    if w["coast"] not in (None, "auto"):
+        chk.bad("world.coast", f"{w['coast']!r} is not known; valid: 'auto'")
     for key in ("theta", "quadrupole"):
         if w[key] is not None and w["gravity"] != "tree":
             chk.bad(f"world.{key}", f"only used with gravity = 'tree' (gravity = "
@@ -681,7 +684,7 @@ def _add_ring(w, t, ids):
                                  inc[j], node[j], peri[j], M=M[j])
         pos[j], vel[j] = parent.pos + p[:w.dim], parent.vel + v[:w.dim]
     kw = {} if t["active"] is None else {"active": t["active"]}
-    w.add_bodies(mass, pos, vel, radius=radius, kind=t["kind"], **kw)
+    return w.add_bodies(mass, pos, vel, radius=radius, kind=t["kind"], **kw)
 
 
 def _heading(value):
@@ -708,7 +711,7 @@ def _build(data, source="<scenario>"):
     kw = {k: s[k] for k in ("dim", "units", "integrator", "dt", "softening", "gravity", "seed",
                             "drag")}
     for k in ("G", "tolerance", "max_step", "min_step", "g", "central_mass", "central_pos",
-              "wind", "theta", "quadrupole"):
+              "wind", "theta", "quadrupole", "coast"):
         if s[k] is not None:
             kw[k] = s[k]
     with _at(source, "world"):
@@ -720,9 +723,10 @@ def _build(data, source="<scenario>"):
     for k, t in enumerate(data["bodies"]):
         with _at(source, f"bodies[{k}]"):
             _add_body(w, t, ids, eph)
+    rings = []
     for k, ring in enumerate(data["rings"]):
         with _at(source, f"rings[{k}]"):
-            _add_ring(w, ring, ids)
+            rings.append(_add_ring(w, ring, ids))
     for k, t in enumerate(data["ships"]):
         with _at(source, f"ships[{k}].spec"):
             spec = ShipSpec(**{key: (ExplosionSpec(**v) if key == "explosion" else v)
@@ -737,6 +741,10 @@ def _build(data, source="<scenario>"):
         if t["rails"] == "kepler":                 # after the shift: an orbit is relative
             with _at(source, f"bodies[{k}].rails"):
                 w.set_rails(ids[t["name"]], ids[t["parent"]])
+    for k, ring in enumerate(data["rings"]):
+        if ring["coast"]:                           # after the rails: the spheres are known
+            with _at(source, f"rings[{k}].coast"):
+                w.coast(rings[k])
     for k, c in enumerate(data["collisions"]):
         with _at(source, f"collisions[{k}]"):
             w.set_collision(c["a"], c["b"], c["response"], restitution=c["restitution"])
