@@ -104,7 +104,8 @@ def test_the_coasting_rows_warp_a_million_and_fly_the_trips(results):
     wr = c["warp"]
     assert wr["granted"] == wr["warp"] == 1e6 and wr["capped_frames"] == 0
     assert wr["coasting_at_end"] + wr["destroyed"] == wr["ships"]
-    assert wr["days"] == pytest.approx((120 + 1) * 1e6 / 60 / 86400, rel=1e-9)   # + warm-up
+    # the frames and the warm-up, to within the accumulator's remainder (under a step of 1 s)
+    assert wr["days"] == pytest.approx(121 * 1e6 / 60 / 86400, abs=1 / 86400)
     assert wr["events"] > 0 and wr["s_per_frame"] < wr["integrated_s_per_frame"]
     trips = {t["trip"]: t for t in c["trips"]}
     hohmann, flyby = trips["Hohmann transfer Earth -> Mars"], trips["lunar flyby"]
