@@ -247,10 +247,13 @@ class Actors:
         strafe = None if strafe is None else self._command("strafe", strafe, (1, 2))
         b = self.b
         if throttle is not None:
-            if throttle > 0.0 and b.throttle[i] == 0.0:
-                self.w._coasting.release(int(b.ids[i]))   # a thrusting ship is integrated
-            elif throttle == 0.0 and b.throttle[i] > 0.0:
-                self.w._forces.rails.touch()              # it may coast (coast="auto")
+            rails = self.w._forces.rails
+            if rails.active:
+                was = b.throttle.item(i)
+                if throttle > 0.0 and was == 0.0:
+                    self.w._coasting.release(int(b.ids[i]))   # a thrusting ship: integrated
+                elif throttle == 0.0 and was > 0.0:
+                    rails.touch()                             # it may coast (coast="auto")
             b.throttle[i] = throttle
         if turn is not None:
             if self.w.dim == 2:

@@ -59,10 +59,6 @@ class Coasting:
     def rails(self):
         return self.w._forces.rails
 
-    def active(self):
-        """Whether anything coasts, or may (coast="auto")."""
-        return self.w._forces.rails.active
-
     # ---------------------------------------------------------------- World.coast
     def coast(self, ids, on=True):
         """World.coast: checked for every body first, then done."""

@@ -136,6 +136,24 @@ class Driver:
             measures.check_health(w, t0, status)
         return status
 
+    def _special(self, plan, nsteps, frame_at):
+        """With bodies on rails or coasting: (steps to take, whether time passes in one jump,
+        whether bodies coast, the tables), the coasting bodies released or set coasting
+        first (coasting.py)."""
+        w = self.w
+        jumping = frame_at is None and self._jumps(plan)
+        coasting = w._forces.rails.active
+        take = nsteps
+        if coasting:
+            take = w._coasting.chunk(nsteps, jumping)
+            if w._plan is not plan:                # bodies were released: integrated now
+                plan = w._plan or w.tables()
+                if jumping and not self._jumps(plan):
+                    jumping = False
+                    take = w._coasting.chunk(nsteps, False)
+                    plan = w._plan or w.tables()
+        return take, jumping, coasting, plan
+
     def _jumps(self, plan):
         """Whether time may pass in one jump: bodies on rails, and nothing integrated."""
         return plan.rails is not None and not plan.free.size and \
@@ -166,20 +184,12 @@ class Driver:
         w = self.w
         consumed = 0
         status = 0
-        coast = w._coasting
+        budget = self.budget          # a warped frame's: the most steps to integrate
         while nsteps:
-            coasting = coast.active()
             plan = w._plan or w.tables()
-            jumping = frame_at is None and self._jumps(plan)
-            take = nsteps
-            if coasting:
-                take = coast.chunk(nsteps, jumping)
-                if w._plan is not plan:            # bodies were released: integrated now
-                    plan = w._plan or w.tables()
-                    if jumping and not self._jumps(plan):
-                        jumping = False
-                        take = coast.chunk(nsteps, False)
-                        plan = w._plan or w.tables()
+            take, jumping, coasting = nsteps, False, False
+            if plan.special:                       # bodies on rails, or coasting
+                take, jumping, coasting, plan = self._special(plan, nsteps, frame_at)
             first = w._event_count.item(0)
             frames = None
             if frame_at is not None:
@@ -198,16 +208,16 @@ class Driver:
                 krails.jump(plan.rails, take, w._dt, b.pos, b.vel, b.prev)
                 done, status, timing = take, 0, None
             else:
-                if self.budget is not None:
-                    if not self.budget:
+                if budget is not None:
+                    if not budget:
                         self.cut = nsteps              # the frame's budget is spent
                         break
-                    take = min(take, self.budget)
+                    take = min(take, budget)
                 timing = w._threads.begin(plan.work, take)
                 done, status = w._stepper.run(plan, frames, w._dt, take,
                                               w._t_base + w._steps * w._dt)
-                if self.budget is not None:
-                    self.budget -= done
+                if budget is not None:
+                    budget -= done
             if timing is not None:
                 w._threads.end(timing, done)
             if w._event_count[0] > w._events.shape[0]:
@@ -238,10 +248,12 @@ class Driver:
                 w._b.prev[:w._b.n] = w._b.pos[:w._b.n]   # nothing to interpolate
                 w._stepper.failed(w, done)
             if coasting:
-                coast.caught_up()
+                w._coasting.caught_up()
             nsteps -= done
             consumed += done
             if w._warning:
                 message, w._warning = w._warning, None
                 warnings.warn(message, RuntimeWarning, stacklevel=caller_level())
+        if budget is not None:
+            self.budget = budget
         return status

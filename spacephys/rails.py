@@ -103,7 +103,8 @@ class Rails:
         self.built = None               # the last table (RailsArrays) and its entries' order
         self.near = 0.0                 # World.coast_near
         self.version = 0                # changed by every change of the entries (touch)
-        self.active = bool(self.coast.any())   # anything coasts, or may (auto)
+        self.coasting = bool(self.coast.any())   # anything coasts
+        self.active = self.coasting             # anything coasts, or may (auto)
         self.auto = False               # World.coast_auto
 
     def __len__(self):
@@ -128,7 +129,8 @@ class Rails:
         """Something the coasting bodies' next events depend on changed (coasting.py keeps
         what it found until then)."""
         self.version += 1
-        self.active = self.auto or bool(self.coast.any())
+        self.coasting = bool(self.coast.any())
+        self.active = self.auto or self.coasting
 
     def put(self, body, parent, orbit, coast=False):
         self.drop(body)
@@ -253,7 +255,7 @@ class Rails:
     def motion(self):
         """What changes as coasting bodies change parent (worldstate.Motion); None without
         them."""
-        if not self.coast.any():
+        if not self.coasting:
             return None
         return (self.ids.copy(), self.orbits.copy(), self.coast.copy(), self.due.copy(),
                 self.event.copy())
@@ -262,7 +264,7 @@ class Rails:
         """Back to motion m; whether the tables built still hold (the same bodies about the
         same parents: their orbits are written into the table in place)."""
         if m is None:
-            return not self.coast.any()
+            return not self.coasting
         ids, orbits, coast, due, event = m
         same = self.built is not None and np.array_equal(self.ids, ids) and \
             np.array_equal(self.coast, coast)

@@ -50,6 +50,10 @@ def _readonly(arr):
     return view
 
 
+# advance()'s default warp, told apart from a warp asked by its identity
+NO_WARP = 1.0
+
+
 class World:
     """Bodies under gravity, advanced by an integrator whose loop runs in numba.
 
@@ -698,9 +702,9 @@ class World:
 
     @property
     def warp(self):
-        """The last advance()'s time warp: Warp(asked, granted, reason), granted the factor
-        the frame ran at and reason why it is less than asked (None when it is not); None
-        before any advance()."""
+        """The time warp of the last advance() given one: Warp(asked, granted, reason),
+        granted the factor the frame ran at and reason why it is less than asked (None when
+        it is not); None before any."""
         return self._warp
 
     def tether(self, a, b, length=None, *, stiffness=None, rigid=False, break_force=None):
@@ -1191,6 +1195,7 @@ class World:
             moving[rails.rows] = False
         plan.free = np.flatnonzero(moving)
         plan.rails = rails
+        plan.special = rails is not None or self._forces.rails.active
         self._plan = plan
         measures.check_precision(self, b.pos[:n, :self._dim])
         return plan
@@ -1223,7 +1228,7 @@ class World:
         turned into an error must find the World consistent)."""
         self._warning = message
 
-    def advance(self, frame_time, warp=1.0):
+    def advance(self, frame_time, warp=NO_WARP):
         """Fixed-step accumulator for variable frame time; returns alpha in [0, 1).
 
         Adds frame_time [time] x warp to the accumulator and takes as many whole steps of dt
@@ -1237,28 +1242,12 @@ class World:
         most max_substeps steps are integrated a frame, so the warp granted is less:
         w.warp says what was asked, granted, and why.
         """
+        if warp is not NO_WARP:       # (the default's own object: a game's every-frame call)
+            return self._warped(frame_time, warp)
         if type(frame_time) is not float or not 0.0 <= frame_time < math.inf:
             frame_time = check.scalar("frame_time", frame_time, minimum=0.0)
-        warped = type(warp) is not float or warp != 1.0
-        if warped:
-            warp = check.scalar("warp", warp, positive=True)
-            if not math.isfinite(warp):
-                raise ValueError(f"warp = {warp}: must be finite")
-        dt = self._dt
-        acc = self._accumulator + frame_time * warp
-        # a hair of slack so that 4 frames of dt/4 make one step, not 0.99999 of one
-        whole = acc / dt * (1.0 + 1e-12)
-        reason = self._coasting.why_integrated() if warped else None
-        cap = math.inf if warped and reason is None else self._max_substeps
-        if whole >= cap + 1:          # also a frame of inf steps
-            n, left, dropped = self._max_substeps, 0.0, acc - self._max_substeps * dt
-        else:
-            n = int(whole)
-            left, dropped = max(acc - n * dt, 0.0), 0.0
+        n, left, dropped = self._substeps(self._accumulator + frame_time, self._max_substeps)
         steps = self._steps
-        driver = self._driver
-        if warped:
-            driver.budget, driver.cut = self._max_substeps, 0
         try:
             self.step(n)                 # the only part that can fail: nothing changed before
         except InstabilityError:
@@ -1266,21 +1255,53 @@ class World:
                 self._accumulator = left
                 self._dropped += dropped
             raise
+        self._accumulator = left
+        self._dropped += dropped
+        return min(left / self._dt, 0.9999999999999999)
+
+    def _substeps(self, acc, cap):
+        """(steps, what is left in the accumulator, what is dropped) for `acc` of time and at
+        most `cap` steps."""
+        dt = self._dt
+        # a hair of slack so that 4 frames of dt/4 make one step, not 0.99999 of one
+        whole = acc / dt * (1.0 + 1e-12)
+        if whole >= cap + 1:          # also a frame of inf steps
+            return cap, 0.0, acc - cap * dt
+        n = int(whole)
+        return n, max(acc - n * dt, 0.0), 0.0
+
+    def _warped(self, frame_time, warp):
+        """advance() with a warp: time passes in jumps when nothing is integrated, else at
+        most max_substeps steps are integrated; w.warp says what was granted and why."""
+        frame_time = check.scalar("frame_time", frame_time, minimum=0.0)
+        warp = check.scalar("warp", warp, positive=True)
+        if not math.isfinite(warp):
+            raise ValueError(f"warp = {warp}: must be finite")
+        reason = self._coasting.why_integrated()
+        n, left, dropped = self._substeps(self._accumulator + frame_time * warp,
+                                          math.inf if reason is None else self._max_substeps)
+        steps = self._steps
+        driver = self._driver
+        driver.budget, driver.cut = self._max_substeps, 0
+        try:
+            self.step(n)
+        except InstabilityError:
+            if self._steps - steps == n:
+                self._accumulator = left
+                self._dropped += dropped
+            raise
         finally:
             driver.budget = None
         if driver.cut:                   # a body integrated from within the frame: its budget
-            dropped += driver.cut * dt
-            reason = reason or self._coasting.why_integrated() or "a body became integrated"
+            dropped += driver.cut * self._dt
+            reason = reason or self._coasting.why_integrated()
             driver.cut = 0
         self._accumulator = left
         self._dropped += dropped
-        if warped:
-            granted = warp if not dropped else \
-                max(warp - dropped / frame_time, 0.0) if frame_time > 0 else warp
-            self._warp = Warp(warp, granted, reason if granted < warp else None)
-        else:
-            self._warp = NO_WARP
-        return min(left / dt, 0.9999999999999999)
+        granted = warp if not dropped else \
+            max(warp - dropped / frame_time, 0.0) if frame_time > 0 else warp
+        self._warp = Warp(warp, granted, reason if granted < warp else None)
+        return min(left / self._dt, 0.9999999999999999)
 
     def interpolate(self, alpha):
         """(n, dim) positions for rendering: prev + alpha (pos - prev), alpha in [0, 1]."""
@@ -1504,9 +1525,6 @@ class Warp(NamedTuple):
     asked: float
     granted: float
     reason: Optional[str]     # why granted < asked (a body integrated, a ship turning)
-
-
-NO_WARP = Warp(1.0, 1.0, None)
 
 
 # the calls a run log records (journal.py): every public method that changes the World

@@ -245,3 +245,20 @@ def test_a_central_field_far_from_the_origin_is_judged_on_the_orbit():
     w.step(round(rec.scene.horizon / w.dt))
     p, _ = sp.kepler_state(1.0, 1.0, 0.0, w.t)
     assert np.abs(w.pos[0] - (1000.0, 0.0) - p[:2]).max() < 1e-6 + 2e-13 * 1000
+
+
+def test_rails_and_coasting_are_proposed_where_kepler_meets_the_target(kepler_choice):
+    """Measured against the reference run: a planet alone about its star keeps its Kepler
+    orbit (two bodies: exact), so rails and coasting are proposed for every body; with a
+    Jupiter beside it, an asteroid's Kepler orbit drifts by far more than 1e-6 in the
+    horizon, and only the bodies that do meet it are named."""
+    advice = " ".join(kepler_choice.scene.advice)
+    assert "every other body ends the horizon within" in advice and "set_rails" in advice
+    w = sp.World(2, G=1.0, dt=0.01)
+    w.add_body(1.0, (0.0, 0.0))
+    jupiter = w.add_body(1e-3, (5.2, 0.0), (0.0, math.sqrt(1.001 / 5.2)))
+    rock = w.add_body(0.0, (0.0, 3.0), (-math.sqrt(1 / 3.0), 0.0))
+    rec = sp.recommend(w, 1e-6, duration=20.0)
+    advice = " ".join(rec.scene.advice)
+    assert f"1 of 2 bodies end the horizon on their Kepler orbits" in advice
+    assert f"(ids [{jupiter}])" in advice and "set_rails" not in advice

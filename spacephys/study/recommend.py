@@ -492,6 +492,7 @@ class _Trials:
                 "bodies were destroyed, merged or created during the horizon: a contact is "
                 "found at the end of the step it happens in, so what follows it shifts with "
                 "the step and errors there fall only about linearly with dt")
+        self.rails_advice()
         s.conserves_energy = bool(w.gravity != "uniform" and
                                   (E0 == 0 or abs(ref.energy(True) / E0 - 1) < 1e-9))
         if w.gravity == "uniform":
@@ -503,6 +504,59 @@ class _Trials:
         elif not s.conserves_energy:
             self.reasons.append("the scene does not conserve energy (thrust, drag or merging "
                                 "bodies): judged by position error only")
+
+    def rails_advice(self):
+        """Measured: whose Kepler orbit about the dominant body (its state now) ends the
+        horizon within the target of the reference run (relative, as the trials' position
+        errors): those could fly on rails or coast (docs/models.md#coasting)."""
+        from ..kernels.coast import conic_states
+        from ..rails import elements
+        w, s = self.w, self.scene
+        if s.dominant is None or w.gravity != "direct" or self.steering:
+            return
+        d = w.index_of(s.dominant)
+        t_end = w.t + s.horizon
+
+        def still(i):                # fixed (or at rest with nothing moving it)
+            body = int(w.ids[i])
+            return not w.vel[i].any() and np.array_equal(self.ref_final.get(body), w.pos[i])
+
+        errors = {}
+        fixed_parent = still(d)
+        for i in range(w.n):
+            body = int(w.ids[i])
+            if i == d or body not in self.ref_final or still(i):
+                continue
+            mu = w.G * (float(w.mass[d]) + (0.0 if fixed_parent else float(w.mass[i])))
+            pad = (0.0,) * (3 - w.dim)
+            try:
+                orbit = elements(np.append(w.pos[i] - w.pos[d], pad),
+                                 np.append(w.vel[i] - w.vel[d], pad), mu, w.t)
+            except ValueError:       # a radial or near-parabolic orbit: not a rails orbit
+                continue
+            out = np.zeros((1, 6))
+            conic_states(orbit[None], np.zeros(1, np.int64), float(t_end), out)
+            there = self.ref_final[s.dominant] + out[0, :w.dim]
+            errors[body] = float(np.linalg.norm(there - self.ref_final[body])) / \
+                self.scale.get(body, self.size)
+        if not errors:
+            return
+        good = [b for b, e in errors.items() if e <= self.target]
+        worst = max(errors.values())
+        if len(good) == len(errors):
+            s.advice.append(
+                f"on Kepler orbits about body {s.dominant} every other body ends the horizon "
+                f"within {worst:.2g} of the full run (measured): pulling bodies on rails "
+                f"(set_rails(id, about={s.dominant})) and ships and debris coasting (coast) "
+                f"meet {self.target:g}, each a Kepler solution instead of a force sum, and "
+                f"with nothing integrated time passes in jumps (advance(warp=...))")
+        elif good:
+            s.advice.append(
+                f"{len(good)} of {len(errors)} bodies end the horizon on their Kepler orbits "
+                f"about body {s.dominant} within {self.target:g} of the full run (measured): "
+                f"they could be on rails or coasting (ids {good[:8]}"
+                f"{' ...' if len(good) > 8 else ''}); the others, up to {worst:.2g} off, need "
+                f"integrating")
 
     def choose(self):
         s = self.scene
