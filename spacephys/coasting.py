@@ -304,7 +304,8 @@ class Coasting:
         parents' rows (C,), the rows of the bodies whose gaps are watched)."""
         w = self.w
         rails = self.rails
-        key = (rails.version, w._plan)
+        plan = w._plan or w.tables()        # (first: a build drops the entries of the gone)
+        key = (rails.version, plan)
         if self.layout is not None and self.layout[0] == key:
             return self.layout[1]
         entries = np.flatnonzero(rails.coast).astype(np.int64)
@@ -324,7 +325,6 @@ class Coasting:
         n = rails.orbits[entries, krails.N_HI]
         window = np.where(rails.orbits[entries, krails.ECC] < 1.0, 0.25 * 2.0 * np.pi / n,
                           1.0 / n)
-        plan = w._plan or w.tables()
         kepler = rails.ids[kepler, 0]
         still = np.flatnonzero(b.fixed[:b.n])
         if kepler.size and still.size:
@@ -334,7 +334,7 @@ class Coasting:
         got = (entries, soi, parent.astype(np.int64), kids_start, flat, parent_soi, reach,
                window, b.lookup(rails.ids[entries, 0]).astype(np.int64),
                b.lookup(parents).astype(np.int64), others)
-        self.layout = ((rails.version, plan), got)
+        self.layout = (key, got)
         return got
 
     def _search(self, until):

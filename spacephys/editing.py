@@ -301,8 +301,9 @@ def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, 
             shape is None and shape_of(w, body_id) is not None)):
         raise ValueError(f"radius of {body_id}: a compound body's radius is its shape's "
                          f"bounding radius; set its shape (or shape=False, round)")
-    if (pos is not None or vel is not None) and \
-            w._forces.rails.parent_of(int(w._b.ids[i])) is not None:
+    rails = w._forces.rails
+    entry = rails.entry(int(w._b.ids[i])) if pos is not None or vel is not None else None
+    if entry is not None and not rails.coast[entry]:
         raise ValueError(f"pos/vel of {body_id}: it is on rails (its orbit places it); "
                          f"take it off with set_rails({body_id}, None) first")
     if mass is not None and w._actors.is_actor(i):
@@ -333,6 +334,8 @@ def set_body(w, body_id, pos, vel, mass, radius, kind, active, fixed, category, 
     explosion = _explosion(explosion, allow_false=True)
     if angular_velocity is not None:
         angular_velocity = w._actors.spin_value(body_id, angular_velocity)
+    if entry is not None:                      # coasting: integrated from its new state
+        w._coasting.release(int(w._b.ids[i]))
     b = w._b
     laid_out = False
     if explosion is not None:                  # checked above: it cannot fail now

@@ -612,7 +612,9 @@ class World:
                  explosion=None, tag=None, angular_velocity=None, shape=None):
         """Change one body between steps; everything is checked before anything changes.
 
-        A new pos also resets the body's render interpolation (a teleport, not a smear);
+        A new pos also resets the body's render interpolation (a teleport, not a smear); a
+        new pos or vel of a coasting body makes it integrated from there (coast="auto" sets
+        it coasting again at the next call); of a body on rails, it is refused.
         explosion : an sp.ExplosionSpec it throws out when destroyed, or False for none;
         angular_velocity [rad/time] : body-frame, a number (2D, about z) or (3,): any body
         spins at it from then on (heading and orientation follow; no torque changes a

@@ -15,6 +15,7 @@ import pygame                                                             # noqa
 import spacephys as sp                                                    # noqa: E402
 from spacephys.game import make_mode                                      # noqa: E402
 from spacephys.game.loop import play, replay                              # noqa: E402
+from spacephys.game.orbit import MOON_ORBIT, PLANET_MASS                   # noqa: E402
 from spacephys.game.modes import TEAM_COLOURS                             # noqa: E402
 from spacephys.game.pilot import intercept                                # noqa: E402
 from spacephys.draw import KIND_COLOURS, Camera, drawn_positions       # noqa: E402
@@ -285,6 +286,49 @@ def test_orbit_view_shows_the_moon_and_the_hud_measures_from_the_centre():
         assert (shown["periapsis"] + shown["apoapsis"]) / 2 == pytest.approx(shown["a"],
                                                                                abs=0.1)
         assert shown["apoapsis"] - shown["periapsis"] > 20.0
+    finally:
+        m.finish_prediction()
+        m.close()
+
+
+def test_orbit_warps_a_million_on_rails_and_shows_the_moons_sphere_ahead():
+    """The moon and the station on rails, the ship coasting whenever it does not thrust:
+    x10^6 passes 16 667 time units a frame in jumps; the path ahead (a coasting
+    prediction) marks where it enters and leaves the moon's sphere; thrust caps the warp,
+    and the HUD says why."""
+    m = make_mode("orbit", players=1)
+    try:
+        w = m.world
+        assert list(w.rails["id"]) == [m.moon, m.station]
+        # an ellipse from 120 out to 650 from the planet's centre, its apoapsis 50 past the
+        # moon's orbit where the moon is then
+        r0, r1 = 120.0, 650.0
+        v = math.sqrt(2 * PLANET_MASS * r1 / (r0 * (r0 + r1)))
+        half = math.pi * math.sqrt(((r0 + r1) / 2) ** 3 / PLANET_MASS)
+        th = math.sqrt(PLANET_MASS / MOON_ORBIT ** 3) * half - math.pi
+        w.set_body(m.ship, pos=(r0 * math.cos(th), r0 * math.sin(th)),
+                   vel=(-v * math.sin(th), v * math.cos(th)))
+        play(m, frames=1, headless=True)
+        assert m.ship in w.coasting
+        m.finish_prediction()
+        m._predicted = -10
+        m._predict()
+        m.finish_prediction()
+        p = m.prediction
+        kinds = [sp.events.kind_name(e["kind"]) for e in p.events if e["b"] == m.moon]
+        assert kinds[:2] == ["soi_enter", "soi_exit"]
+        labels = [label for _, _, label in m.overlay()["markers"]]
+        assert "SOI in" in labels and "SOI out" in labels
+        presses = {2 * k: {"."} for k in range(6)} | {2 * k + 1: set() for k in range(6)}
+        play(m, frames=12, headless=True, script=presses)
+        assert m.warp == 10 ** 6
+        t0 = w.t
+        play(m, frames=2, headless=True)
+        assert w.t - t0 == pytest.approx(2 * 1e6 / 60, abs=w.dt)
+        assert w.warp == (1e6, 1e6, None)
+        play(m, frames=1, headless=True, script={0: {"w"}})
+        assert w.warp.granted < 1e6 and w.warp.reason == f"body {m.ship} (ship) is integrated"
+        assert "granted: body" in m.hud()[0]
     finally:
         m.finish_prediction()
         m.close()

@@ -118,7 +118,9 @@ def play(mode, *, frames=None, script=None, headless=False, record=None, record_
             else:
                 step = min(clock.get_time() / 1000.0, 0.1) if realtime and frame else 0.0
                 mode.controls(held, pressed)
-                alpha = w.advance(float(step or mode.frame_time) * mode.warp)
+                frame_time = float(step or mode.frame_time)
+                alpha = w.advance(frame_time) if mode.warp == 1 else \
+                    w.advance(frame_time, warp=float(mode.warp))
                 mode.after(w.events)
             mode.frame += 1
             mid = time.perf_counter()

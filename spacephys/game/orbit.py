@@ -1,11 +1,16 @@
 """Orbit: a ship about a planet with a moon, steered by its predicted path (w.predict: the
-path, its apsides, the closest approach to a station to rendezvous with), a HUD of its
-orbital elements, fuel and delta-v, and time warp from x1 to x1000 whose integrator and step
-are what sp.recommend measures for that warp."""
+path, its apsides, the closest approach to a station to rendezvous with, the moon's sphere of
+influence entered and left), a HUD of its orbital elements, fuel and delta-v, and time warp
+from x1 to x10^6. The moon and the station are on rails and the ship coasts on patched conics
+whenever it does not thrust (coast="auto"), so time passes in jumps at any warp; while it
+thrusts, the integrator and step are what sp.recommend measures for warps up to x1000, and
+beyond that the warp is capped to the frame's steps (the HUD says so)."""
 import math
 import queue
 import threading
 import time
+
+import numpy as np
 
 import spacephys as sp
 
@@ -14,11 +19,13 @@ from .pilot import Pilot
 
 PLANET_MASS, PLANET_RADIUS = 4e5, 40.0       # G = 1
 SHIP_ORBIT, STATION_ORBIT, MOON_ORBIT, MOON_RADIUS = 120.0, 200.0, 600.0, 12.0
-WARPS = (1, 10, 100, 1000)
-ERROR = 1e-6               # the orbit error sp.recommend is asked for at every warp...
+WARPS = (1, 10, 100, 1000, 10 ** 4, 10 ** 5, 10 ** 6)
+MEASURED = 1000            # the warps up to this one have their integrator measured...
+ERROR = 1e-6               # ...at the orbit error sp.recommend is asked for...
 SESSION = 60.0             # ...over this much play [s of wall time] at that warp
 FRAME_BUDGET = 2e-3        # [s] of physics a frame (spacephys bench play)
 RENDEZVOUS = (8.0, 1.0)    # within this distance and relative speed of the station
+HORIZON = 2000.0           # the longest prediction [time]: 2 moon orbits
 
 
 def _circular(w, mass, distance, angle, **kw):
@@ -36,12 +43,15 @@ class Orbit(Mode):
             ("Z", "zoom"), ("esc", "quit"))
 
     def build(self):
-        w = sp.World(dim=2, dt=1 / 60, integrator="leapfrog", seed=self.seed)
-        self.planet = w.add_body(PLANET_MASS, (0, 0), radius=PLANET_RADIUS, kind="planet")
+        w = sp.World(dim=2, dt=1 / 60, integrator="leapfrog", seed=self.seed, coast="auto")
+        self.planet = w.add_body(PLANET_MASS, (0, 0), radius=PLANET_RADIUS, kind="planet",
+                                 fixed=True)
         self.moon = _circular(w, 2e3, MOON_ORBIT, 0.0, radius=MOON_RADIUS, kind="moon")
         w.add_kind("station")
         self.station = _circular(w, 0.0, STATION_ORBIT, math.radians(100), radius=4,
                                  kind="station")
+        w.set_rails(self.moon, self.planet)
+        w.set_rails(self.station, self.planet)
         self.hull = sp.ShipSpec(dry_mass=10, fuel_mass=5, max_thrust=20, exhaust_speed=100,
                                 turn_rate=2, radius=3)
         v = orbit_speed(PLANET_MASS, SHIP_ORBIT)
@@ -69,13 +79,18 @@ class Orbit(Mode):
         # sp.recommend measures on a copy for seconds (x1: 2-5 s, x1000: about a minute): on
         # a thread, while the game runs (the kernels release the GIL), each warp the first
         # time it is asked for; until then the HUD says so and the warp stays
-        self._chooser = threading.Thread(target=self._choose, args=(self.world.copy(),),
-                                         daemon=True)
+        # measured with the ship integrated, as it flies when it thrusts: coasting, any
+        # step would do
+        copy = self.world.copy()
+        copy.coast_auto = False
+        if len(copy.coasting):
+            copy.coast(copy.coasting, False)
+        self._chooser = threading.Thread(target=self._choose, args=(copy,), daemon=True)
         self._chooser.start()
         self._ask(1)
 
     def _ask(self, warp):
-        if warp not in self.choices and warp not in self._requested:
+        if warp <= MEASURED and warp not in self.choices and warp not in self._requested:
             self._requested.add(warp)
             self._asked.put(warp)
 
@@ -113,6 +128,9 @@ class Orbit(Mode):
             self._predict()
 
     def _set_warp(self):
+        if self.wanted > MEASURED:         # coasting jumps; thrust keeps the last steps
+            self.warp = self.wanted
+            return
         choice = self.choices.get(self.wanted)
         if choice is None or self.warp == self.wanted and self.world.dt == choice.dt:
             return
@@ -174,7 +192,7 @@ class Orbit(Mode):
             return
         el = w.elements(self.ship, about=self.planet)
         horizon = min(1.2 * el.period, 200.0) if el.e < 1 else 60.0
-        horizon = max(horizon, 3 * self.warp * self.frame_time)
+        horizon = min(max(horizon, 3 * self.warp * self.frame_time), HORIZON)
         self._pending = w.predict_async(self.ship, horizon, points=240, target=self.station)
         self._predicted = self.frame
 
@@ -201,6 +219,8 @@ class Orbit(Mode):
         lines = [f"orbit  t = {w.t:9.1f}   warp x{self.warp}"
                  + ("" if self.wanted == self.warp else f" (x{self.wanted}: sp.recommend "
                                                          f"is measuring)")
+                 + ("" if w.warp is None or w.warp.reason is None else
+                    f" (x{w.warp.granted:.3g} granted: {w.warp.reason})")
                  + f"   {w.integrator}, dt {w.dt:.4g}"
                  + ("" if self.warp not in self.choices or self.choices[self.warp].met else
                     f" (the closest to {ERROR:g} within the frame budget: "
@@ -228,6 +248,10 @@ class Orbit(Mode):
         for a in p.approaches:
             k = min(range(len(p.t)), key=lambda q: abs(p.t[q] - a.t))
             markers.append((p.pos[0, k], (150, 255, 150), f"closest {a.distance:.1f}"))
+        for e in p.events:                 # the moon's sphere of influence, entered and left
+            if e["kind"] in (sp.events.SOI_ENTER, sp.events.SOI_EXIT) and e["a"] == self.ship:
+                label = "SOI in" if e["kind"] == sp.events.SOI_ENTER else "SOI out"
+                markers.append((np.array([e["x"], e["y"]]), (255, 170, 90), label))
         return {"paths": [(p.pos[0], (120, 160, 255))], "markers": markers}
 
     def camera(self, drawn):
