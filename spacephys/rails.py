@@ -178,10 +178,11 @@ class Rails:
                 for row, parent in zip(self.orbits, self.ids[:, 1]) if parent < 0]
         return min(ends) if ends else None
 
-    def table(self, lookup):
+    def table(self, lookup, pulls=None):
         """krails.RailsArrays for the rows lookup(ids) gives (-1: gone), parents before their
-        children and coasting bodies last; None without rails. A body whose parent is gone is
-        dropped (it returns to integration), as is a gone body's entry."""
+        children and coasting bodies last, those that pull (pulls (n,) bool by row) before
+        those that do not; None without rails. A body whose parent is gone is dropped (it
+        returns to integration), as is a gone body's entry."""
         if not len(self):
             return None
         rows = lookup(self.ids[:, 0])
@@ -191,8 +192,9 @@ class Rails:
         if not keep.all():
             for body in self.ids[~keep, 0]:
                 self.drop(int(body))
-            return self.table(lookup)
-        order = self._parents_first()
+            return self.table(lookup, pulls)
+        quiet = self.coast & (~pulls[rows] if pulls is not None else False)
+        order = self._parents_first(quiet)
         orbits = self.orbits[order].copy()
         terms = max([c.shape[2] for c in self.ephemerides.values()], default=1)
         blocks = []
@@ -208,13 +210,14 @@ class Rails:
         coef = np.concatenate(blocks) if blocks else np.zeros((0, 3, 1))
         table = krails.RailsArrays(rows[order].astype(np.int64),
                                    parents[order].astype(np.int64),
-                                   np.ascontiguousarray(orbits), coef, self.clock)
+                                   np.ascontiguousarray(orbits), coef, self.clock,
+                                   np.array([len(self) - int(quiet.sum())], np.int64))
         self.built = (table, order)
         return table
 
-    def _parents_first(self):
+    def _parents_first(self, quiet):
         """The entries' order with every parent on rails before its children, the coasting
-        bodies (which no body is on rails about) last."""
+        bodies (which no body is on rails about) after them, the `quiet` ones (R,) bool last."""
         depth = np.zeros(len(self), np.int64)
         index = {int(b): k for k, b in enumerate(self.ids[:, 0])}
         for k in np.flatnonzero(~self.coast):
@@ -223,6 +226,7 @@ class Rails:
                 depth[k] += 1
                 p = int(self.ids[index[p], 1])
         depth[self.coast] = len(self) + 1
+        depth[quiet] = len(self) + 2
         return np.argsort(depth, kind="stable")
 
     def listing(self):

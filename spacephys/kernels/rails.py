@@ -40,6 +40,8 @@ RailsArrays = namedtuple("RailsArrays", (
                   # row (spacephys/ephemeris.py)
     "clock",      # (2,) the World's time base and step count at the call's start (World sets
                   # it before each call): a step's end is timed as World.t is
+    "placed",     # (1,) int64: how many of the rows (the first) a force evaluation places;
+                  # the rest, coasting bodies that pull nothing, only at a step's end
 ))
 
 TWO_PI_HI = 6.283185307179586
@@ -183,11 +185,17 @@ def chebyshev_many(coef, row, times, out):
 
 
 def _place(rails, t, pos, vel):
-    """Put every body on rails where its orbit has it at time t (its parent's place and
-    velocity in pos, vel plus its own about it: parents first). rails : RailsArrays or None
-    (no rails: nothing)."""
+    """Put the bodies on rails a force evaluation needs where their orbits have them at time
+    t: all but the coasting bodies that pull nothing (nothing feels them, they feel nothing)."""
+    _place_rows(rails, t, pos, vel, rails.placed[0])
+
+
+@kernel(lean=True)
+def _place_rows(rails, t, pos, vel, count):
+    """Put the first `count` bodies on rails where their orbits have them at time t (its
+    parent's place and velocity in pos, vel plus its own about it: parents first)."""
     rows, parents, elements = rails.rows, rails.parents, rails.elements
-    for r in range(rows.size):
+    for r in range(count):
         i = rows[r]
         p = parents[r]
         if p < 0:
@@ -216,10 +224,10 @@ def _now(rails, t0, steps, dt):
 
 
 def _settle(rails, steps, dt, pos, vel):
-    """After a round: put the bodies on rails where their orbits have them once `steps` steps
-    of dt of this call are done, at World.t's own time (its time base + its step count x dt,
+    """After a round: put every body on rails where its orbit has it once `steps` steps of
+    dt of this call are done, at World.t's own time (its time base + its step count x dt,
     not the call's start + steps x dt, which rounds differently)."""
-    place(rails, now(rails, 0.0, steps, dt), pos, vel)
+    _place_rows(rails, now(rails, 0.0, steps, dt), pos, vel, rails.rows.size)
 
 
 def _hold(rails, out):
@@ -277,12 +285,12 @@ def jump(rails, steps, dt, pos, vel, prev):
     """Time passes with nothing integrated (time warp, World.advance): the bodies on rails
     where their orbits have them after `steps` steps of this call, and their places one step
     before into prev (what World.interpolate draws from)."""
-    place(rails, now(rails, 0.0, steps - 1, dt), pos, vel)
+    _place_rows(rails, now(rails, 0.0, steps - 1, dt), pos, vel, rails.rows.size)
     for r in range(rails.rows.size):
         i = rails.rows[r]
         for c in range(3):
             prev[i, c] = pos[i, c]
-    place(rails, now(rails, 0.0, steps, dt), pos, vel)
+    _place_rows(rails, now(rails, 0.0, steps, dt), pos, vel, rails.rows.size)
 
 
 @kernel

@@ -11,16 +11,20 @@
   drops Earth's and Mars's pulls);
 - lunar flyby: a ship from a 200 km Earth orbit at nearly escape speed, timed to pass the
   Moon (on rails), flown coasting (patched conics: the Moon's sphere entered and left) and
-  integrated, and how far apart they are a set time after the flyby.
+  integrated, and how far apart they are a set time after the flyby;
+- lunar free return: the launch speed and the Moon's lead for which the coasting flight
+  comes back to a 300 km perigee after the flyby, then flown integrated from the same start:
+  where and when each comes back.
 """
 import math
 import time
 
 import numpy as np
 
-from ..kernels.codes import EV_DESTROY, EV_SOI_ENTER
+from ..kernels.codes import EV_DESTROY, EV_SOI_ENTER, EV_SOI_EXIT
 
 AU = 1.495978707e11
+DAYS = 14                  # the free return's flight [days]
 
 
 def _warp_scene(ships, seed=2):
@@ -115,7 +119,9 @@ def _hohmann(integrator, dt):
     return w, ship
 
 
-def _flyby(integrator, dt):
+def _flyby(integrator, dt, speed=0.9995, lead=0.02):
+    """(World, ship id): a ship from a 200 km Earth orbit at `speed` x the escape speed,
+    the Moon (on rails) `lead` rad ahead of where the ship crosses its orbit."""
     import spacephys as sp
     w = sp.World(3, units="si", dt=dt, integrator=integrator, tolerance=1e-12)
     M = 5.972e24
@@ -123,7 +129,7 @@ def _flyby(integrator, dt):
     a_moon = 3.844e8
     mu = w.G * M
     r0 = 6.571e6
-    v0 = math.sqrt(2 * mu / r0) * 0.9995           # apogee near the Moon's distance
+    v0 = math.sqrt(2 * mu / r0) * speed            # apogee near the Moon's distance
     a = 1 / (2 / r0 - v0 * v0 / mu)
     # the time to reach the Moon's distance on this ellipse (Kepler's equation)
     e = 1 - r0 / a
@@ -131,7 +137,7 @@ def _flyby(integrator, dt):
     t_moon = (E - e * math.sin(E)) * math.sqrt(a ** 3 / mu)
     nu = 2 * math.atan(math.sqrt((1 + e) / (1 - e)) * math.tan(E / 2))
     n = math.sqrt(mu / a_moon ** 3)
-    phase = nu - n * t_moon + 0.02                   # the Moon a little ahead there
+    phase = nu - n * t_moon + lead                   # the Moon a little ahead there
     v_moon = math.sqrt(mu / a_moon)
     moon = w.add_body(7.342e22, (a_moon * math.cos(phase), a_moon * math.sin(phase), 0.0),
                       (-v_moon * math.sin(phase), v_moon * math.cos(phase), 0.0),
@@ -139,6 +145,67 @@ def _flyby(integrator, dt):
     w.set_rails(moon, earth)
     ship = w.add_body(1e4, (r0, 0.0, 0.0), (0.0, v0, 0.0), radius=10.0)
     return w, ship
+
+
+def _perigee_after_flyby(speed, lead, days=12):
+    """Coasting: (perigee, apogee) [m] of the ship's Earth orbit after it left the Moon's
+    sphere, or None (no flyby, it came down, or it escapes)."""
+    w, ship = _flyby("leapfrog", 10.0, speed, lead)
+    w.coast(ship)
+    left = False
+    for _ in range(days * 4):
+        w.step(2160)                                 # 6 hours
+        left |= bool(np.any(w.events["kind"] == EV_SOI_EXIT))
+        if not len(w.coasting):
+            return None
+        if left:
+            break
+    row = w.rails[w.rails["id"] == ship][0]
+    if not left or row["about"] != 0 or row["e"] >= 1:
+        return None
+    return float(row["a"] * (1 - row["e"])), float(row["a"] * (1 + row["e"]))
+
+
+def free_return(target=6.671e6):
+    """A lunar free return found with coasting: of a grid of launch speeds (apogees just
+    past the Moon) and Moon leads, the one whose Earth orbit after the flyby comes back
+    (apogee under 600 000 km) with its perigee nearest `target` (300 km up); then flown
+    coasting and integrated (Gauss-Radau) for 14 days: their first perigees after the
+    flyby (sampled every 10 minutes), and how far apart the two ships are by then."""
+    best = None
+    for speed in np.linspace(0.9922, 0.9928, 7):
+        for lead in np.linspace(-0.25, -0.05, 21):
+            got = _perigee_after_flyby(float(speed), float(lead))
+            if got is not None and got[1] < 6e8 and (
+                    best is None or abs(got[0] - target) < abs(best[0] - target)):
+                best = (got[0], float(speed), float(lead))
+    if best is None:
+        return None
+    _, speed, lead = best
+    out = {"speed": speed, "lead": lead}
+    for way, integrator in (("coasting", "leapfrog"), ("integrated", "gauss_radau")):
+        w, ship = _flyby(integrator, 10.0, speed, lead)
+        if way == "coasting":
+            w.coast(ship)
+        t0 = time.perf_counter()
+        rows, times = [], []
+        for k in range(DAYS * 144):                  # every 10 minutes
+            w.step(60)
+            if ship not in w or (way == "coasting" and not len(w.coasting)):
+                break
+            rows.append(w.pos[w.index_of(ship)].copy())
+            times.append(w.t)
+        spent = time.perf_counter() - t0
+        d = np.linalg.norm(rows, axis=1)
+        # the first apogee (past the Moon), then the first perigee after it: the return
+        far = next(k for k in range(1, len(d) - 1) if d[k - 1] < d[k] >= d[k + 1])
+        k = next(k for k in range(far + 1, len(d) - 1) if d[k - 1] > d[k] <= d[k + 1])
+        out[way] = {"perigee_m": float(d[k]), "perigee_day": times[k] / 86400, "s": spent,
+                    "path": rows}
+    a, b = np.array(out["coasting"].pop("path")), np.array(out["integrated"].pop("path"))
+    k = round(144 * max(out["coasting"]["perigee_day"], out["integrated"]["perigee_day"]))
+    out["apart_m"] = float(np.linalg.norm(a[:k] - b[:k], axis=1).max())
+    return out
 
 
 def trips(quick=False):
@@ -164,7 +231,7 @@ def _kinds(w):
 
 def coasting(quick=False):
     return {"warp": warp(200 if quick else 1000, 120 if quick else 600),
-            "trips": trips(quick)}
+            "trips": trips(quick), "free_return": free_return()}
 
 
 def format_coasting(r):
@@ -183,4 +250,14 @@ def format_coasting(r):
         lines.append(f"| {t['trip']} | {t['days']:.1f} | {t['apart_m'] / 1e3:,.0f} km | "
                      f"{t['distance_m'] / 1e3:,.0f} km | {t['coasting_s'] * 1e3:.1f} ms | "
                      f"{t['integrated_s'] * 1e3:.1f} ms |")
+    f = r.get("free_return")
+    if f:
+        c, g = f["coasting"], f["integrated"]
+        lines += ["", f"lunar free return (found coasting: {f['speed']:.4f} of the escape "
+                      f"speed, the Moon {f['lead']:+.3f} rad ahead): back at perigee "
+                      f"{c['perigee_m'] / 1e3:,.0f} km from the Earth's centre on day "
+                      f"{c['perigee_day']:.2f} coasting ({c['s'] * 1e3:.0f} ms), "
+                      f"{g['perigee_m'] / 1e3:,.0f} km on day {g['perigee_day']:.2f} "
+                      f"integrated ({g['s'] * 1e3:.0f} ms); up to "
+                      f"{f['apart_m'] / 1e3:,.0f} km apart by then"]
     return "\n".join(lines)
