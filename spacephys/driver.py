@@ -141,11 +141,13 @@ class Driver:
         whether bodies coast, the tables), the coasting bodies released or set coasting
         first (coasting.py)."""
         w = self.w
-        jumping = frame_at is None and self._jumps(plan)
+        jumping = self._jumps(plan)
         coasting = w._forces.rails.active
         take = nsteps
         if coasting:
-            take = w._coasting.chunk(nsteps, jumping)
+            # with frames to take a jump ends at each change of parent (the frames before it
+            # are on the old conic), else the changes are made first, at their own times
+            take = w._coasting.chunk(nsteps, jumping and frame_at is None)
             if w._plan is not plan:                # bodies were released: integrated now
                 plan = w._plan or w.tables()
                 if jumping and not self._jumps(plan):
@@ -203,8 +205,12 @@ class Driver:
                 clock[1] = w._steps            # tuple costs a microsecond)
             if jumping:
                 # nothing is integrated: time passes in one jump (the bodies on rails placed
-                # at its end, a step before it in prev)
+                # at its end, a step before it in prev; the frames it passes, at theirs)
                 b = w._b
+                if frames is not None:
+                    n = b.n
+                    krails.jump_frames(plan.rails, frames[0], take, w._dt, b.pos[:n],
+                                       b.vel[:n], b.mass[:n], *frames[1:])
                 krails.jump(plan.rails, take, w._dt, b.pos, b.vel, b.prev)
                 done, status, timing = take, 0, None
             else:

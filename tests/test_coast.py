@@ -312,3 +312,26 @@ def test_the_guides_example_runs_as_written(capsys):
     assert out[0] == "soi_enter 1 3.223" and out[1] == "soi_exit 1 5.619"
     assert out[2] == "Warp(asked=10.0, granted=10.0, reason=None)"
     assert "reason='body 2 (ship) is integrated'" in out[-1] and "granted=9.59" in out[-1]
+
+
+def test_predictions_and_recordings_of_jumps_take_the_frames_stepping_would(tmp_path):
+    """A prediction and a run log sample a jump at their own step counts
+    (kernels/rails.jump_frames): the bits a stepped World (a far, massless integrated body
+    makes it step) takes at the same counts, its sphere changes included."""
+    a, *_ = _flyby()
+    b, *_ = _flyby()
+    b.add_body(0.0, (1e6, 0.0))
+    for w in (a, b):
+        w.coast(2)
+    pa, pb = a.predict(2, 6.0, points=50), b.predict(2, 6.0, points=50)
+    assert np.array_equal(pa.t, pb.t) and np.array_equal(pa.pos[0], pb.pos[0])
+    assert [ev.kind_name(k) for k in pa.events["kind"]] == ["soi_enter", "soi_exit"]
+    assert np.array_equal(pa.events[["kind", "time"]], pb.events[["kind", "time"]])
+    runs = []
+    for w, name in ((a, "a.h5"), (b, "b.h5")):
+        with w.record(tmp_path / name, every=7):
+            w.step(600)
+        runs.append(sp.open_run(tmp_path / name))
+    assert len(runs[0]) == len(runs[1]) > 80
+    for k in range(len(runs[0])):
+        assert np.array_equal(runs[0].frame(k).pos[:3], runs[1].frame(k).pos[:3])

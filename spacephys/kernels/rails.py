@@ -294,6 +294,22 @@ def jump(rails, steps, dt, pos, vel, prev):
 
 
 @kernel
+def jump_frames(rails, at, steps, dt, pos, vel, mass, fpos, fvel, fmass):
+    """The frames a jump of `steps` steps passes (at (F,): step counts of this call, its
+    last step's included, as step.capture takes them): every body as it is (nothing is
+    integrated), the bodies on rails where their orbits have them then."""
+    for f in range(at.size):
+        if at[f] > steps:
+            break
+        for i in range(mass.size):
+            for c in range(3):
+                fpos[f, i, c] = pos[i, c]
+                fvel[f, i, c] = vel[i, c]
+            fmass[f, i] = mass[i]
+        _place_rows(rails, now(rails, 0.0, at[f], dt), fpos[f], fvel[f], rails.rows.size)
+
+
+@kernel
 def fit(times, values, start, length, terms, out):
     """Least-squares Chebyshev polynomials of `terms` terms through the samples values
     (m, 3) at times (m,) of one segment [start, start + length]: out (3, terms). The normal
