@@ -260,6 +260,7 @@ def load_scenario(path_or_text, overrides=None):
         if t["parent"] is not None and t["parent"] not in names:
             chk.bad(f"{path}.parent", f"{t['parent']!r} names no body defined before it")
         chk.minimum(f"{path}.count", t["count"], 1)
+        chk.minimum(f"{path}.seed", t["seed"], 0)
         for key in ("a", "mass", "radius"):
             low = None if t[key] is None else t[key][0]
             if key == "a" and low is not None and low <= 0:

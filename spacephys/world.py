@@ -668,6 +668,8 @@ class World:
         integrated body, or on coast(ids, False). Not for a body on rails, fixed,
         tethered, a missile or a thrusting ship (ValueError naming it; nothing changes).
         spacephys/coasting.py has the rules."""
+        if on and self.integrator.startswith("wisdom_holman"):
+            raise ValueError(f"ids: {RAILS_REFUSED} (coasting bodies are on rails)")
         self._coasting.coast(ids, bool(on))
 
     @property

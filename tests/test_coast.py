@@ -291,6 +291,16 @@ def test_bad_coasting_and_warp_are_named_and_nothing_changes(call, message):
     assert w.digest() == before and np.array_equal(w.rails, listing)
 
 
+def test_wisdom_holman_refuses_coasting_with_the_reason():
+    w = sp.World(2, G=1.0, dt=0.01, integrator="wisdom_holman")
+    w.add_body(1.0, (0.0, 0.0))
+    ship = w.add_body(0.0, (1.0, 0.0), (0.0, 1.0))
+    before = w.digest()
+    with pytest.raises(ValueError, match="Wisdom-Holman drifts every body"):
+        w.coast(ship)
+    assert w.digest() == before and not len(w.coasting)
+
+
 def test_nothing_is_put_on_rails_about_a_coasting_body():
     w, star, moon, ship = _flyby()
     w.coast(ship)

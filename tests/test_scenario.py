@@ -429,3 +429,11 @@ def test_moons_and_ships_coast_through_the_moons_spheres_at_warp():
     assert float(w.rails["a"][w.rails["id"] == ship][0]) > 1.05 * a0   # the burn was flown
     w.advance(1 / 60, warp=1e6)
     assert w.warp == (1e6, 1e6, None)
+
+
+def test_a_negative_ring_seed_is_named():
+    """Found by tests/test_fuzz_files.py: a ring's seed of -1 reached numpy's generator, whose
+    error named the ring but not the key."""
+    text = (ROOT / "spacephys" / "scenarios" / "asteroid_belt.toml").read_text()
+    with pytest.raises(ScenarioError, match=r"rings\[0\]\.seed: must be >= 0"):
+        load_scenario(text.replace("seed = 3", "seed = -1", 1))
