@@ -33,6 +33,7 @@ from .events import EVENT_DTYPE
 from .kernels import coast as kcoast
 from .kernels import rails as krails
 from .kernels.codes import EV_SOI_ENTER, EV_SOI_EXIT
+from .editing import pair_mu
 from .rails import elements as conic
 
 # the exponent of Laplace's sphere of influence
@@ -69,9 +70,7 @@ class Coasting:
         bodies = w._b.ids[rows].astype(np.int64)
         if not on:
             for body in bodies:
-                if rails.entry(int(body)) is not None and rails.coast[rails.entry(int(body))]:
-                    rails.drop(int(body))
-            w._set_up()
+                self.release(body)
             return
         why = [self.why_not(i) for i in rows]
         for body, reason in zip(bodies, why):
@@ -106,7 +105,7 @@ class Coasting:
                 return "it is a missile (it flies its guidance)"
             if b.throttle.item(i) > 0.0:
                 return f"it thrusts (throttle {b.throttle.item(i)})"
-        if any(rails.parent_of(int(c)) == body for c in rails.ids[:, 0]):
+        if body in rails.ids[:, 1]:
             return "a body is on rails about it"
         if not self.tops().size:
             return "nothing pulls it (no body of mass to coast about)"
@@ -115,7 +114,7 @@ class Coasting:
     def _orbit(self, i, p, t):
         """The conic of the body at row i about the body at row p, at time t."""
         b = self.w._b
-        mu = self.w.G * (float(b.mass[p]) + (0.0 if b.fixed[p] else float(b.mass[i])))
+        mu = pair_mu(self.w, i, p)
         if not mu > 0.0:
             raise ValueError("no mass to orbit")
         return conic(b.pos[i] - b.pos[p], b.vel[i] - b.vel[p], mu, t)
@@ -128,9 +127,8 @@ class Coasting:
         w = self.w
         b = w._b
         rails = self.rails
-        kepler = ~rails.coast & (rails.ids[:, 1] >= 0)
         on = set(int(x) for x in rails.ids[:, 0])
-        tops = {int(p) for p in rails.ids[kepler, 1] if int(p) not in on}
+        tops = {int(p) for p in rails.ids[rails.kepler, 1] if int(p) not in on}
         tops |= {int(x) for x in rails.ids[rails.ids[:, 1] < 0, 0]}
         if not tops:
             n = b.n
@@ -145,7 +143,7 @@ class Coasting:
         w = self.w
         rails = self.rails
         out = np.full(len(rails), np.inf)
-        kepler = np.flatnonzero(~rails.coast & (rails.ids[:, 1] >= 0))
+        kepler = np.flatnonzero(rails.kepler)
         if kepler.size:
             m = w._b.mass[w._b.lookup(rails.ids[kepler, 0])]
             M = w._b.mass[w._b.lookup(rails.ids[kepler, 1])]
@@ -164,7 +162,7 @@ class Coasting:
         parent = int(b.ids[tops[int(np.argmax(pull))]])
         rails = self.rails
         soi = self.spheres()
-        kepler = ~rails.coast & (rails.ids[:, 1] >= 0)
+        kepler = rails.kepler
         while True:
             kids = np.flatnonzero(kepler & (rails.ids[:, 1] == parent))
             inside = [(soi[k], int(rails.ids[k, 0])) for k in kids
@@ -211,7 +209,8 @@ class Coasting:
         due = rails.due[entries]
         quiet = min(quiet, float(due.min()))
         soon = np.flatnonzero((kinds != kcoast.NO_EVENT) & (due < end))
-        for j in soon[np.argsort(due[soon], kind="stable")][:1]:
+        if soon.size:
+            j = soon[np.argmin(due[soon])]         # the first event
             if kinds[j] == kcoast.SURFACE:         # integrated before the step that lands
                 steps = int(math.floor((due[j] - t) / dt))
                 if steps <= 0:
@@ -288,12 +287,13 @@ class Coasting:
             return f"{w.named(plan.free[:1])} is integrated"
         if plan.actors is not None:
             b = w._b
-            rows = self.w._actors.rows()
-            turning = np.flatnonzero(np.any(b.turn[rows] != 0, axis=1) |
-                                     np.any(b.omega[rows] != 0, axis=1)) \
-                if "omega" in b.columns else np.flatnonzero(np.any(b.turn[rows] != 0, axis=1))
+            rows = w._actors.rows()
+            spin = b.turn[rows] != 0
+            if "omega" in b.columns:
+                spin |= b.omega[rows] != 0
+            turning = rows[spin.any(axis=1)]
             if turning.size:
-                return f"{w.named(rows[turning[:1]])} turns"
+                return f"{w.named(turning[:1])} turns"
         return None
 
     # ---------------------------------------------------------------- inside
@@ -312,7 +312,7 @@ class Coasting:
         b = w._b
         parents = rails.ids[entries, 1]
         keys, parent = np.unique(parents, return_inverse=True)
-        kepler = ~rails.coast & (rails.ids[:, 1] >= 0)
+        kepler = rails.kepler
         soi = self.spheres()
         kids = [np.flatnonzero(kepler & (rails.ids[:, 1] == p)) for p in keys]
         kids_start = np.zeros(len(keys) + 1, np.int64)
@@ -374,7 +374,7 @@ class Coasting:
             code, sphere = EV_SOI_ENTER, new
         b = w._b
         i, p = w.index_of(body, "id"), w.index_of(new, "id")
-        mu = w.G * (float(b.mass[p]) + (0.0 if b.fixed[p] else float(b.mass[i])))
+        mu = pair_mu(w, i, p)
         at = self._absolute(k, te)
         s = w.index_of(sphere, "id")
         where = self._absolute(rails.entry(sphere), te) if rails.entry(sphere) is not None \

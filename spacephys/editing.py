@@ -489,9 +489,7 @@ def set_rails(w, body, about, why_not=None, ephemeris=None, entry=None):
                          f"rails")
     if b.fixed[i]:
         raise ValueError(f"id = {body} is fixed: it does not move, on rails or off them")
-    # two free bodies: their separation's Kepler orbit has G (m_parent + m_body); about a
-    # fixed parent, which no pull moves, G m_parent
-    mu = w.G * (float(b.mass[p]) + (0.0 if b.fixed[p] else float(b.mass[i])))
+    mu = pair_mu(w, i, p)
     if not mu > 0.0:
         raise ValueError(f"about = {about}: it and the body have no mass (G m = {mu}): no "
                          f"orbit to put it on")
@@ -503,6 +501,13 @@ def set_rails(w, body, about, why_not=None, ephemeris=None, entry=None):
         raise ValueError(f"id = {body} about {about}: {e}") from None
     rails.put(body, about, orbit)
     w._invalidate()
+
+
+def pair_mu(w, i, p):
+    """G m of the Kepler orbit of the body at row i about the body at row p: two free bodies'
+    separation has G (m_p + m_i); about a fixed p, which no pull moves, G m_p."""
+    b = w._b
+    return w.G * (float(b.mass[p]) + (0.0 if b.fixed[p] else float(b.mass[i])))
 
 
 def _on_ephemeris(w, i, about, why_not, ephemeris, entry):

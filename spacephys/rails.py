@@ -115,6 +115,11 @@ class Rails:
         state["built"] = None                 # the tables': a copy builds its own
         return state
 
+    @property
+    def kepler(self):
+        """(R,) bool: the entries on Kepler rails (not coasting, not on an ephemeris)."""
+        return ~self.coast & (self.ids[:, 1] >= 0)
+
     def parent_of(self, body):
         """The parent id of a body on rails (-1: on an ephemeris), or None."""
         hit = np.flatnonzero(self.ids[:, 0] == body)

@@ -521,26 +521,28 @@ class _Trials:
             body = int(w.ids[i])
             return not w.vel[i].any() and np.array_equal(self.ref_final.get(body), w.pos[i])
 
-        errors = {}
         fixed_parent = still(d)
+        pad = (0.0,) * (3 - w.dim)
+        bodies, orbits = [], []
         for i in range(w.n):
             body = int(w.ids[i])
             if i == d or body not in self.ref_final or still(i):
                 continue
             mu = w.G * (float(w.mass[d]) + (0.0 if fixed_parent else float(w.mass[i])))
-            pad = (0.0,) * (3 - w.dim)
             try:
-                orbit = elements(np.append(w.pos[i] - w.pos[d], pad),
-                                 np.append(w.vel[i] - w.vel[d], pad), mu, w.t)
+                orbits.append(elements(np.append(w.pos[i] - w.pos[d], pad),
+                                       np.append(w.vel[i] - w.vel[d], pad), mu, w.t))
             except ValueError:       # a radial or near-parabolic orbit: not a rails orbit
                 continue
-            out = np.zeros((1, 6))
-            conic_states(orbit[None], np.zeros(1, np.int64), float(t_end), out)
-            there = self.ref_final[s.dominant] + out[0, :w.dim]
-            errors[body] = float(np.linalg.norm(there - self.ref_final[body])) / \
-                self.scale.get(body, self.size)
-        if not errors:
+            bodies.append(body)
+        if not bodies:
             return
+        out = np.zeros((len(bodies), 6))       # every body's place at the horizon, at once
+        conic_states(np.array(orbits), np.arange(len(bodies), dtype=np.int64), float(t_end),
+                     out)
+        errors = {body: float(np.linalg.norm(self.ref_final[s.dominant] + out[k, :w.dim] -
+                                             self.ref_final[body])) /
+                  self.scale.get(body, self.size) for k, body in enumerate(bodies)}
         good = [b for b, e in errors.items() if e <= self.target]
         worst = max(errors.values())
         if len(good) == len(errors):
