@@ -31,10 +31,12 @@ import numpy as np
 
 from .events import EVENT_DTYPE
 from .kernels import coast as kcoast
+from .kernels import libm
 from .kernels import rails as krails
 from .kernels.codes import EV_SOI_ENTER, EV_SOI_EXIT
 from .editing import pair_mu
 from .rails import elements as conic
+from . import vec
 
 # the exponent of Laplace's sphere of influence
 LAPLACE = 0.4
@@ -149,7 +151,7 @@ class Coasting:
             M = w._b.mass[w._b.lookup(rails.ids[kepler, 1])]
             a = rails.orbits[kepler, krails.A]
             with np.errstate(divide="ignore"):
-                out[kepler] = a * (m / M) ** LAPLACE
+                out[kepler] = a * np.array([libm.py.pow(float(x), LAPLACE) for x in m / M])
         return out
 
     def dominant(self, i):
@@ -429,11 +431,11 @@ class Coasting:
         e["t_in_step"] = t - (w._t_base + math.floor((t - w._t_base) / step) * step)
         e["x"], e["y"], e["z"] = at[:3]
         d = where[:3] - at[:3]
-        dn = float(np.sqrt(d @ d))
+        dn = vec.norm(d)
         if dn > 0:
             e["nx"], e["ny"], e["nz"] = d / dn
         u = where[3:] - at[3:]
-        e["speed"] = float(np.sqrt(u @ u))
+        e["speed"] = vec.norm(u)
         e["distance"] = radius
         e["circle_a"] = e["circle_b"] = -1
         w._event_count[0] = count + 1

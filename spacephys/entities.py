@@ -97,7 +97,7 @@ class Circles:
         (3D: balls, 2 r^2/5), with the parallel-axis term of each offset."""
         rows = self.rows()
         r = rows[:, 3]
-        weight = r ** self.dim
+        weight = r * r if self.dim == 2 else r * r * r
         own = 0.5 * r * r if self.dim == 2 else 0.4 * r * r
         arm = (rows[:, :3] ** 2).sum(axis=1)
         return float((weight * (own + arm)).sum() / weight.sum())

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from . import _validate as check
+from .kernels import libm
 from .kernels import rails as krails
 
 # NAIF ids of the bodies by name (a planet with no body of its own in an SPK file, as Jupiter
@@ -240,7 +241,7 @@ class Ephemeris:
             count = k1 - k0
             # 2 terms' samples per segment at Chebyshev points of the second kind (both ends)
             m = 2 * terms
-            s = np.cos(np.pi * np.arange(m)[::-1] / (m - 1))
+            s = libm.each("cos", np.pi * np.arange(m)[::-1] / (m - 1))
             # each sample's date as a whole segment start plus a day fraction (jplephem's
             # two-part date: a float Julian date alone rounds to 40 microseconds), and its
             # time from the same two parts

@@ -216,7 +216,7 @@ class ForceField:
     def model(self, ns, exact=False):
         """The gravity model's table (kernels/gravity.py) for ns pulling bodies (None: no
         gravity); exact: a tree's sum made directly."""
-        g, eps2 = self.G, self.softening ** 2
+        g, eps2 = self.G, self.softening * self.softening
         if self.gravity == "direct" or (exact and self.gravity == "tree"):
             # sums: None below PAIRS_FROM, so that a few-body scene compiles no pairs code
             return kgravity.Direct(g, eps2, np.empty((4, ns)),

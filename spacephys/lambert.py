@@ -17,6 +17,7 @@ import math
 import numpy as np
 
 from . import _validate as check
+from .kernels import libm
 
 BRANCHES = ("left", "right")
 
@@ -47,8 +48,9 @@ def _w(half, sn, cn, hyperbolic):
             if abs(term) < 1e-17 * s:
                 break
     else:
-        s = (2.0 * sn * cn - th if hyperbolic else th - 2.0 * sn * cn) / th ** 3
-    return (th / sn if sn else 2.0) ** 3 * s
+        s = (2.0 * sn * cn - th if hyperbolic else th - 2.0 * sn * cn) / (th * th * th)
+    r = th / sn if sn else 2.0
+    return r * r * r * s
 
 
 def _tof(x, lam, k, n):
@@ -58,30 +60,32 @@ def _tof(x, lam, k, n):
     eta = k / (y + lam * x) if lam * x > 0 else y - lam * x       # y - lam x, no cancellation
     z = 0.5 * ((k / (1.0 + lam) if lam > 0 else 1.0 - lam) - x * eta)  # Battin's S1
     sq = math.sqrt(abs(e))
-    multi = n * math.pi / sq ** 3 if n else 0.0
+    multi = n * math.pi / (sq * sq * sq) if n else 0.0
     if abs(z) < 0.25:
         # Battin: near the parabola Lagrange's form is a difference of near-equal terms
         q, dq = _series(z)
-        t = 0.5 * (eta ** 3 * q + 4.0 * lam * eta) + multi
+        t = 0.5 * (eta * eta * eta * q + 4.0 * lam * eta) + multi
         # d eta/dx = -lam eta / y, dz/dx = -eta^2 / (2 y)
-        dt = -eta / (2.0 * y) * (3.0 * lam * eta * eta * q + 0.5 * eta ** 4 * dq + 4.0 * lam * lam)
+        dt = -eta / (2.0 * y) * (3.0 * lam * eta * eta * q + 0.5 * (eta * eta) * (eta * eta) * dq + 4.0 * lam * lam)
         return t, dt + (3.0 * x * multi / e if n else 0.0)
     if e > 0.0:                             # ellipse: alpha/2 = acos x, beta/2 = asin(lam sq)
-        wa = _w(math.atan2(sq, x), sq, x, False)
-        wb = _w(math.atan2(lam * sq, y), lam * sq, y, False)
+        wa = _w(libm.py.atan2(sq, x), sq, x, False)
+        wb = _w(libm.py.atan2(lam * sq, y), lam * sq, y, False)
     else:                                   # hyperbola: alpha/2 = acosh x
-        wa = _w(math.asinh(sq), sq, x, True)
-        wb = _w(math.asinh(lam * sq), lam * sq, y, True)
-    t = 0.5 * (wa - lam ** 3 * wb) + multi
-    return t, (3.0 * x * t - 2.0 + 2.0 * lam ** 3 * x / y) / e
+        wa = _w(libm.py.asinh(sq), sq, x, True)
+        wb = _w(libm.py.asinh(lam * sq), lam * sq, y, True)
+    lam3 = lam * lam * lam
+    t = 0.5 * (wa - lam3 * wb) + multi
+    return t, (3.0 * x * t - 2.0 + 2.0 * lam3 * x / y) / e
 
 
 def _higher(x, lam, k, t, dt):
     """d2T/dx2 and d3T/dx3 from T and dT/dx (Izzo eq. 22)."""
     e = (1.0 - x) * (1.0 + x)
     y = math.sqrt(k + lam * lam * x * x)
-    d2 = (3.0 * t + 5.0 * x * dt + 2.0 * k * lam ** 3 / y ** 3) / e
-    d3 = (7.0 * x * d2 + 8.0 * dt - 6.0 * k * lam ** 5 * x / y ** 5) / e
+    lam3, y3 = lam * lam * lam, y * y * y
+    d2 = (3.0 * t + 5.0 * x * dt + 2.0 * k * lam3 / y3) / e
+    d3 = (7.0 * x * d2 + 8.0 * dt - 6.0 * k * lam3 * lam * lam * x / (y3 * y * y)) / e
     return d2, d3
 
 
@@ -201,7 +205,7 @@ def lambert(r1, r2, tof, mu, *, prograde=True, revolutions=0, branch="left"):
     k = c / s                                        # 1 - lam^2
     scale = math.sqrt(2.0 * mu / s) / s              # T = scale * tof, Izzo's time
     T = tof * scale
-    T00 = math.atan2(math.sqrt(k), lam) + lam * math.sqrt(k)        # T(x = 0), n = 0
+    T00 = libm.py.atan2(math.sqrt(k), lam) + lam * math.sqrt(k)        # T(x = 0), n = 0
     # beyond these x would lie within 1e-13 of +-1 (or T itself near underflow), where
     # doubles no longer resolve it: lambert would return some neighbouring orbit
     longest = 1e19 * (T00 if n == 0 else n * math.pi)
@@ -211,13 +215,13 @@ def lambert(r1, r2, tof, mu, *, prograde=True, revolutions=0, branch="left"):
                          f"{longest / scale:.3g}")
 
     if n == 0:
-        T1 = 2.0 / 3.0 * (1.0 - lam ** 3)                           # T(x = 1), the parabola
+        T1 = 2.0 / 3.0 * (1.0 - lam * lam * lam)                           # T(x = 1), the parabola
         if T >= T00:
-            x0 = (T00 / T) ** (2.0 / 3.0) - 1.0
+            x0 = libm.py.pow(T00 / T, 2.0 / 3.0) - 1.0
         elif T < T1:
-            x0 = 2.5 * T1 / T * (T1 - T) / (1.0 - lam ** 5) + 1.0
+            x0 = 2.5 * T1 / T * (T1 - T) / (1.0 - lam * lam * lam * lam * lam) + 1.0
         else:
-            x0 = (T00 / T) ** math.log2(T1 / T00) - 1.0
+            x0 = libm.py.pow(T00 / T, libm.py.log(T1 / T00) * 1.4426950408889634) - 1.0  # log2
         x = _solve(T, lam, k, 0, x0, -1.0, math.inf, True)
     else:
         xm, tmin = _minimum_time(lam, k, n)
@@ -225,10 +229,10 @@ def lambert(r1, r2, tof, mu, *, prograde=True, revolutions=0, branch="left"):
             raise ValueError(f"tof = {tof}: too short for {n} revolution(s) on this geometry; "
                              f"the minimum is {tmin / scale!r}")
         if branch == "left":
-            q = ((n + 1) * math.pi / (8.0 * T)) ** (2.0 / 3.0)
+            q = libm.py.pow((n + 1) * math.pi / (8.0 * T), 2.0 / 3.0)
             lo, hi = -1.0, xm
         else:
-            q = (8.0 * T / (n * math.pi)) ** (2.0 / 3.0)
+            q = libm.py.pow(8.0 * T / (n * math.pi), 2.0 / 3.0)
             lo, hi = xm, 1.0
         x0 = (q - 1.0) / (q + 1.0)
         if not lo < x0 < hi:

@@ -17,6 +17,7 @@ import numpy as np
 from . import _validate as check
 from .forces import MUTUAL
 from .kernels import libm
+from . import vec
 
 
 def solve_kepler(M, e):
@@ -154,20 +155,20 @@ def state_to_elements(mu, pos, vel, about=None):
     r = np.zeros(3)
     v = np.zeros(3)
     r[:len(pos)], v[:len(vel)] = pos, vel
-    rn = float(np.linalg.norm(r))
+    rn = vec.norm(r)
     h = np.cross(r, v)
-    hn = float(np.linalg.norm(h))
+    hn = vec.norm(h)
     if not (rn > 0.0 and hn > 0.0 and np.all(np.isfinite(h))):
         raise ValueError(f"pos = {list(pos)}, vel = {list(vel)}: no orbital plane (the body "
                          f"sits on the parent or moves straight toward or away from it)")
-    ev = ((v @ v - mu / rn) * r - (r @ v) * v) / mu
-    e = float(np.linalg.norm(ev))
+    ev = ((vec.dot(v, v) - mu / rn) * r - vec.dot(r, v) * v) / mu
+    e = vec.norm(ev)
     p = hn * hn / mu
-    energy = float(0.5 * (v @ v) - mu / rn)
+    energy = 0.5 * vec.dot(v, v) - mu / rn
     hat = h / hn
     i = libm.py.atan2(math.hypot(h[0], h[1]), h[2])      # not acos(h_z): exact near 0 and pi
     node = np.array([-h[1], h[0], 0.0])
-    nn = float(np.linalg.norm(node))
+    nn = vec.norm(node)
     if nn <= 1e-15 * hn:                       # equatorial: the node is the x axis
         Omega, node = 0.0, np.array([1.0, 0.0, 0.0])
     else:
@@ -177,16 +178,16 @@ def state_to_elements(mu, pos, vel, about=None):
     if e <= 1e-15:                             # circular: pericentre at the node
         omega, e, ev = 0.0, 0.0, node
     else:
-        omega = libm.py.atan2(ev @ ahead, ev @ node) % (2 * math.pi)
-    ehat = ev / np.linalg.norm(ev)
-    f = libm.py.atan2(r @ np.cross(hat, ehat), r @ ehat)
+        omega = libm.py.atan2(vec.dot(ev, ahead), vec.dot(ev, node)) % (2 * math.pi)
+    ehat = ev / vec.norm(ev)
+    f = libm.py.atan2(vec.dot(r, np.cross(hat, ehat)), vec.dot(r, ehat))
     q = p / (1.0 + e)
     if e < 1.0:
         a = -mu / (2.0 * energy)
         E = 2.0 * libm.py.atan2(math.sqrt(1 - e) * libm.py.sin(f / 2),
                                 math.sqrt(1 + e) * libm.py.cos(f / 2))
         M = mean_anomaly(E, e)            # in (-pi, pi]: wrapped to [0, 2 pi) it would
-        n = math.sqrt(mu / a ** 3)        # lose digits just before pericentre
+        n = math.sqrt(mu / (a * a * a))   # lose digits just before pericentre
         period, apocentre = 2 * math.pi / n, a * (1.0 + e)
         to_peri = (-M if M <= 0.0 else 2 * math.pi - M) / n
         to_apo = (math.pi - M) / n
@@ -194,15 +195,15 @@ def state_to_elements(mu, pos, vel, about=None):
         if e == 1.0:
             a = math.inf
             D = libm.py.tan(f / 2)
-            M = D + D ** 3 / 3
-            n = math.sqrt(mu / (2.0 * q ** 3))
+            M = D + D * D * D / 3
+            n = math.sqrt(mu / (2.0 * q * q * q))
         else:
             a = -mu / (2.0 * energy) if energy > 0.0 else -q / (e - 1.0)
             # on a near-radial hyperbola rounding can put f a hair past the asymptote
             x = math.sqrt((e - 1) / (e + 1)) * libm.py.tan(f / 2)
             F = 2.0 * libm.py.atanh(math.copysign(min(abs(x), math.nextafter(1.0, 0.0)), x))
             M = e * libm.py.sinh(F) - F
-            n = math.sqrt(mu / (-a) ** 3)
+            n = math.sqrt(mu / -(a * a * a))
         period = apocentre = to_apo = math.inf
         to_peri = -M / n
     return Elements(float(a), e, i, Omega, omega, f, float(M), float(period), float(q),
@@ -211,12 +212,12 @@ def state_to_elements(mu, pos, vel, about=None):
 
 def period(mu, a):
     """Orbital period 2 pi sqrt(a^3 / mu) [time]."""
-    return 2.0 * np.pi * np.sqrt(a ** 3 / mu)
+    return 2.0 * np.pi * np.sqrt(a * a * a / mu)
 
 
 def kepler_state(mu, a, e, t, *, i=0.0, Omega=0.0, omega=0.0, M0=0.0):
     """Exact two-body position and velocity (3,) at time t for an orbit with mean anomaly M0 at t=0."""
-    n = np.sqrt(mu / a ** 3)
+    n = np.sqrt(mu / (a * a * a))
     return elements_to_state(mu, a, e, i, Omega, omega, M=M0 + n * t)
 
 
@@ -268,8 +269,8 @@ def put_on_orbit(world, body_id, about, elements):
                          f"Omega, omega, f or M")
     i, mu, x, v, _ = _parent(world, body_id, about)
     pos, vel = elements_to_state(mu, **elements)
-    if world.dim == 2 and (abs(pos[2]) > 1e-12 * np.linalg.norm(pos) or
-                           abs(vel[2]) > 1e-12 * np.linalg.norm(vel)):
+    if world.dim == 2 and (abs(pos[2]) > 1e-12 * vec.norm(pos) or
+                           abs(vel[2]) > 1e-12 * vec.norm(vel)):
         raise ValueError(f"i = {elements.get('i')}: a 2D World's orbits lie in its plane "
                          f"(i = 0, or pi for clockwise)")
     world.set_body(int(world.ids[i]), pos=(x + pos)[:world.dim], vel=(v + vel)[:world.dim])

@@ -12,7 +12,9 @@ import numpy as np
 
 from . import _validate as check
 from .forces import MUTUAL
+from .kernels import libm
 from .kernels.codes import BURN_DIRECTIONS, BURN_NORMAL, BURN_ANTINORMAL, BURN_VECTOR
+from . import vec
 
 # a plan row kept by World (Actors.plans) and in World.state(): ship id, start, stop, direction
 # code, frame id (-1: the fixed point), throttle, vector (3,), fixed point (3,)
@@ -98,7 +100,7 @@ def rows(world, ship, burns):
                 raise ValueError(f"{name}.direction = {burn.direction}: {dim} components in "
                                  f"a {dim}D World")
             row[3], row[4] = BURN_VECTOR, -1
-            row[6:6 + dim] = v / np.linalg.norm(v)
+            row[6:6 + dim] = v / vec.norm(v)
         if k and burn.start < out[k - 1, 2] + world.dt:
             raise ValueError(f"{name}.start = {burn.start}: before burns[{k - 1}] has stopped "
                              f"(at {out[k - 1, 2]}) and one step (dt = {world.dt}) has "
@@ -199,13 +201,13 @@ def hohmann(world, ship, radius, about=None, start=None):
     mu, frame = el.mu, el.about
     i = world.index_of(ship, "ship")
     centre = world.central_pos if frame is None else world.pos[world.index_of(frame)]
-    r1 = float(np.linalg.norm(world.pos[i] - centre))
+    r1 = vec.norm(world.pos[i] - centre)
     if abs(radius - r1) <= 1e-9 * r1:
         raise ValueError(f"radius = {radius}: the ship is already there (r = {r1:.12g})")
     a_t = 0.5 * (r1 + radius)
     dv1 = abs(math.sqrt(mu * (2.0 / r1 - 1.0 / a_t)) - math.sqrt(mu / r1))
     dv2 = abs(math.sqrt(mu / radius) - math.sqrt(mu * (2.0 / radius - 1.0 / a_t)))
-    transfer = math.pi * math.sqrt(a_t ** 3 / mu)
+    transfer = math.pi * math.sqrt(a_t * a_t * a_t / mu)
     thrust, exhaust = world.engine(ship)
     if thrust <= 0.0:
         raise ValueError(f"ship = {ship}: its engine has no thrust")
@@ -213,7 +215,7 @@ def hohmann(world, ship, radius, about=None, start=None):
     m = float(world.mass[i])
     durations = []
     for dv in (dv1, dv2):
-        m_after = m * math.exp(-dv / exhaust)
+        m_after = m * libm.py.exp(-dv / exhaust)
         durations.append((m - m_after) * exhaust / thrust)     # at full throttle
         m = m_after
     fuel = world.fuel(ship)

@@ -117,3 +117,80 @@ def test_the_state_hash_is_the_same_compiled_for_another_cpu(cpu, tmp_path_facto
                          env=_compiled_for(cpu, tmp_path_factory), timeout=600)
     assert run.returncode == 0, run.stderr[-3000:]
     assert int(run.stdout.split()[-1]) == _words_hash()
+
+
+# ------------------------------------------------------- the Python that builds a state
+
+# what spacephys computes in Python (not in kernels) when it builds or changes a state:
+# orbital elements both ways, Kepler rails and spheres of influence, Lambert and Hohmann,
+# headings, the moment of inertia of a compound shape, the game's spawns and pilots; each
+# over many random inputs, so that a function whose last bit depends on the CPU shows it
+PROBE = """
+import hashlib, os, sys
+os.environ["SDL_VIDEODRIVER"] = "dummy"
+import numpy as np
+import spacephys as sp
+from spacephys import rails
+from spacephys.game import make_mode
+from spacephys.game.loop import play
+
+rng = np.random.default_rng(11)
+out = []
+for _ in range(300):
+    r, v = rng.uniform(-2, 2, 3), rng.uniform(-1, 1, 3)
+    e = sp.orbits.state_to_elements(1.3, r, v)
+    out += [e.a, e.e, e.i, e.Omega, e.omega, e.f, e.M, e.period]
+    out += list(rails.elements(r, v, 1.3, 0.25))
+    out += list(sp.orbits.elements_to_state(1.3, 1.0 + rng.random(), 0.8 * rng.random(),
+                                            rng.random(), rng.random(), rng.random(),
+                                            M=rng.uniform(-3, 3))[0])
+    out.append(sp.Circles(rng.uniform(-1, 1, (3, 3)), rng.uniform(0.1, 1, 3)).gyration())
+for _ in range(100):
+    v1, v2 = sp.lambert(rng.uniform(0.5, 2, 3), rng.uniform(-2, -0.5, 3), rng.uniform(0.5, 5),
+                        1.0)
+    out += list(v1) + list(v2)
+w = sp.World(dim=3, G=1.0)
+star = w.add_body(1.0, (0, 0, 0), (0, 0, 0), fixed=True)
+for k in range(40):
+    moon = w.add_body(10 ** rng.uniform(-6, -2), rng.uniform(-3, 3, 3), rng.uniform(-0.3, 0.3, 3))
+    w.set_orbit(moon, about=star, a=1 + k / 10, e=0.3 * rng.random(), i=rng.random(),
+                Omega=rng.random(), omega=rng.random(), M=rng.uniform(-3, 3))
+    w.set_rails(moon, about=star)
+ship = w.add_ship(sp.ShipSpec(), (0.9, 0.1, 0), (0.1, 1.0, 0.1),
+                  heading=rng.uniform(-1, 1, 3))
+w.coast([ship])
+out += list(w._coasting.spheres())                  # Laplace's radii (m / M)^(2/5)
+w.step(50)
+out.append(float(w.digest()))
+for name in ("duel", "arena"):
+    m = make_mode(name, players=0, seed=3)
+    play(m, frames=240, headless=True)
+    out.append(float(m.world.digest()))
+print(hashlib.sha256(np.array(out, float).tobytes()).hexdigest())
+"""
+
+
+def _lowered_env():
+    """This process's environment with numpy's SIMD loops, OpenBLAS's kernels and the C
+    library's FMA variants taken down to the x86-64 baseline (numba still compiles for
+    the host: its targets are the tests above)."""
+    from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+    off = [f for f in __cpu_dispatch__ if __cpu_features__.get(f)]
+    env = dict(os.environ, OPENBLAS_CORETYPE="Prescott",
+               GLIBC_TUNABLES="glibc.cpu.hwcaps=-AVX2,-FMA,-FMA4,-AVX512F,-AVX_Usable")
+    if off:
+        env["NPY_DISABLE_CPU_FEATURES"] = " ".join(off)
+    return env
+
+
+def test_what_python_builds_is_the_same_with_numpy_blas_and_libc_lowered():
+    """The probe on this CPU, then with numpy, OpenBLAS and glibc picking their baseline
+    code: the same bits (numpy's power, sin and cos, BLAS's dot products and glibc's
+    pow, sin, cos, atan2 and exp give other last bits there: none of them may build a
+    state)."""
+    runs = [subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True,
+                           env=env, timeout=900) for env in (dict(os.environ), _lowered_env())]
+    for run in runs:
+        assert run.returncode == 0, run.stderr[-3000:]
+    host, lowered = (run.stdout.split()[-1] for run in runs)
+    assert host == lowered

@@ -6,6 +6,8 @@ import math
 import numpy as np
 
 import spacephys as sp
+from spacephys import vec
+from spacephys.kernels import libm
 
 
 def _wrap_angle(a):
@@ -17,9 +19,9 @@ def intercept(d, u, speed, lead=1.0):
     d (2,) moving at u (2,) relative to the launcher, on straight lines; d's own direction
     when the target cannot be caught. lead: the fraction of the target's motion until the
     meeting that is aimed ahead (1: the meeting point; 0: the target's position)."""
-    a = u @ u - speed * speed
-    b = 2.0 * (d @ u)
-    c = d @ d
+    a = vec.dot(u, u) - speed * speed
+    b = 2.0 * vec.dot(d, u)
+    c = vec.dot(d, d)
     t = -1.0
     if abs(a) < 1e-12:
         t = -c / b if b < 0 else -1.0
@@ -101,8 +103,8 @@ class Pilot:
         if hit is False:
             hit = Pilot.look([self])[0]
         if hit is not None and hit.ids.size:        # falling into something: climb out
-            away = hit.normals[0] + v / math.sqrt(v @ v)     # (the normal points away)
-            aim = math.atan2(away[1], away[0])
+            away = hit.normals[0] + v / vec.norm(v)     # (the normal points away)
+            aim = libm.py.atan2(away[1], away[0])
             thrust = 1.0
         elif self.clear is not None:
             aim = self._climb(p, v)
@@ -116,7 +118,7 @@ class Pilot:
                 to = d / dist if dist > 0 else np.array([1.0, 0.0])
             else:
                 to = intercept(d, w.vel[j] - v, self.weapon.launch_speed, self.lead)
-            want = math.atan2(to[1], to[0])
+            want = libm.py.atan2(to[1], to[0])
             if aim is None:
                 aim = want
                 thrust = 1.0 if dist > self.approach * self.range and \
@@ -149,14 +151,14 @@ class Pilot:
             return None
         j = w.index_of(body)
         r, u = self._offset(p - w.pos[j]), v - w.vel[j]
-        if r @ u >= 0.0 or w.elements(self.ship, about=body).pericentre >= distance:
+        if vec.dot(r, u) >= 0.0 or w.elements(self.ship, about=body).pericentre >= distance:
             return None
-        out = r / math.sqrt(r @ r)
-        along = u - (u @ out) * out                      # the velocity across the radius
-        norm = math.sqrt(along @ along)
+        out = r / vec.norm(r)
+        along = u - vec.dot(u, out) * out                      # the velocity across the radius
+        norm = vec.norm(along)
         along = along / norm if norm > 1e-9 else np.array([-out[1], out[0]])
         away = along + 0.3 * out
-        return math.atan2(away[1], away[0])
+        return libm.py.atan2(away[1], away[0])
 
     def transfer(self, radius, about=None):
         """Plan a Hohmann transfer to a circular orbit of `radius` (sp.hohmann, flown by the
@@ -175,7 +177,7 @@ class Pilot:
         if speed < 1e-3:
             self.mode.steer(self.ship, 0.0, 0.0)
             return speed
-        want = math.atan2(-rel[1], -rel[0])
+        want = libm.py.atan2(-rel[1], -rel[0])
         err = _wrap_angle(want - w.heading(self.ship))
         throttle = float(min(1.0, gain * speed)) if abs(err) < 0.2 else 0.0
         self.mode.steer(self.ship, throttle, float(np.clip(3.0 * err, -1.0, 1.0)))
