@@ -15,7 +15,7 @@ import numpy as np
 
 from . import _validate as check
 from . import editing, plans
-from .entities import G0_SI, ExplosionSpec, MissileSpec, ShipSpec
+from .entities import G0_SI, ExplosionSpec, MissileSpec, ShipSpec, filter_value
 from .kernels.codes import GUIDANCE
 from .events import EVENT_DTYPE, upgrade
 from .kernels import control, libm, seeds
@@ -436,11 +436,10 @@ class Actors:
         """World.launch (the docstring is there)."""
         if not isinstance(spec, MissileSpec):
             raise ValueError(f"spec = {spec!r}: must be a MissileSpec")
-        if (category, mask, group) != (None, None, None):       # checked as a spec's are
-            spec = dataclasses.replace(
-                spec, category=spec.category if category is None else category,
-                mask=spec.mask if mask is None else mask,
-                group=spec.group if group is None else group)
+        given = {k: filter_value("launch:", k, v) for k, v in
+                 (("category", category), ("mask", mask), ("group", group)) if v is not None}
+        if given:
+            spec = dataclasses.replace(spec, **given)
         p = self.w.index_of(parent, "parent")
         b = self.b
         if target is not None:

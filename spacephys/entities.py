@@ -274,16 +274,22 @@ class MissileSpec:
                              f"{self.arming_delay}: the missile would expire before it arms")
 
 
+def filter_value(where, name, v):
+    """category or mask (an integer of int64 bits) or group (an integer >= 0) as an int;
+    ValueError naming `where` (a spec's class, a call) and the field."""
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or \
+            not (0 if name == "group" else -2 ** 63) <= v < 2 ** 63:
+        what = "an integer >= 0 (0: none)" if name == "group" else \
+            "an integer of collision bits (int64)"
+        raise ValueError(f"{where} {name} = {v!r}: must be {what}")
+    return int(v)
+
+
 def _check_filter(spec):
     """A spec's category and mask (integers of int64 bits) and group (an integer >= 0)."""
     for name in ("category", "mask", "group"):
-        v = getattr(spec, name)
-        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or \
-                not (0 if name == "group" else -2 ** 63) <= v < 2 ** 63:
-            what = "an integer >= 0 (0: none)" if name == "group" else \
-                "an integer of collision bits (int64)"
-            raise ValueError(f"{type(spec).__name__} {name} = {v!r}: must be {what}")
-        object.__setattr__(spec, name, int(v))
+        object.__setattr__(spec, name, filter_value(type(spec).__name__, name,
+                                                    getattr(spec, name)))
 
 
 def _refuse_dead_engine(spec, name, thrust, empty_tank_ok):

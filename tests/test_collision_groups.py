@@ -113,13 +113,58 @@ def test_groups_survive_snapshots_state_files_and_replay(tmp_path):
     del snap
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_groups_and_tags_come_back_with_snapshots_state_files_and_replays(dim, tmp_path):
+    """A snapshot taken before the ship had a group or a tag, one after the launch, a
+    state file and a replay, in both dimensions."""
+    spec = sp.MissileSpec(mass=0.1, arming_delay=0.1, radius=0.5, hits_launcher=True)
+
+    def scene(record=None):
+        w = sp.World(dim, gravity="none", dt=1 / 60)
+        w.set_collision("missile", "ship", "destroy_both")
+        log = w.record(record) if record else None
+        ship = w.add_ship(HULL, (0.0,) * dim, heading=0.0 if dim == 2 else (1.0, 0.0, 0.0))
+        return w, ship, log
+
+    def fly(w, ship):
+        w.set_body(ship, group=3, tag=7)
+        missile = w.launch(ship, spec, group=3)
+        w.control(ship, throttle=1.0)
+        w.step(45)
+        return missile
+
+    w, ship, _ = scene()
+    before = w.snapshot()
+    missile = fly(w, ship)
+    mid = w.snapshot()
+    loaded = sp.World.from_state(w.state())
+    assert loaded.group.tolist() == w.group.tolist() == [3, 3]
+    assert loaded.tags.tolist() == w.tags.tolist() == [7, 0]
+    w.step(45)
+    after = w.digest()
+    assert ship in w and missile in w                     # one group: spared
+    loaded.step(45)
+    assert loaded.digest() == after
+    w.restore(mid)
+    assert w.group.tolist() == [3, 3] and w.tags.tolist() == [7, 0]
+    w.step(45)
+    assert w.digest() == after
+    w.restore(before)                                     # no group, no tag, no missile
+    assert w.n == 1 and w.group.tolist() == [0] and w.tags.tolist() == [0]
+    assert w.digest() == scene()[0].digest()
+    recorded, ship, log = scene(tmp_path / "run.h5")
+    fly(recorded, ship)
+    log.close()
+    assert sp.replay(tmp_path / "run.h5").ok
+
+
 @pytest.mark.parametrize("call, message", [
     (lambda w, s: w.add_body(1.0, (0.0, 0.0), group=-1), "group = -1"),
     (lambda w, s: w.add_body(1.0, (0.0, 0.0), group=1.5), "group = 1.5"),
     (lambda w, s: w.add_bodies(1.0, [(0.0, 0.0), (1.0, 0.0)], group=[1, -2]), "group = -2"),
     (lambda w, s: w.set_body(s, group="a"), "group = 'a'"),
-    (lambda w, s: w.launch(s, SHELL, group=-3), "MissileSpec group = -3"),
-    (lambda w, s: w.launch(s, SHELL, mask=2 ** 64), "MissileSpec mask = 18446744073709551616"),
+    (lambda w, s: w.launch(s, SHELL, group=-3), "launch: group = -3"),
+    (lambda w, s: w.launch(s, SHELL, mask=2 ** 64), "launch: mask = 18446744073709551616"),
     (lambda w, s: sp.ShipSpec(category=True), "ShipSpec category = True"),
     (lambda w, s: sp.MissileSpec(hits_launcher=1), "hits_launcher = 1"),
 ])

@@ -158,6 +158,19 @@ def test_bad_tethers_are_named_and_nothing_changes(call, message):
     assert w.digest() == before and len(w.tethers) == 1
 
 
+def test_a_tether_to_a_removed_body_is_refused_at_either_end():
+    w = sp.World(3, gravity="none")
+    a = w.add_body(1.0, (0.0, 0.0, 0.0))
+    gone = w.add_body(1.0, (1.0, 0.0, 0.0))
+    w.remove(gone)
+    before = w.digest()
+    with pytest.raises(ValueError, match=f"b = {gone} names no live body"):
+        w.tether(a, gone, stiffness=1.0)
+    with pytest.raises(ValueError, match=f"a = {gone} names no live body"):
+        w.tether(gone, a, rigid=True)
+    assert w.digest() == before and len(w.tethers) == 0
+
+
 # ----------------------------------------------------------------------------- inextensible
 
 def _pendulum(integrator, rigid=False, dt=0.002, break_force=None):
@@ -243,8 +256,10 @@ def test_wisdom_holman_refuses_an_inextensible_tether():
     w.integrator = "leapfrog"
     k = w.tether(sun, planet, rigid=True)
     w.integrator = "wisdom_holman"
+    before = w.digest()
     with pytest.raises(ValueError, match="inextensible tether"):
         w.step(1)
+    assert w.digest() == before and w.t == 0.0
     w.untether(k)
     w.step(1)
 
