@@ -103,12 +103,15 @@ def test_removing_an_end_removes_the_tether_and_untether_removes_one():
     assert len(w.tethers) == 0
 
 
-def test_tethers_survive_snapshots_state_files_replay_and_predictions(tmp_path):
-    w = sp.World(3, dt=0.01)
+@pytest.mark.parametrize("dim", [2, 3])
+def test_tethers_survive_snapshots_state_files_replay_and_predictions(dim, tmp_path):
+    w = sp.World(dim, dt=0.01)
     log = w.record(tmp_path / "run.h5")
-    planet = w.add_body(100.0, (0.0, 0.0, 0.0))
-    ship = w.add_body(1.0, (10.0, 0.0, 0.0), (0.0, math.sqrt(10.0), 0.0), active=False)
-    pod = w.add_body(0.5, (11.0, 0.0, 0.0), (0.0, math.sqrt(10.0), 0.5), active=False)
+    planet = w.add_body(100.0, (0.0,) * dim)
+    ship = w.add_body(1.0, (10.0, 0.0, 0.0)[:dim], (0.0, math.sqrt(10.0), 0.0)[:dim],
+                      active=False)
+    pod = w.add_body(0.5, (11.0, 0.0, 0.0)[:dim], (0.0, math.sqrt(10.0), 0.5)[:dim],
+                     active=False)
     w.tether(ship, pod, 1.0, stiffness=20.0, break_force=1e3)
     w.step(30)
     path = w.predict(pod, 0.5, points=51).path(pod)[0]
