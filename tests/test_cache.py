@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+import spacephys as sp
+
 ROOT = Path(__file__).resolve().parents[1]
 NOBODY = 65534
 
@@ -170,3 +172,36 @@ print(json.dumps([[c.target, len(c.kernels)] for c in done]))
     assert [t for t, _ in runs[0]] == ["two_body", "figure_eight"]
     assert all(k > 5 for _, k in runs[0])              # each compiled in its own process
     assert runs[1] == [["two_body", 0], ["figure_eight", 0]]
+
+
+def test_compile_a_world_a_scenario_file_and_what_all_names(tmp_path):
+    """sp.compile(world) steps a copy (the World is not changed) and leaves nothing for the
+    World's own first step to compile; `spacephys compile --scenario FILE --jobs 2`; --all
+    names every shipped scenario and built-in scene; a bad --jobs is named."""
+    from numba.core import event
+    from spacephys.precompile import Compiles, targets
+    from spacephys.scenario import shipped
+    from spacephys.scenes import SCENES
+    w, _ = sp.load_scenario("two_body").build()
+    before = w.digest()
+    done = sp.compile(w)
+    assert [c.target for c in done] == ["world"] and w.digest() == before and w.t == 0.0
+    listener = Compiles()
+    event.register("numba:compile", listener)
+    try:
+        w.step(1)
+    finally:
+        event.unregister("numba:compile", listener)
+    assert listener.kernels == {} and w.t > 0.0
+    mine = tmp_path / "mine.toml"
+    mine.write_text((Path(sp.__file__).parent / "scenarios" / "two_body.toml").read_text())
+    exe = Path(sys.executable).parent / "spacephys"
+    res = subprocess.run([str(exe), "compile", "--scenario", str(mine), "--jobs", "2"],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.startswith(f"[1/1] {mine}: ") and "1 compiled" in res.stdout
+    every = [label for label, _, _ in targets(every=True)]
+    assert sorted(every) == sorted(set(shipped()) | set(SCENES)) and len(every) == len(set(every))
+    res = subprocess.run([str(exe), "compile", "--scene", "two_body", "--jobs", "0"],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert res.returncode == 2 and "jobs = 0" in res.stderr and "Traceback" not in res.stderr
