@@ -33,14 +33,25 @@ def test_the_site_builds_strict_with_every_page(tmp_path):
     world = (site / "api" / "world.html").read_text()
     assert "advance" in world and "Bodies under gravity" in world
     # every script of examples/ is on the Examples page, with its source
-    examples = html.unescape((site / "examples.html").read_text())
+    page = (site / "examples.html").read_text()
+    examples = html.unescape(re.sub(r"<[^>]+>", "", page))        # the text, not its colours
     for script in sorted((ROOT / "examples").glob("*.py")):
         last = [line for line in script.read_text().splitlines() if line.strip()][-1]
-        assert f">{script.name}<" in examples, script.name
+        assert f">{script.name}<" in page, script.name
         assert last.strip() in examples, script.name
     # the home page takes the README's sections (snippets), the commands among them
     home = (site / "index.html").read_text()
     assert "python3.11 dev.py test" in home and "--8&lt;--" not in home
+    assert "spacephys play arena" in html.unescape(re.sub(r"<[^>]+>", "", home))
+    assert all(f'src="images/play-{m}.png"' in home for m in ("duel", "orbit", "arena"))
+    # offline: no script, stylesheet, image or font from another host, and the code is
+    # coloured when the site is built (Pygments), not by a script from a CDN
+    remote = re.compile(r"<(?:script|link|img|iframe)\b[^>]*\b(?:src|href)=\"(?:https?:)?//")
+    pages = sorted(site.rglob("*.html"))
+    assert len(pages) > 30 and not [p.name for p in pages if remote.search(p.read_text())]
+    assert not [c.name for c in site.rglob("*.css") if "@import url(http" in c.read_text()]
+    loop = (site / "guide" / "game-loop.html").read_text()
+    assert '<div class="highlight">' in loop and '<span class="k">' in loop
 
 
 def readme_targets():
