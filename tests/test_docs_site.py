@@ -78,3 +78,15 @@ def test_the_readme_picture_is_small():
     for target in readme_targets():
         if target.endswith(".png"):
             assert (ROOT / target).stat().st_size < 200_000, target
+
+
+def test_the_changelog_names_this_version_and_is_on_the_site():
+    """CHANGELOG.md (Keep a Changelog): an Unreleased section, then the released versions,
+    the newest this package's __version__; the site shows it."""
+    import spacephys
+    text = (ROOT / "CHANGELOG.md").read_text()
+    versions = re.findall(r"^## \[([^\]]+)\]", text, re.M)
+    assert versions[0] == "Unreleased" and versions[1] == spacephys.__version__
+    assert all(re.search(rf"## \[{re.escape(v)}\].*?### (Added|Changed|Fixed)", text, re.S)
+               for v in versions)
+    assert "changelog.md" in (ROOT / "mkdocs.yml").read_text()
