@@ -90,3 +90,17 @@ def test_the_changelog_names_this_version_and_is_on_the_site():
     assert all(re.search(rf"## \[{re.escape(v)}\].*?### (Added|Changed|Fixed)", text, re.S)
                for v in versions)
     assert "changelog.md" in (ROOT / "mkdocs.yml").read_text()
+
+
+def test_the_lecture_notes_are_cited_by_name_never_as_the_seed():
+    """Laird & Jamin's *Basic Game Physics* is cited by its title and authors (the
+    References page lists it); "the seed" means a random generator's seed only."""
+    seed_as_text = re.compile(r"\bthe seed'?s?\s+(brick|wind|particle|lecture|notes|model|"
+                              r"game|text|physics|projectile|thrust)", re.I)
+    files = [ROOT / "README.md", *(ROOT / "docs").rglob("*.md"),
+             *(ROOT / "spacephys").rglob("*.py"), *(ROOT / "examples").glob("*.py")]
+    assert not [f"{f.name}: {m.group(0)}" for f in files
+                for m in seed_as_text.finditer(f.read_text())]
+    references = (ROOT / "docs" / "references.md").read_text()
+    assert "Laird and S. Jamin, *Basic Game Physics*" in references
+    assert "references.md" in (ROOT / "mkdocs.yml").read_text()
