@@ -77,10 +77,13 @@ class Circles:
 
     @property
     def dim(self):
+        """2 or 3: the number of coordinates of each offset."""
         return len(self.offsets[0])
 
     @property
     def bounding(self):
+        """The radius of the circle about the body's centre that holds every circle [length]
+        (the body's radius)."""
         o = np.array(self.offsets)
         return float(np.max(np.sqrt((o * o).sum(axis=1)) + np.array(self.radii)))
 

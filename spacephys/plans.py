@@ -62,6 +62,7 @@ class Burn:
 
     @property
     def stop(self):
+        """start + duration [time]: when the burn ends."""
         return self.start + self.duration
 
 

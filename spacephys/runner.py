@@ -34,14 +34,17 @@ class RunResult:
 
     @property
     def energy_error(self):
+        """|E - E0| / |E0|: the relative change of the total energy over the run."""
         return abs(self.energy - self.energy0) / abs(self.energy0) if self.energy0 else abs(self.energy)
 
     @property
     def angular_momentum_error(self):
+        """|L - L0| / |L0|: the relative change of the angular momentum's size."""
         L0 = self.angular_momentum0
         return abs(self.angular_momentum - L0) / abs(L0) if L0 else abs(self.angular_momentum)
 
     def summary(self):
+        """The run's summary as printed by spacephys run: a str of labelled lines."""
         w = self.world
         spec = w.integrator_spec
         pulls = int(np.count_nonzero(w.pulls)) if w.gravity in MUTUAL else 0

@@ -109,6 +109,7 @@ class Run:
         self.close()
 
     def close(self):
+        """Close the file (also on leaving a with block)."""
         self._f.close()
 
     def __len__(self):
@@ -116,13 +117,18 @@ class Run:
 
     @property
     def times(self):
+        """(F,) the time of each recorded frame [time]."""
         return self._read("frames/t", "frames")
 
     @property
     def steps(self):
+        """(F,) the World's step count at each recorded frame."""
         return self._read("frames/step", "frames")
 
     def frame(self, index):
+        """Recorded frame `index` (negative counts from the end) as a Frame: its index,
+        step and time, and the ids, positions, velocities, masses, radii and kind codes of
+        the bodies alive then; IndexError outside the log."""
         n = len(self)
         if not -n <= index < n:
             raise IndexError(f"frame {index}: the log holds {n} frames")

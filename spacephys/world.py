@@ -169,6 +169,7 @@ class World:
     # ---------------------------------------------------------------- settings
     @property
     def dim(self):
+        """2 or 3: the World's dimension (positions are (n, dim))."""
         return self._dim
 
     @property
@@ -178,10 +179,13 @@ class World:
 
     @property
     def G(self):
+        """The gravitational constant [length^3 / (mass time^2)] (from units=, or G=)."""
         return self._forces.G
 
     @property
     def gravity(self):
+        """The gravity model's name: "direct", "tree", "uniform", "central" or "none";
+        assign one to switch (its settings as in World())."""
         return self._forces.gravity
 
     @property
@@ -215,6 +219,7 @@ class World:
 
     @property
     def dt(self):
+        """The step [time] (for an adaptive integrator the output interval); assignable."""
         return self._dt
 
     @dt.setter
@@ -264,6 +269,8 @@ class World:
 
     @property
     def integrator_spec(self):
+        """The integrator's spacephys.Integrator: name, order, symplectic, adaptive, family,
+        stages and its reference."""
         return self._spec
 
     @property
@@ -317,6 +324,8 @@ class World:
 
     @property
     def tolerance(self):
+        """The adaptive integrator's error parameter (>= 0; 0: fixed substeps of
+        min(dt, max_step)); assignable."""
         return float(self._adaptive[0])
 
     @tolerance.setter
@@ -326,6 +335,7 @@ class World:
 
     @property
     def max_step(self):
+        """The longest adaptive substep [time], or None (no limit); assignable."""
         return None if np.isinf(self._adaptive[1]) else float(self._adaptive[1])
 
     @max_step.setter
@@ -335,6 +345,7 @@ class World:
 
     @property
     def min_step(self):
+        """The shortest adaptive substep [time] (reaching it warns); assignable."""
         return float(self._adaptive[2])
 
     @min_step.setter
@@ -374,6 +385,7 @@ class World:
 
     @property
     def softening(self):
+        """The Plummer softening length [length]; assignable."""
         return self._forces.softening
 
     @softening.setter
@@ -500,6 +512,7 @@ class World:
     # remove may move rows, so take them afresh after changing the set of bodies.
     @property
     def ids(self):
+        """(n,) int64: each live body's id, row by row (generation << 32 | slot)."""
         return _readonly(self._b.ids[:self._b.n])
 
     @property
@@ -514,10 +527,12 @@ class World:
 
     @property
     def mass(self):
+        """(n,) masses [mass]."""
         return _readonly(self._b.mass[:self._b.n])
 
     @property
     def radius(self):
+        """(n,) radii [length] (a compound body's: the circle holding its circles)."""
         return _readonly(self._b.radius[:self._b.n])
 
     @property
@@ -945,6 +960,7 @@ class World:
         return _readonly(self._collisions.walls)
 
     def clear_walls(self):
+        """Remove every wall (add_wall's); the boundary box stays."""
         self._collisions.walls = np.zeros((0, 8))
         self._set_up()
 
@@ -1432,6 +1448,7 @@ class World:
         return measures.gravity_accelerations(self, ids, exact)
 
     def kinetic_energy(self, pulling_only=False):
+        """sum m v^2 / 2 [mass length^2 / time^2] (pulling_only: of the pulling bodies)."""
         return measures.kinetic_energy(self, pulling_only)
 
     def potential_energy(self, pulling_only=False, exact=False):
@@ -1454,6 +1471,7 @@ class World:
         return measures.angular_momentum(self, pulling_only)
 
     def total_mass(self):
+        """The sum of the masses [mass]."""
         return measures.total_mass(self)
 
     def center_of_mass(self):

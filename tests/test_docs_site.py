@@ -104,3 +104,50 @@ def test_the_lecture_notes_are_cited_by_name_never_as_the_seed():
     references = (ROOT / "docs" / "references.md").read_text()
     assert "Laird and S. Jamin, *Basic Game Physics*" in references
     assert "references.md" in (ROOT / "mkdocs.yml").read_text()
+
+
+# World's members the API reference leaves out: the World's own parts call them
+HIDDEN = {"tables", "driver", "warn_later", "named", "step_control_rows"}
+DOCUMENTED = ("World", "Run", "RunResult", "Sweep", "Prediction", "Hits", "RayHits", "Burn",
+              "Elements", "ShipSpec", "MissileSpec", "ExplosionSpec", "Circles", "Filter")
+
+
+def _members(cls):
+    """(name, docstring) of a class's public methods and properties (its own and its
+    bases' but object's)."""
+    import inspect
+    out = {}
+    for klass in reversed(cls.__mro__[:-1]):
+        for name, v in vars(klass).items():
+            if name.startswith("_") or not (callable(v) or isinstance(
+                    v, (property, staticmethod, classmethod))):
+                continue
+            fn = v.fget if isinstance(v, property) else getattr(v, "__func__", v)
+            out[name] = inspect.getdoc(fn) or ""
+    return out
+
+
+def test_every_public_name_has_a_docstring_and_an_entry_in_the_reference(tmp_path):
+    import inspect
+    import spacephys as sp
+    undocumented = [n for n in sp.__all__ if (inspect.isclass(getattr(sp, n)) or
+                                              inspect.isfunction(getattr(sp, n)))
+                    and not (inspect.getdoc(getattr(sp, n)) or "").strip()]
+    undocumented += [f"{c}.{m}" for c in DOCUMENTED
+                     for m, doc in _members(getattr(sp, c)).items()
+                     if not doc.strip() and not (c == "World" and m in HIDDEN)]
+    assert not undocumented
+    site = tmp_path / "site"
+    assert build(site).returncode == 0
+    api = "".join(p.read_text() for p in (site / "api").glob("*.html"))
+    anchors = set(re.findall(r'id="(spacephys\.[A-Za-z0-9_.-]+)"', api))
+    ends = {a.rsplit(".", 1)[-1] for a in anchors}
+    assert not [n for n in sp.__all__ if n not in ends]
+    world = [m for m in _members(sp.World) if m not in HIDDEN and m != "index_of"]
+    assert not [m for m in world if f"spacephys.World.{m}" not in anchors]
+    assert "spacephys.World.index_of-rows" in anchors
+    assert not [f"spacephys.World.{m}" for m in HIDDEN if f"spacephys.World.{m}" in anchors]
+    # the events page: every kind and every field
+    events = (site / "api" / "constants.html").read_text()
+    assert all(f"<code>{name}</code>" in events for name in sp.EVENT_KINDS.values())
+    assert all(f"<code>{f}</code>" in events for f in sp.EVENT_DTYPE.names)
