@@ -1,5 +1,6 @@
 """The Concepts and FAQ pages run as written (their Python blocks in order, extracted from
-the Markdown) and print what they say they print."""
+the Markdown) and print what they say they print; so does every Python block of the guide,
+here or in the test of what it shows."""
 import contextlib
 import io
 import re
@@ -29,3 +30,32 @@ def test_the_page_runs_as_written_and_prints_what_it_says(page):
     assert len(lines) == len(EXPECTED[page]), lines
     for got, want in zip(lines, EXPECTED[page]):
         assert got.startswith(want[0]) if isinstance(want, tuple) else got == want, (got, want)
+
+
+GUIDE = DOCS / "guide"
+# guide pages whose blocks a test of their subject runs (and checks what they print)
+RUN_ELSEWHERE = {"collisions.md": ("test_cli.py", "test_compound.py"),
+                 "ships.md": ("test_cli.py",), "game-loop.md": ("test_cli.py",),
+                 "queries.md": ("test_cli.py", "test_compound_queries.py"),
+                 "drawing.md": ("test_draw.py",)}
+# the guide pages run here, and what each prints that says it did what the page says
+RUN_HERE = {"world.md": [], "gravity.md": ["[(14, 0, 1, 0.39"],
+            "orbits.md": ["(3, 16, 3, 14)", "granted="],
+            "prediction.md": ["apocentre", "pericentre"]}
+
+
+def test_every_guide_page_with_code_is_run():
+    pages = {p.name for p in GUIDE.glob("*.md") if "```python" in p.read_text()}
+    assert pages == set(RUN_ELSEWHERE) | set(RUN_HERE)
+    tests = Path(__file__).parent
+    for page, files in RUN_ELSEWHERE.items():
+        assert all(page in (tests / f).read_text() for f in files), page
+
+
+@pytest.mark.parametrize("page", list(RUN_HERE))
+def test_the_guide_page_runs_as_written(page):
+    code = "\n".join(re.findall(r"```python\n(.*?)```", (GUIDE / page).read_text(), re.S))
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(code, page, "exec"), {})
+    assert all(marker in out.getvalue() for marker in RUN_HERE[page]), out.getvalue()[-2000:]
