@@ -124,8 +124,10 @@ class Actors:
     def _actor_row(self, body, field="id"):
         """The row of a ship or missile (ValueError naming field for any other body)."""
         i = self.w.index_of(body, field)
-        if not self.is_actor(i):
-            raise ValueError(f"{field} = {body}: body is a {self.w.kinds[self.b.kind[i]]!r}, "
+        b = self.b                              # is_actor(i), inline: a game's every-frame call
+        if not ("actor" in b.columns and b.actor.item(i)
+                and not b.flags.item(i) & control.FLAG_ROTOR):
+            raise ValueError(f"{field} = {body}: body is a {self.w.kinds[b.kind[i]]!r}, "
                              f"not a ship or missile")
         return i
 
