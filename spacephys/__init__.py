@@ -29,7 +29,7 @@ _LAZY = {
     "RunResult": "runner", "run_scenario": "runner",
     "Scenario": "scenario", "ScenarioError": "scenario", "load_scenario": "scenario",
     "Recommendation": "study.recommend", "recommend": "study.recommend",
-    "lambert": "lambert", "Prediction": "predict", "Hits": "queries", "RayHits": "queries",
+    "lambert": "lambert_problem", "Prediction": "predict", "Hits": "queries", "RayHits": "queries",
     "Filter": "queries",
     "sweep": "sweeps", "read_sweep": "sweeps", "Sweep": "sweeps", "SweepRun": "sweeps",
     "compile": "precompile", "Compiled": "precompile",

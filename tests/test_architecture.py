@@ -107,3 +107,18 @@ def test_world_has_no_branch_on_the_integrator_family():
     assert set(sp.STEPPERS) == {spec.family for spec in sp.INTEGRATORS.values()}
     for spec in sp.INTEGRATORS.values():
         assert isinstance(sp.capabilities(spec.name), sp.Capabilities)
+
+
+def test_no_public_name_is_also_a_module_of_the_package():
+    """sp.NAME stays what __all__ promises whatever was imported before: importing a
+    submodule spacephys.X sets the package's attribute X to that module, so a function
+    named like its module (sp.lambert in lambert.py) became a module after any import of
+    the module itself."""
+    import importlib
+    import inspect
+    import pkgutil
+    modules = {m.name for m in pkgutil.iter_modules(sp.__path__)}
+    assert not set(sp.__all__) & modules
+    for name in sorted(modules - {"__main__"}):
+        importlib.import_module(f"spacephys.{name}")
+    assert not [n for n in sp.__all__ if inspect.ismodule(getattr(sp, n))]

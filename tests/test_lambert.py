@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import spacephys as sp
-import spacephys.lambert as lam_module
-from spacephys.lambert import lambert
+import spacephys.lambert_problem as lam_module
+from spacephys.lambert_problem import lambert
 
 # Gauss-Radau at tolerance 1e-12 flies these to within 2e-13 (the exact flight of the same
 # velocities, in 50-digit arithmetic, arrives as close); each test's comment gives its
