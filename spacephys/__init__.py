@@ -56,7 +56,7 @@ __all__ = [
 
 
 def __getattr__(name):
-    if name in ("netplay", "draw"):               # imported on first use
+    if name in ("netplay", "draw", "portable"):   # imported on first use
         return importlib.import_module(f".{name}", __name__)
     module = _LAZY.get(name)
     if module is None:

@@ -169,7 +169,7 @@ class Coasting:
             kids = np.flatnonzero(kepler & (rails.ids[:, 1] == parent))
             inside = [(soi[k], int(rails.ids[k, 0])) for k in kids
                       if np.sum((b.pos[w.index_of(int(rails.ids[k, 0]), "id")] - b.pos[i]) ** 2)
-                      < soi[k] ** 2]
+                      < soi[k] * soi[k]]
             if not inside:
                 return parent
             parent = min(inside)[1]

