@@ -20,7 +20,7 @@ from .kernels.codes import GUIDANCE
 from .events import EVENT_DTYPE, upgrade
 from .kernels import control, libm, seeds
 from .kernels.codes import EV_DESTROY, EV_DETONATION, EV_LAUNCH, EV_MERGE
-from . import vec
+from . import portable
 
 # per-body actor columns: name -> (shape, dtype, default)
 ACTOR_COLUMNS = {
@@ -69,7 +69,7 @@ def _heading(dim, heading):
         h = np.array([libm.py.cos(angle), libm.py.sin(angle), 0.0])
         return h, np.array([libm.py.cos(angle / 2), 0.0, 0.0, libm.py.sin(angle / 2)])
     v = check.floats("heading", heading, (dim,))
-    norm = vec.norm(v)
+    norm = portable.norm(v)
     if norm == 0.0:
         raise ValueError(f"heading = {v.tolist()}: a direction cannot be zero")
     h = np.concatenate([v, np.zeros(3 - dim)])
@@ -81,7 +81,7 @@ def _heading(dim, heading):
     if h[0] < -1.0 + 1e-15:
         return h, np.array([0.0, 0.0, 0.0, 1.0])            # straight back: half a turn about z
     q = np.array([1.0 + h[0], 0.0, -h[2], h[1]])           # half-way quaternion from x to h
-    return h, q / vec.norm(q)
+    return h, q / portable.norm(q)
 
 
 def _rotate(q, v):

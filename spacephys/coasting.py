@@ -36,7 +36,7 @@ from .kernels import rails as krails
 from .kernels.codes import EV_SOI_ENTER, EV_SOI_EXIT
 from .editing import pair_mu
 from .rails import elements as conic
-from . import vec
+from . import portable
 
 # the exponent of Laplace's sphere of influence
 LAPLACE = 0.4
@@ -431,11 +431,11 @@ class Coasting:
         e["t_in_step"] = t - (w._t_base + math.floor((t - w._t_base) / step) * step)
         e["x"], e["y"], e["z"] = at[:3]
         d = where[:3] - at[:3]
-        dn = vec.norm(d)
+        dn = portable.norm(d)
         if dn > 0:
             e["nx"], e["ny"], e["nz"] = d / dn
         u = where[3:] - at[3:]
-        e["speed"] = vec.norm(u)
+        e["speed"] = portable.norm(u)
         e["distance"] = radius
         e["circle_a"] = e["circle_b"] = -1
         w._event_count[0] = count + 1

@@ -11,7 +11,7 @@ from .kernels import shapes as kshapes
 from .kernels.arrays import largest
 from .kernels.codes import (BOUNCE, BOUNDARIES, BREAK_A, BREAK_B, FOLLOWS, IGNORE, IN_GRID,
                             MIRRORED, OPEN, OUT_OF_GRID, PLANE, RESPONSES, SEGMENT)
-from . import vec
+from . import portable
 
 
 def _restitution(value):
@@ -126,7 +126,7 @@ class CollisionRules:
     def plane(self, point, normal, restitution, dim):
         point = check.floats("point", point, (dim,))
         normal = check.floats("normal", normal, (dim,))
-        length = vec.norm(normal)
+        length = portable.norm(normal)
         if length == 0:
             raise ValueError("normal = 0: a plane needs a direction")
         return self.add_wall(PLANE, point, normal / length, restitution, dim)

@@ -14,7 +14,7 @@ from . import measures
 from .entities import Circles, ExplosionSpec
 from .rails import elements as rails_elements
 from .steppers import INEXTENSIBLE
-from . import vec
+from . import portable
 
 # kinds whose bodies feel gravity but do not pull unless told to (active=True): their mass is
 # for thrust and collisions, and their pull on planets would only cost time
@@ -402,7 +402,7 @@ def tether(w, a, b, length, stiffness, rigid, break_force):
         raise ValueError(f"rigid = {rigid!r}: must be True (a rod) or False (a rope)")
     b_ = w._b
     if length is None:
-        length = vec.norm(b_.pos[ib] - b_.pos[ia])
+        length = portable.norm(b_.pos[ib] - b_.pos[ia])
     else:
         length = check.scalar("length", length, minimum=0.0)
     break_force = np.inf if break_force is None else \

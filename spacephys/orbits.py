@@ -17,7 +17,7 @@ import numpy as np
 from . import _validate as check
 from .forces import MUTUAL
 from .kernels import libm
-from . import vec
+from . import portable
 
 
 def solve_kepler(M, e):
@@ -155,20 +155,20 @@ def state_to_elements(mu, pos, vel, about=None):
     r = np.zeros(3)
     v = np.zeros(3)
     r[:len(pos)], v[:len(vel)] = pos, vel
-    rn = vec.norm(r)
+    rn = portable.norm(r)
     h = np.cross(r, v)
-    hn = vec.norm(h)
+    hn = portable.norm(h)
     if not (rn > 0.0 and hn > 0.0 and np.all(np.isfinite(h))):
         raise ValueError(f"pos = {list(pos)}, vel = {list(vel)}: no orbital plane (the body "
                          f"sits on the parent or moves straight toward or away from it)")
-    ev = ((vec.dot(v, v) - mu / rn) * r - vec.dot(r, v) * v) / mu
-    e = vec.norm(ev)
+    ev = ((portable.dot(v, v) - mu / rn) * r - portable.dot(r, v) * v) / mu
+    e = portable.norm(ev)
     p = hn * hn / mu
-    energy = 0.5 * vec.dot(v, v) - mu / rn
+    energy = 0.5 * portable.dot(v, v) - mu / rn
     hat = h / hn
     i = libm.py.atan2(math.hypot(h[0], h[1]), h[2])      # not acos(h_z): exact near 0 and pi
     node = np.array([-h[1], h[0], 0.0])
-    nn = vec.norm(node)
+    nn = portable.norm(node)
     if nn <= 1e-15 * hn:                       # equatorial: the node is the x axis
         Omega, node = 0.0, np.array([1.0, 0.0, 0.0])
     else:
@@ -178,9 +178,9 @@ def state_to_elements(mu, pos, vel, about=None):
     if e <= 1e-15:                             # circular: pericentre at the node
         omega, e, ev = 0.0, 0.0, node
     else:
-        omega = libm.py.atan2(vec.dot(ev, ahead), vec.dot(ev, node)) % (2 * math.pi)
-    ehat = ev / vec.norm(ev)
-    f = libm.py.atan2(vec.dot(r, np.cross(hat, ehat)), vec.dot(r, ehat))
+        omega = libm.py.atan2(portable.dot(ev, ahead), portable.dot(ev, node)) % (2 * math.pi)
+    ehat = ev / portable.norm(ev)
+    f = libm.py.atan2(portable.dot(r, np.cross(hat, ehat)), portable.dot(r, ehat))
     q = p / (1.0 + e)
     if e < 1.0:
         a = -mu / (2.0 * energy)
@@ -269,8 +269,8 @@ def put_on_orbit(world, body_id, about, elements):
                          f"Omega, omega, f or M")
     i, mu, x, v, _ = _parent(world, body_id, about)
     pos, vel = elements_to_state(mu, **elements)
-    if world.dim == 2 and (abs(pos[2]) > 1e-12 * vec.norm(pos) or
-                           abs(vel[2]) > 1e-12 * vec.norm(vel)):
+    if world.dim == 2 and (abs(pos[2]) > 1e-12 * portable.norm(pos) or
+                           abs(vel[2]) > 1e-12 * portable.norm(vel)):
         raise ValueError(f"i = {elements.get('i')}: a 2D World's orbits lie in its plane "
                          f"(i = 0, or pi for clockwise)")
     world.set_body(int(world.ids[i]), pos=(x + pos)[:world.dim], vel=(v + vel)[:world.dim])

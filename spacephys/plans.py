@@ -14,7 +14,7 @@ from . import _validate as check
 from .forces import MUTUAL
 from .kernels import libm
 from .kernels.codes import BURN_DIRECTIONS, BURN_NORMAL, BURN_ANTINORMAL, BURN_VECTOR
-from . import vec
+from . import portable
 
 # a plan row kept by World (Actors.plans) and in World.state(): ship id, start, stop, direction
 # code, frame id (-1: the fixed point), throttle, vector (3,), fixed point (3,)
@@ -101,7 +101,7 @@ def rows(world, ship, burns):
                 raise ValueError(f"{name}.direction = {burn.direction}: {dim} components in "
                                  f"a {dim}D World")
             row[3], row[4] = BURN_VECTOR, -1
-            row[6:6 + dim] = v / vec.norm(v)
+            row[6:6 + dim] = v / portable.norm(v)
         if k and burn.start < out[k - 1, 2] + world.dt:
             raise ValueError(f"{name}.start = {burn.start}: before burns[{k - 1}] has stopped "
                              f"(at {out[k - 1, 2]}) and one step (dt = {world.dt}) has "
@@ -202,7 +202,7 @@ def hohmann(world, ship, radius, about=None, start=None):
     mu, frame = el.mu, el.about
     i = world.index_of(ship, "ship")
     centre = world.central_pos if frame is None else world.pos[world.index_of(frame)]
-    r1 = vec.norm(world.pos[i] - centre)
+    r1 = portable.norm(world.pos[i] - centre)
     if abs(radius - r1) <= 1e-9 * r1:
         raise ValueError(f"radius = {radius}: the ship is already there (r = {r1:.12g})")
     a_t = 0.5 * (r1 + radius)

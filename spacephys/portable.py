@@ -11,8 +11,11 @@ their code by the CPU, and numpy's a @ b and linalg.norm call BLAS, which does t
 
 sqrt, + - * / and whole powers written as products are the same everywhere already.
 """
+import math
+
+import numpy as np
+
 from .kernels.libm import py as _libm
-from .vec import dot, norm
 
 sin, cos, tan = _libm.sin, _libm.cos, _libm.tan
 atan, atan2, asin, acos = _libm.atan, _libm.atan2, _libm.asin, _libm.acos
@@ -21,3 +24,16 @@ sinh, cosh, atanh, asinh, cbrt = _libm.sinh, _libm.cosh, _libm.atanh, _libm.asin
 
 __all__ = ["sin", "cos", "tan", "atan", "atan2", "asin", "acos", "exp", "log", "log1p",
            "pow", "sinh", "cosh", "atanh", "asinh", "cbrt", "dot", "norm"]
+
+
+def dot(a, b):
+    """sum a[i] b[i] in index order: a float (a, b: vectors of one length)."""
+    s = 0.0
+    for x, y in zip(np.ravel(a).tolist(), np.ravel(b).tolist()):
+        s += x * y
+    return s
+
+
+def norm(a):
+    """sqrt(dot(a, a)): a float."""
+    return math.sqrt(dot(a, a))

@@ -17,7 +17,7 @@ import numpy as np
 
 from .kernels import rails as krails
 from .kernels.libm import py as libm
-from . import vec
+from . import portable
 
 RAILS_DTYPE = np.dtype([("id", np.int64), ("about", np.int64), ("a", np.float64),
                         ("e", np.float64), ("period", np.float64), ("coasting", np.bool_)])
@@ -47,14 +47,14 @@ def elements(r, v, mu, t0):
     r = np.asarray(r, float)
     v = np.asarray(v, float)
     h = np.cross(r, v)
-    hn = vec.norm(h)
-    rn = vec.norm(r)
-    if rn == 0.0 or hn <= 1e-12 * rn * (vec.norm(v) + 1e-300):
+    hn = portable.norm(h)
+    rn = portable.norm(r)
+    if rn == 0.0 or hn <= 1e-12 * rn * (portable.norm(v) + 1e-300):
         raise ValueError("a radial orbit (no angular momentum about its parent): rails need a "
                          "conic with a plane")
     n_hi, n_lo, alpha = _mean_motion(r, v, mu)
     evec = np.cross(v, h) / mu - r / rn
-    e = vec.norm(evec)
+    e = portable.norm(evec)
     if abs(1.0 - e) < PARABOLIC:
         raise ValueError(f"an orbit of eccentricity {e!r}: within {PARABOLIC} of a parabola, "
                          f"which rails do not hold; change its speed slightly")
@@ -62,7 +62,7 @@ def elements(r, v, mu, t0):
     P = evec / e if e > 1e-13 else r / rn        # a circle: the pericentre where it is now
     Q = np.cross(what, P)
     a = abs(1.0 / alpha)
-    x, y = vec.dot(r, P), vec.dot(r, Q)
+    x, y = portable.dot(r, P), portable.dot(r, Q)
     if e < 1.0:
         b = a * math.sqrt(1.0 - e * e)        # sqrt is correctly rounded everywhere
         E = libm.atan2(y / b, x / a + e)

@@ -145,7 +145,9 @@ def test_the_games_use_the_public_api_only():
 def test_portable_maths_is_public_and_the_same_functions_as_the_kernels():
     import math
     from spacephys.kernels import libm
-    assert sp.portable.atan2 is libm.py.atan2 and sp.portable.dot is sp.portable.dot
+    assert sp.portable.atan2 is libm.py.atan2
+    # in index order (1e16 - 1e16) + 1 = 1; from the end 1 - 1e16 rounds to -1e16: 0
+    assert sp.portable.dot([1e16, -1e16, 1.0], [1.0, 1.0, 1.0]) == 1.0
     for name in sp.portable.__all__:
         if name in ("dot", "norm"):
             continue

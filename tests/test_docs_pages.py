@@ -10,6 +10,16 @@ import pytest
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
+def printed_by(page):
+    """What a Markdown page's Python blocks print, run in order as one script (extracted
+    from the page, as a reader would paste them)."""
+    code = "\n".join(re.findall(r"```python\n(.*?)```", page.read_text(), re.S))
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(code, page.name, "exec"), {"__name__": "__main__"})
+    return out.getvalue()
+
+
 # what each page's prints give, line by line (a str: the whole line; a tuple: its start)
 EXPECTED = {
     "concepts.md": ["0 1 [1. 0.]", "False True False",
@@ -22,11 +32,7 @@ EXPECTED = {
 
 @pytest.mark.parametrize("page", sorted(EXPECTED))
 def test_the_page_runs_as_written_and_prints_what_it_says(page):
-    code = "\n".join(re.findall(r"```python\n(.*?)```", (DOCS / page).read_text(), re.S))
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        exec(compile(code, page, "exec"), {})
-    lines = out.getvalue().splitlines()
+    lines = printed_by(DOCS / page).splitlines()
     assert len(lines) == len(EXPECTED[page]), lines
     for got, want in zip(lines, EXPECTED[page]):
         assert got.startswith(want[0]) if isinstance(want, tuple) else got == want, (got, want)
@@ -54,8 +60,5 @@ def test_every_guide_page_with_code_is_run():
 
 @pytest.mark.parametrize("page", list(RUN_HERE))
 def test_the_guide_page_runs_as_written(page):
-    code = "\n".join(re.findall(r"```python\n(.*?)```", (GUIDE / page).read_text(), re.S))
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        exec(compile(code, page, "exec"), {})
-    assert all(marker in out.getvalue() for marker in RUN_HERE[page]), out.getvalue()[-2000:]
+    out = printed_by(GUIDE / page)
+    assert all(marker in out for marker in RUN_HERE[page]), out[-2000:]

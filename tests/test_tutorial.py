@@ -1,13 +1,13 @@
 """The tutorial (docs/tutorial/) runs as written: each page's Python blocks in order,
 extracted from the Markdown, as a reader would paste them into one script; and each prints
 what the page says it does."""
-import contextlib
-import io
 import os
 import re
 from pathlib import Path
 
 import pytest
+
+from test_docs_pages import printed_by
 
 TUTORIAL = Path(__file__).resolve().parents[1] / "docs" / "tutorial"
 
@@ -36,11 +36,7 @@ def test_every_page_is_listed_and_in_the_navigation():
 @pytest.mark.parametrize("page", list(EXPECTED))
 def test_the_page_runs_as_written(page, monkeypatch):
     monkeypatch.setitem(os.environ, "SDL_VIDEODRIVER", "dummy")
-    code = "\n".join(re.findall(r"```python\n(.*?)```", (TUTORIAL / page).read_text(), re.S))
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        exec(compile(code, page, "exec"), {"__name__": "__main__"})
-    lines = out.getvalue().splitlines()
+    lines = printed_by(TUTORIAL / page).splitlines()
     assert len(lines) == len(EXPECTED[page]), lines
     for got, want in zip(lines, EXPECTED[page]):
         assert re.fullmatch(want, got), (got, want)
