@@ -27,6 +27,7 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
 from . import cache as _cache  # noqa: E402  (the cache folder, before any kernel is defined)
+from . import _by_address  # noqa: E402
 from numba import types
 from numba.core import cgutils
 from numba.core.errors import NumbaPerformanceWarning, RequireLiteralValue
@@ -65,7 +66,8 @@ PRANGE_ONLY = {"prange": True, "comprehension": False, "reduction": False,
                "fusion": False}
 
 
-def kernel(fn=None, *, parallel=False, inline=False, lean=False, counted=False):
+def kernel(fn=None, *, parallel=False, inline=False, lean=False, counted=False,
+           by_address=False):
     """Compile `fn` with numba: cached, numpy error model (x/0 gives inf, no exception check).
 
     parallel : compile prange loops to threads.
@@ -81,11 +83,15 @@ def kernel(fn=None, *, parallel=False, inline=False, lean=False, counted=False):
     or hold numba's typed lists (the tree, user forces). A function that holds
     a prange, or calls one that does, is itself parallel: a cached serial kernel that calls a
     parallel one segfaults when loaded from the cache (numba issue #8578).
+    by_address : compiled once on its own and called from other kernels through a pointer
+    (spacephys/_by_address.py), so that no caller compiles it again: for a large kernel that
+    runs once a step, called from kernels that count references (not lean ones).
     """
     opts = _options(parallel, inline, lean, counted)
+    cls = _ByAddress if by_address else _Dispatcher
     if fn is None:
-        return lambda f: _compiled(f, opts)
-    return _compiled(fn, opts)
+        return lambda f: _compiled(f, opts, cls)
+    return _compiled(fn, opts, cls)
 
 
 class _Dispatcher(CPUDispatcher):
@@ -99,11 +105,22 @@ class _Dispatcher(CPUDispatcher):
         return super().get_call_template(tuple(types.unliteral(a) for a in args),
                                          {k: types.unliteral(v) for k, v in kws.items()})
 
+    def enable_caching(self):
+        self._cache = _by_address.Cache(self.py_func)
 
-def _compiled(fn, opts):
+
+class _ByAddress(_Dispatcher):
+    """A kernel other kernels call through its address (kernel's by_address)."""
+
+    def add_overload(self, cres):
+        super().add_overload(cres)
+        _by_address.publish(self, cres)
+
+
+def _compiled(fn, opts, cls):
     opts = dict(opts, nopython=True)
     cache = opts.pop("cache")
-    disp = _Dispatcher(py_func=fn, locals={}, targetoptions=opts)
+    disp = cls(py_func=fn, locals={}, targetoptions=opts)
     if cache and _cache.ENABLED:
         disp.enable_caching()
     return disp

@@ -413,7 +413,7 @@ def _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell,
     return m
 
 
-@kernel
+@kernel(by_address=True)
 def grid_pairs(A, B, tb, alive, rules, lo, hi):
     """candidate_pairs, and the grid it built: (keys (E,), bodies (E,): the entries (cell
     key, row << _KIND_BITS | its kind) grouped by cell, origin (3,), inverse cell (3,),
@@ -737,7 +737,7 @@ def _boxes_meet(lo, hi, i, j, L):
     return True
 
 
-@kernel
+@kernel(by_address=True)
 def focused_pairs(A, B, tb, alive, rules, lo, hi, focus, in_focus, stale, changed, grid,
                   is_giant):
     """Pairs with at least one body of `focus` (whose lines changed in the last pass) and

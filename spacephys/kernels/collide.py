@@ -29,7 +29,7 @@ from .touch import touches
 _MAX_PASSES = 32
 
 
-@kernel
+@kernel(by_address=True)
 def collide_step(state, rules, dt, t0):
     """Find and resolve every contact of one step, in time order.
 

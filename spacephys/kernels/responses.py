@@ -46,7 +46,7 @@ def _velocity_at(V0, V1, D, k, t, out):
         out[c] = V0[k, c] + t * (V1[k, c] - V0[k, c]) + D[k, c]
 
 
-@kernel
+@kernel(by_address=True)
 def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rules, dt, t0,
              L, state, shapes):
     """Apply response resp to the contact of i and j at time t of the step. Returns
@@ -208,7 +208,7 @@ def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rul
     return BODIES_GONE
 
 
-@kernel
+@kernel(by_address=True)
 def respond_wall(i, t, n0, n1, n2, e, A, B, tb, V0, V1, D, mass, radius, ids, rules, dt, t0,
                   state, k, shapes):
     """Reflect body i off a wall (immovable) with restitution e: v -= (1 + e) (v . n) n

@@ -55,7 +55,7 @@ def _touch_event(state, rules, kind, i, j, t, dt, t0, L, shapes):
     kshapes.name(shapes, state, first)
 
 
-@kernel
+@kernel(by_address=True)
 def touches(state, rules, dt, t0, L, shapes):
     """The step's begin and end events, and the pairs in touch at its end (rules.touch).
 
