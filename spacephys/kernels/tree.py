@@ -689,7 +689,7 @@ def split(s):
     return heavy, light, is_heavy
 
 
-@kernel(parallel=True)
+@kernel(parallel=True, by_address=True)
 def accelerations(s, src, targets, pos, G, eps2, theta, quadrupole, out, threaded):
     """out[k] = G * the pull of the sources s (4, ns) (the rows src of pos) on pos[k] for k in
     targets: the heavy ones directly, the others through a tree built for it."""
