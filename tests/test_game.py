@@ -291,6 +291,17 @@ def test_orbit_view_shows_the_moon_and_the_hud_measures_from_the_centre():
         m.close()
 
 
+def test_closing_the_orbit_mode_drops_the_warps_not_yet_measured():
+    """Quitting waits for the warp being measured, not for those asked for after it (x1000
+    alone measures for about a minute)."""
+    m = make_mode("orbit", players=1)
+    for warp in (10, 100, 1000):
+        m._ask(warp)
+    m.close()
+    assert 100 not in m.choices and 1000 not in m.choices
+    assert not m._chooser.is_alive()
+
+
 def test_orbit_warps_a_million_on_rails_and_shows_the_moons_sphere_ahead():
     """The moon and the station on rails, the ship coasting whenever it does not thrust:
     x10^6 passes 16 667 time units a frame in jumps; the path ahead (a coasting

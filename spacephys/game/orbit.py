@@ -113,8 +113,14 @@ class Orbit(Mode):
         return warp in self.choices
 
     def close(self):
-        """Stop the measuring thread (after the warp it is measuring, if any)."""
+        """Stop the measuring thread: after the warp it is measuring, if any; the warps asked
+        for after it are dropped."""
         if self._chooser is not None:
+            while True:                    # the warps asked for and not yet begun: dropped
+                try:
+                    self._asked.get_nowait()
+                except queue.Empty:
+                    break
             self._asked.put(None)
             self._chooser.join()
 
