@@ -15,11 +15,13 @@ that runs once a step and takes microseconds.
 The slot is a symbol of the process (llvmlite's add_symbol), filled when the callee is
 compiled or loaded from the cache. A cached caller refers to it by name, so before numba
 loads a caller from the cache the callees it needs are loaded first: `Cache` stores the list
-beside the caller's machine code.
+(the slots its machine code names) beside the caller's machine code.
 """
 import ctypes
 import hashlib
 import importlib
+import re
+import weakref
 
 from llvmlite import binding as ll
 from llvmlite import ir
@@ -28,6 +30,9 @@ from numba.core.caching import CompileResultCacheImpl, FunctionCache
 from numba.core.imputils import fix_returning_optional, impl_ret_new_ref
 
 _SLOTS = {}      # symbol -> ctypes.c_void_p holding the callee's address (kept alive here)
+_CALLEES = {}    # symbol -> (module, qualname, argument types): the kernel it holds
+_LOADED = weakref.WeakKeyDictionary()   # a library loaded from the cache -> what it calls
+_SYMBOL = re.compile(rb"spacephys\.by_address\.[0-9a-f]{32}")
 
 
 def symbol(py_func, args):
@@ -49,14 +54,14 @@ def publish(disp, cres):
         ll.add_symbol(name, ctypes.addressof(slot))
     else:
         slot.value = address
+    _CALLEES[name] = (disp.py_func.__module__, disp.py_func.__qualname__, args)
     ctx = disp.targetctx
     ctx.remove_user_function(cres.entry_point)
-    impl = _call_through(name, cres.fndesc, (disp.py_func.__module__,
-                                              disp.py_func.__qualname__, args))
-    ctx._defns[cres.entry_point].append(impl, impl.signature)
+    impl = _call_through(name, cres.fndesc)
+    ctx.insert_func_defn([(impl, cres.entry_point, impl.signature)])
 
 
-def _call_through(name, fndesc, need):
+def _call_through(name, fndesc):
     def imp(context, builder, sig, args):
         module = builder.module
         slot = module.globals.get(name)
@@ -69,7 +74,6 @@ def _call_through(name, fndesc, need):
         with cgutils.if_unlikely(builder, status.is_error):
             context.call_conv.return_status_propagate(builder, status)
         retval = fix_returning_optional(context, builder, sig, status, retval)
-        _needs_of(context.active_code_library).add(need)
         return impl_ret_new_ref(context, builder, fndesc.restype, retval)
 
     imp.signature = fndesc.argtypes
@@ -77,25 +81,14 @@ def _call_through(name, fndesc, need):
     return imp
 
 
-def _needs_of(library):
-    """{(module, qualname, argument types)}: the kernels library's own code calls by
-    address (kept on the library)."""
-    if not hasattr(library, "_by_address"):
-        library._by_address = set()
-    return library._by_address
-
-
 def needs(library):
-    """The kernels called by address from library's code or the code linked into it."""
-    out, seen, todo = set(), set(), [library]
-    while todo:
-        lib = todo.pop()
-        if id(lib) in seen:
-            continue
-        seen.add(id(lib))
-        out |= getattr(lib, "_by_address", set())
-        todo.extend(getattr(lib, "_linking_libraries", ()))
-    return out
+    """{(module, qualname, argument types)}: the kernels that library's machine code calls by
+    address, its own calls and those of the code numba linked into it (the slots its object
+    code names)."""
+    if library in _LOADED:
+        return _LOADED[library]
+    _, _, (code, _) = library.serialize_using_object_code()
+    return {_CALLEES[name.decode()] for name in set(_SYMBOL.findall(code))}
 
 
 def load(need):
@@ -116,7 +109,7 @@ class _CacheImpl(CompileResultCacheImpl):
         for need in wanted:
             load(need)
         cres = super().rebuild(target_context, payload)
-        _needs_of(cres.library).update(wanted)
+        _LOADED[cres.library] = set(wanted)
         return cres
 
 

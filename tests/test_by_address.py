@@ -92,11 +92,14 @@ def test_a_call_by_address_returns_and_raises_as_a_direct_call(tmp_path, monkeyp
     sig = m.caller.signatures[0]
     assert b"spacephys.by_address." in _machine_code(m.caller, sig)   # it calls the slot...
     assert m.outer(x, np.ones(10)) == _expected(True)
-    # ...and links nothing of big (numba compiles a linked library again in the caller),
-    # where outer, which calls caller directly, links caller's
-    big, caller = m.big.overloads[sig].library, m.caller.overloads[sig].library
-    assert big not in _linked(caller) and caller in _linked(m.outer.overloads[sig].library)
+    # ...whose name its machine code holds, where outer's holds it through caller's code
+    assert _by_address.needs(m.caller.overloads[sig].library) == {("probe_mod2", "big", sig)}
     assert _by_address.needs(m.outer.overloads[sig].library) == {("probe_mod2", "big", sig)}
+    # and nothing of big is linked into caller (numba compiles what it links again), where
+    # outer links caller's code (numba's own list of what it linked)
+    big, caller = m.big.overloads[sig].library, m.caller.overloads[sig].library
+    assert big not in caller._linking_libraries
+    assert caller in m.outer.overloads[sig].library._linking_libraries
 
 
 def test_the_step_kernel_calls_the_collision_pass_by_address():
@@ -109,21 +112,8 @@ def test_the_step_kernel_calls_the_collision_pass_by_address():
     w.step(200)
     assert w.vel[0, 0] < 0 < w.vel[1, 0]                 # they met, through the pass
     sig = next(s for s in step.run.signatures if "RulesType" in str(s[2]))
-    # (what it calls by address, kept with it in the cache: numba keeps no machine code of a
-    # kernel it loaded from there to look at)
     called = {qualname for _, qualname, _ in _by_address.needs(step.run.overloads[sig].library)}
     assert "collide_step" in called
-
-
-def _linked(library):
-    """The code libraries numba linked into library's, and into those."""
-    out, todo = [], list(library._linking_libraries)
-    while todo:
-        lib = todo.pop()
-        if lib not in out:
-            out.append(lib)
-            todo.extend(lib._linking_libraries)
-    return out
 
 
 def _machine_code(disp, sig):
