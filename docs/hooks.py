@@ -3,6 +3,11 @@
 - The hook makes the Examples page at build time from every file of examples/: each
   examples/*.py with its whole source (and the files they read, such as salvo.toml, after
   them), so a script added to examples/ is on the site without editing the docs.
+- Figures from data: a page quotes a benchmark's figure as `{{ overhead.calls["step(1), 2
+  bodies"].spacephys_s | us }}`, and the build writes it from the benchmark's latest results
+  committed in docs/data/<benchmark>.json (`spacephys bench NAME --json`, with the date and
+  the CPU in it), so a re-run updates every page that quotes it and no two pages can disagree.
+  A path that names nothing fails the build.
 - PlainDocstrings, for the API reference: the docstrings are plain prose, with arguments on
   lines of their own ("tof : float > 0, the time of flight [time]", continued on indented
   lines); Markdown would run those lines into one paragraph, so each becomes an item of a
@@ -11,6 +16,7 @@
 mkdocs.yml keeps this file out of the site (`exclude_docs`).
 """
 import ast
+import json
 import re
 from pathlib import Path
 
@@ -72,6 +78,59 @@ def examples_page():
 def on_files(files, config):
     files.append(File.generated(config, PAGE, content=examples_page()))
     return files
+
+
+DATA = ROOT / "docs" / "data"
+# {{ bench.key["row"].key | unit }}: a row of a list is the one with a value equal to "row",
+# or with "field=value"
+FIGURE = re.compile(r"\{\{\s*([a-z_]+)((?:\.\w+|\[\"[^\"]*\"\])+)\s*(?:\|\s*(\w+)\s*)?\}\}")
+STEP = re.compile(r"\.(\w+)|\[\"([^\"]*)\"\]")
+UNITS = {"s": (1.0, " s"), "ms": (1e3, " ms"), "us": (1e6, " µs"), "ns": (1e9, " ns"),
+         "x": (1.0, "×")}
+
+
+def figure(results, name, path, unit=None):
+    """The value at `path` (".key", '["row"]' and '["field=value"]' steps) of the results of
+    benchmark `name`,
+    written with three significant digits in `unit` (s, ms, us, ns, x; none: as it is)."""
+    value = results
+    for key, row in STEP.findall(path):
+        if key:
+            if not isinstance(value, dict) or key not in value:
+                raise KeyError(f"{name}{path}: no {key!r}")
+            value = value[key]
+        else:
+            field, _, wanted = row.rpartition("=")
+            rows = [r for r in value if (str(r.get(field)) == wanted if field else
+                                         row in r.values())] if isinstance(value, list) else []
+            if len(rows) != 1:
+                raise KeyError(f"{name}{path}: {len(rows)} rows named {row!r}")
+            value = rows[0]
+    if unit is None:
+        return value if isinstance(value, str) else f"{value:.3g}"
+    if unit not in UNITS or isinstance(value, (str, dict, list)):
+        raise KeyError(f"{name}{path}: cannot write {value!r} in {unit!r}")
+    scale, suffix = UNITS[unit]
+    return f"{value * scale:.3g}{suffix}"
+
+
+def figures(markdown, data=DATA):
+    """markdown with every {{ ... }} figure written from data/<benchmark>.json."""
+    loaded = {}
+
+    def one(m):
+        name = m.group(1)
+        if name not in loaded:
+            path = data / f"{name}.json"
+            if not path.is_file():
+                raise KeyError(f"{{{{ {name}...}}}}: no results in {path}")
+            loaded[name] = json.loads(path.read_text())
+        return figure(loaded[name], name, m.group(2), m.group(3))
+    return FIGURE.sub(one, markdown)
+
+
+def on_page_markdown(markdown, page, config, files):
+    return figures(markdown)
 
 
 # "name : what" or "a, b : what" at the start of a docstring's line

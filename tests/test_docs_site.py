@@ -5,10 +5,13 @@
 is gone, a docstring the API reference cannot read.
 """
 import html
+import json
 import re
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 LINK = re.compile(r"!?\[[^\]]*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")   # [t](x), ![a](x)
@@ -151,3 +154,35 @@ def test_every_public_name_has_a_docstring_and_an_entry_in_the_reference(tmp_pat
     events = (site / "api" / "constants.html").read_text()
     assert all(f"<code>{name}</code>" in events for name in sp.EVENT_KINDS.values())
     assert all(f"<code>{f}</code>" in events for f in sp.EVENT_DTYPE.names)
+
+
+def _hooks():
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("docs_hooks", ROOT / "docs" / "hooks.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_figures_on_the_pages_are_written_from_the_committed_results():
+    hooks = _hooks()
+    results = {}
+    for path in sorted((ROOT / "docs" / "data").glob("*.json")):
+        r = results[path.stem] = json.loads(path.read_text())
+        assert r["benchmark"] == path.stem and r["quick"] is False, path.name
+        assert re.fullmatch(r"\d{4}-\d\d-\d\d", r["date"]) and r["cpu"], path.name
+    quoted = 0
+    for page in sorted((ROOT / "docs").rglob("*.md")):
+        text = page.read_text()
+        quoted += len(hooks.FIGURE.findall(text))
+        hooks.figures(text)                        # a path that names nothing raises
+    assert quoted >= 5
+    step = results["overhead"]["calls"][0]
+    assert step["case"] == "step(1), 2 bodies"
+    line = 'a step: {{ overhead.calls["step(1), 2 bodies"].spacephys_s | us }}'
+    assert hooks.figures(line) == f"a step: {step['spacephys_s'] * 1e6:.3g} µs"
+    for wrong in ('{{ overhead.calls["step(2)"].spacephys_s | us }}',
+                  '{{ overhead.calls["step(1), 2 bodies"].seconds | us }}',
+                  '{{ overhead.cpu | us }}', '{{ nobench.x }}'):
+        with pytest.raises(KeyError):
+            hooks.figures(wrong)

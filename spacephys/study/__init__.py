@@ -18,7 +18,20 @@ def header(name, quick, rebound=None):
         versions["rebound"] = rebound.__version__
     return {"benchmark": name, "quick": quick,
             "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
+            "cpu": cpu_model(), "date": time.strftime("%Y-%m-%d", time.gmtime()),
             "numba_threads": numba.get_num_threads(), "versions": versions}
+
+
+def cpu_model():
+    """The CPU's model name ("AMD EPYC 7B13"), or the platform's word for it."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
 
 
 def title(results):
