@@ -84,6 +84,7 @@ DATA = ROOT / "docs" / "data"
 # {{ bench.key["row"].key | unit }}: a row of a list is the one with a value equal to "row",
 # or with "field=value"
 FIGURE = re.compile(r"\{\{\s*([a-z_]+)((?:\.\w+|\[\"[^\"]*\"\])+)\s*(?:\|\s*(\w+)\s*)?\}\}")
+FIELD = re.compile(r"^(\w+)=(.*)$")
 STEP = re.compile(r"\.(\w+)|\[\"([^\"]*)\"\]")
 UNITS = {"s": (1.0, " s"), "ms": (1e3, " ms"), "us": (1e6, " µs"), "ns": (1e9, " ns"),
          "x": (1.0, "×")}
@@ -100,8 +101,8 @@ def figure(results, name, path, unit=None):
                 raise KeyError(f"{name}{path}: no {key!r}")
             value = value[key]
         else:
-            field, _, wanted = row.rpartition("=")
-            rows = [r for r in value if (str(r.get(field)) == wanted if field else
+            by_field = FIELD.match(row)
+            rows = [r for r in value if (str(r.get(by_field[1])) == by_field[2] if by_field else
                                          row in r.values())] if isinstance(value, list) else []
             if len(rows) != 1:
                 raise KeyError(f"{name}{path}: {len(rows)} rows named {row!r}")
