@@ -92,8 +92,8 @@ UNITS = {"s": (1.0, " s"), "ms": (1e3, " ms"), "us": (1e6, " µs"), "ns": (1e9, 
 
 def figure(results, name, path, unit=None):
     """The value at `path` (".key", '["row"]' and '["field=value"]' steps) of the results of
-    benchmark `name`,
-    written with three significant digits in `unit` (s, ms, us, ns, x; none: as it is)."""
+    benchmark `name`, written with three significant digits in `unit` (s, ms, us, ns, x;
+    none: a whole number in full, 100 000)."""
     value = results
     for key, row in STEP.findall(path):
         if key:
@@ -108,7 +108,9 @@ def figure(results, name, path, unit=None):
                 raise KeyError(f"{name}{path}: {len(rows)} rows named {row!r}")
             value = rows[0]
     if unit is None:
-        return value if isinstance(value, str) else f"{value:.3g}"
+        if isinstance(value, bool) or isinstance(value, str):
+            return str(value)
+        return f"{value:,}".replace(",", " ") if isinstance(value, int) else f"{value:.3g}"
     if unit not in UNITS or isinstance(value, (str, dict, list)):
         raise KeyError(f"{name}{path}: cannot write {value!r} in {unit!r}")
     scale, suffix = UNITS[unit]
