@@ -81,8 +81,8 @@ def on_files(files, config):
 
 
 DATA = ROOT / "docs" / "data"
-# {{ bench.key["row"].key | unit }}: a row of a list is the one with a value equal to "row",
-# or with "field=value"
+# {{ bench.key["row"].key | unit }}: ["key"] of a dict, or the row of a list with a value
+# equal to "row", or with "field=value"
 FIGURE = re.compile(r"\{\{\s*([a-z_]+)((?:\.\w+|\[\"[^\"]*\"\])+)\s*(?:\|\s*(\w+)\s*)?\}\}")
 FIELD = re.compile(r"^(\w+)=(.*)$")
 STEP = re.compile(r"\.(\w+)|\[\"([^\"]*)\"\]")
@@ -100,6 +100,8 @@ def figure(results, name, path, unit=None):
             if not isinstance(value, dict) or key not in value:
                 raise KeyError(f"{name}{path}: no {key!r}")
             value = value[key]
+        elif isinstance(value, dict) and row in value:
+            value = value[row]
         else:
             by_field = FIELD.match(row)
             rows = [r for r in value if (str(r.get(by_field[1])) == by_field[2] if by_field else
