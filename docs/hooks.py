@@ -82,18 +82,18 @@ def on_files(files, config):
 
 DATA = ROOT / "docs" / "data"
 # {{ bench.key["row"].key | unit }}: ["key"] of a dict, or the row of a list with a value
-# equal to "row", or with "field=value"
+# equal to "row", or with "field=value" (or "a=1, b=2": every field so)
 FIGURE = re.compile(r"\{\{\s*([a-z_]+)((?:\.\w+|\[\"[^\"]*\"\])+)\s*(?:\|\s*(\w+)\s*)?\}\}")
-FIELD = re.compile(r"^(\w+)=(.*)$")
+FIELDS = re.compile(r"^\w+=[^,]*(?:, \w+=[^,]*)*$")
 STEP = re.compile(r"\.(\w+)|\[\"([^\"]*)\"\]")
 UNITS = {"s": (1.0, " s"), "ms": (1e3, " ms"), "us": (1e6, " µs"), "ns": (1e9, " ns"),
          "x": (1.0, "×")}
 
 
 def figure(results, name, path, unit=None):
-    """The value at `path` (".key", '["row"]' and '["field=value"]' steps) of the results of
+    """The value at `path` (".key", '["row"]' and '["field=value, ..."]' steps) of the results of
     benchmark `name`, written with three significant digits in `unit` (s, ms, us, ns, x;
-    none: a whole number in full, 100 000)."""
+    e: two digits, in powers of ten; none: a whole number in full, 100 000)."""
     value = results
     for key, row in STEP.findall(path):
         if key:
@@ -103,9 +103,11 @@ def figure(results, name, path, unit=None):
         elif isinstance(value, dict) and row in value:
             value = value[row]
         else:
-            by_field = FIELD.match(row)
-            rows = [r for r in value if (str(r.get(by_field[1])) == by_field[2] if by_field else
-                                         row in r.values())] if isinstance(value, list) else []
+            wanted = [pair.split("=", 1) for pair in row.split(", ")] \
+                if FIELDS.match(row) else None
+            rows = [r for r in value if (all(str(r.get(k)) == v for k, v in wanted) if wanted
+                                         else row in r.values())] \
+                if isinstance(value, list) else []
             if len(rows) != 1:
                 raise KeyError(f"{name}{path}: {len(rows)} rows named {row!r}")
             value = rows[0]
@@ -113,8 +115,10 @@ def figure(results, name, path, unit=None):
         if isinstance(value, bool) or isinstance(value, str):
             return str(value)
         return f"{value:,}".replace(",", " ") if isinstance(value, int) else f"{value:.3g}"
-    if unit not in UNITS or isinstance(value, (str, dict, list)):
+    if unit not in UNITS and unit != "e" or isinstance(value, (str, dict, list)):
         raise KeyError(f"{name}{path}: cannot write {value!r} in {unit!r}")
+    if unit == "e":
+        return f"{value:.1e}"
     scale, suffix = UNITS[unit]
     return f"{value * scale:.3g}{suffix}"
 
