@@ -111,12 +111,13 @@ def figure(results, name, path, unit=None):
             if len(rows) != 1:
                 raise KeyError(f"{name}{path}: {len(rows)} rows named {row!r}")
             value = rows[0]
+    if value is None or isinstance(value, (dict, list)) or \
+            unit is not None and (isinstance(value, str) or unit not in UNITS and unit != "e"):
+        raise KeyError(f"{name}{path}: cannot write {value!r} in {unit!r}")
     if unit is None:
         if isinstance(value, bool) or isinstance(value, str):
             return str(value)
         return f"{value:,}".replace(",", " ") if isinstance(value, int) else f"{value:.3g}"
-    if unit not in UNITS and unit != "e" or isinstance(value, (str, dict, list)):
-        raise KeyError(f"{name}{path}: cannot write {value!r} in {unit!r}")
     if unit == "e":
         return f"{value:.1e}"
     scale, suffix = UNITS[unit]

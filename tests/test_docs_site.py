@@ -183,6 +183,7 @@ def test_figures_on_the_pages_are_written_from_the_committed_results():
     assert hooks.figures(line) == f"a step: {step['spacephys_s'] * 1e6:.3g} µs"
     for wrong in ('{{ overhead.calls["step(2)"].spacephys_s | us }}',
                   '{{ overhead.calls["step(1), 2 bodies"].seconds | us }}',
-                  '{{ overhead.cpu | us }}', '{{ nobench.x }}'):
+                  '{{ overhead.cpu | us }}', '{{ overhead.calls | us }}',
+                  '{{ overhead.calls["duel control()"].rebound_s | us }}', '{{ nobench.x }}'):
         with pytest.raises(KeyError):
             hooks.figures(wrong)
