@@ -86,8 +86,9 @@ DATA = ROOT / "docs" / "data"
 FIGURE = re.compile(r"\{\{\s*([a-z_]+)((?:\.\w+|\[\"[^\"]*\"\])+)\s*(?:\|\s*(\w+)\s*)?\}\}")
 FIELDS = re.compile(r"^\w+=[^,]*(?:, \w+=[^,]*)*$")
 STEP = re.compile(r"\.(\w+)|\[\"([^\"]*)\"\]")
-UNITS = {"s": (1.0, " s"), "ms": (1e3, " ms"), "us": (1e6, " µs"), "ns": (1e9, " ns"),
-         "x": (1.0, "×")}
+UNITS = {"s": lambda v: f"{v:.3g} s", "ms": lambda v: f"{v * 1e3:.3g} ms",
+         "us": lambda v: f"{v * 1e6:.3g} µs", "ns": lambda v: f"{v * 1e9:.3g} ns",
+         "x": lambda v: f"{v:.3g}×", "e": lambda v: f"{v:.1e}"}
 
 
 def figure(results, name, path, unit=None):
@@ -112,16 +113,13 @@ def figure(results, name, path, unit=None):
                 raise KeyError(f"{name}{path}: {len(rows)} rows named {row!r}")
             value = rows[0]
     if value is None or isinstance(value, (dict, list)) or \
-            unit is not None and (isinstance(value, str) or unit not in UNITS and unit != "e"):
+            unit is not None and (isinstance(value, str) or unit not in UNITS):
         raise KeyError(f"{name}{path}: cannot write {value!r} in {unit!r}")
-    if unit is None:
-        if isinstance(value, bool) or isinstance(value, str):
-            return str(value)
-        return f"{value:,}".replace(",", " ") if isinstance(value, int) else f"{value:.3g}"
-    if unit == "e":
-        return f"{value:.1e}"
-    scale, suffix = UNITS[unit]
-    return f"{value * scale:.3g}{suffix}"
+    if unit is not None:
+        return UNITS[unit](value)
+    if isinstance(value, (bool, str)):
+        return str(value)
+    return f"{value:,}".replace(",", " ") if isinstance(value, int) else f"{value:.3g}"
 
 
 def figures(markdown, data=DATA):

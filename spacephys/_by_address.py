@@ -87,7 +87,12 @@ def needs(library):
     code names)."""
     if library in _LOADED:
         return _LOADED[library]
-    _, _, (code, _) = library.serialize_using_object_code()
+    return _named_in(library.serialize_using_object_code())
+
+
+def _named_in(libdata):
+    """The kernels whose slots the serialised library libdata's object code names."""
+    _, _, (code, _) = libdata
     return {_CALLEES[name.decode()] for name in set(_SYMBOL.findall(code))}
 
 
@@ -102,7 +107,9 @@ def load(need):
 
 class _CacheImpl(CompileResultCacheImpl):
     def reduce(self, cres):
-        return super().reduce(cres), tuple(sorted(needs(cres.library), key=str))
+        # the library as numba serialised it (serialising again would write its bitcode twice)
+        payload = super().reduce(cres)
+        return payload, tuple(sorted(_named_in(payload[0]), key=str))
 
     def rebuild(self, target_context, payload):
         payload, wanted = payload

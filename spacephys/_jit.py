@@ -85,7 +85,7 @@ def kernel(fn=None, *, parallel=False, inline=False, lean=False, counted=False,
     parallel one segfaults when loaded from the cache (numba issue #8578).
     by_address : compiled once on its own and called from other kernels through a pointer
     (spacephys/_by_address.py), so that no caller compiles it again: for a large kernel that
-    runs once a step, called from kernels that count references (not lean ones).
+    runs once a step.
     """
     opts = _options(parallel, inline, lean, counted)
     cls = _ByAddress if by_address else _Dispatcher
