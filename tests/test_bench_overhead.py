@@ -38,3 +38,14 @@ def test_snapshot_cases_run_beside_rebounds_copy():
         for key in ("snapshot_restore_s", "restore_s", "digest_s", "rebound_copy_s"):
             assert 0.0 < r[key] < 0.1
         assert math.isclose(r["ratio"], r["snapshot_restore_s"] / r["rebound_copy_s"])
+
+
+def test_batched_leapfrog_is_timed_beside_rebound_at_two_call_lengths():
+    """N = 2..5, a short and a long call each, both codes on the same scene."""
+    from spacephys.study.overhead import _batched
+    rows = _batched(quick=True)
+    assert [(r["bodies"], r["steps"]) for r in rows] == [
+        (n, k) for n in (2, 3, 4, 5) for k in (200, 2000)]
+    for r in rows:
+        assert 0.0 < r["spacephys_s_per_step"] < 1e-4 and 0.0 < r["rebound_s_per_step"] < 1e-4
+        assert math.isclose(r["ratio"], r["spacephys_s_per_step"] / r["rebound_s_per_step"])

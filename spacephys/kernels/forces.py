@@ -157,7 +157,8 @@ def implements_by_users(stub, fn, when, fx_at, **options):
     implements(stub, fn, lambda *args: when(*args) and not user(args), **counted)
 
 
-implements_by_users(accelerations, _accelerations, lambda *args: True, 0, parallel=True)
+implements_by_users(accelerations, _accelerations, lambda *args: True, 0, parallel=True,
+                    forceinline=True)
 
 
 @kernel
@@ -236,7 +237,7 @@ def dragging(drag):
     return drag[0] > 0.0
 
 
-@kernel(lean=True)
+@kernel(lean=True, forceinline=True)
 def kick(drag, still, vel, acc, h, rows):
     """The kick with linear drag toward the wind, dv/dt = a - k (v - wind) with a held, for
     the bodies in rows: exact, v <- v_t + (v - v_t) exp(-k h), v_t = wind + a / k the terminal
@@ -246,7 +247,7 @@ def kick(drag, still, vel, acc, h, rows):
     _hold_still(still, vel)
 
 
-@kernel(lean=True)
+@kernel(lean=True, forceinline=True)
 def _kick(drag, vel, acc, h, rows):
     if drag is not None:
         k = drag[0]

@@ -78,10 +78,11 @@ def _no_gravity(model, tape, src, passive, pos, mass, out, targets, threads):
     _fill(out, targets, 0.0, 0.0, 0.0)
 
 
-implements(pull, _no_gravity, lambda t, *rest: isinstance(t, types.NoneType), lean=True)
+implements(pull, _no_gravity, lambda t, *rest: isinstance(t, types.NoneType), lean=True,
+           forceinline=True)
 
 
-@kernel(lean=True)
+@kernel(lean=True, forceinline=True)
 def _fill(out, targets, gx, gy, gz):
     for a in range(targets.size):
         k = targets[a]
@@ -117,7 +118,7 @@ def _direct_pull(model, tape, src, passive, pos, mass, out, targets, threads):
 _ALL_LEFT, _PASSIVE_LEFT, _NONE_LEFT = 0, 1, 2
 
 
-@kernel(parallel=True, lean=True)
+@kernel(parallel=True, lean=True, forceinline=True)
 def _pairs_first(sums, s, src, pos, out, targets, G, eps2, threads):
     """With sums (the scene has pairs.PAIRS_FROM sources or more) and the targets every body
     or exactly the sources: the sources' pulls on each other, each pair once, into out.
@@ -153,14 +154,14 @@ def _pull_threaded(targets, pos, s, G, eps2, out):
         _pull_chunk(targets, np.int64(c) * pairs.CHUNK, pos, s, G, eps2, out)
 
 
-@kernel(lean=True)
+@kernel(lean=True, forceinline=True)
 def _pull_each(targets, pos, s, G, eps2, out):
     """_pull_threaded on the calling thread, bit for bit the same."""
     for a in range(0, targets.size, pairs.CHUNK):
         _pull_chunk(targets, a, pos, s, G, eps2, out)
 
 
-@kernel(lean=True)
+@kernel(lean=True, forceinline=True)
 def _pull_chunk(targets, a, pos, s, G, eps2, out):
     """out[k] = G * the pull of the sources s on pos[k] for k in targets[a : a + CHUNK],
     the chunk's points summed side by side (pairs.pull_points)."""
@@ -248,7 +249,7 @@ def _direct_energies(model, pos, vel, mass, src, out):
 
 
 register(Direct, Model("direct", _direct_potential, _direct_energies), _direct_pull,
-         parallel=True, lean=True)
+         parallel=True, lean=True, forceinline=True)
 
 
 # ----------------------------------------------------------------------------- uniform
@@ -278,7 +279,7 @@ def _uniform_energies(model, pos, vel, mass, src, out):
 
 
 register(Uniform, Model("uniform", _uniform_potential, _uniform_energies), _uniform_pull,
-         lean=True)
+         lean=True, forceinline=True)
 
 
 # ----------------------------------------------------------------------------- central
@@ -315,7 +316,7 @@ def _central_energies(model, pos, vel, mass, src, out):
 
 
 register(Central, Model("central", _central_potential, _central_energies), _central_pull,
-         lean=True)
+         lean=True, forceinline=True)
 
 
 def _no_potential(model, pos, mass, src, passive):

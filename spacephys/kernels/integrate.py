@@ -59,7 +59,8 @@ def _split(method, carry, sa, burns, fx, t, dt, k, kicked, played):
     return True
 
 
-step.register(Splitting, start_=_no_scratch, advance_=_split, parallel=True, lean=True)
+step.register(Splitting, start_=_no_scratch, advance_=_split, parallel=True, lean=True,
+              forceinline=True)
 
 
 def _stages(method, state, fx, actors):
@@ -111,4 +112,5 @@ def _rk(method, carry, sa, burns, fx, t, dt, k, kicked, played):
     return True
 
 
-step.register(RungeKutta, start_=_stages, advance_=_rk, parallel=True, lean=True)
+step.register(RungeKutta, start_=_stages, advance_=_rk, parallel=True, lean=True,
+              forceinline=True)

@@ -39,7 +39,7 @@ ROWS = 2 * TILE
 PAIRS_FROM = 384
 
 
-@kernel(lean=True)
+@kernel(lean=True, forceinline=True)
 def pull_points(xs, ys, zs, nt, s, n, eps2, ax, ay, az):
     """Adds to ax[t], ay[t], az[t] the acceleration / G at the points (xs[t], ys[t], zs[t]),
     t < nt, from the first n point masses of s: a = sum m d / (|d|^2 + eps2)^(3/2), in the

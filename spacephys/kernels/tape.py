@@ -41,7 +41,7 @@ def playing(tape):
     return at[STEP] < at[VALID]
 
 
-@kernel(lean=True)
+@kernel(lean=True, forceinline=True)
 def sources(tape, scratch, src, pos, mass):
     """The pulling bodies' x, y, z, m for a force evaluation into scratch (4, ns): gathered
     from pos, mass (rows src), or, on a played step, copied from the tape; a recorded step
@@ -66,7 +66,7 @@ def sources(tape, scratch, src, pos, mass):
     gather(src, pos, mass, scratch)
 
 
-@kernel(lean=True)
+@kernel(lean=True, forceinline=True)
 def gather(src, pos, mass, scratch):
     """The pulling bodies' x, y, z, m into scratch's rows 0-3 (separate contiguous rows, so
     that the force loops load them unit-stride)."""
