@@ -40,6 +40,13 @@ class Driver:
         # pass in jumps), and how many steps it left untaken
         self.budget = None
         self.cut = 0
+        # the spatial queries' grids and what they were built from (queries._grid)
+        self.grids = {}
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        state["grids"] = {}            # a copy (World.copy, a prediction's) builds its own
+        return state
 
     # ---------------------------------------------------------------- the interface
     def view(self, *names):

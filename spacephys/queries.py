@@ -1,7 +1,12 @@
 """Spatial queries a game asks between steps (World.query_radius, query_box, nearest, raycast,
 shapecast): checked input, the candidate bodies (kinds, category mask, a Filter, ids left
-out), the periodic box, and the answer in body ids. The grid and the searches are
-kernels/queries.py.
+out), the periodic box, the grid they share, and the answer in body ids. The grid and the
+searches are kernels/queries.py.
+
+The grid holds every live body and serves every query until a body moves, is added or
+removed, or changes its radius, or the boundary changes (`_grid`: kept by the World's driver,
+checked against the columns it was built from): the queries a game asks between two steps
+share one. A query's candidates are a mask the searches skip by, not a grid of their own.
 
 A body is a disc (2D) or sphere (3D) of its radius; a distance is the gap between a point
 and its surface (0 inside it). Each query's answers are sorted by distance, then id.
@@ -21,6 +26,12 @@ from . import editing
 from .kernels import queries as kq
 
 _INT64 = np.iinfo(np.int64)
+_ALL = np.zeros(0, np.bool_)       # the searches' mask when every body of the grid is wanted
+
+
+def _mean(values):
+    """The mean of values (the grid's hint: the queries' reach), 0 for none."""
+    return float(np.sum(values)) / max(np.size(values), 1)
 
 
 @dataclass(frozen=True)
@@ -106,6 +117,39 @@ def _candidates(world, kinds, mask, ignore=None, filter=None):
             raise ValueError(f"mask = {mask!r}: expected an integer of category bits")
         ok &= (world.category & int(mask)) != 0
     return np.flatnonzero(ok).astype(np.int64)
+
+
+def _wanted(world, rows):
+    """The searches' mask of the candidate rows (kernels/queries): empty when every body is
+    a candidate (rows are unique: n of them are all), else (n,) bool."""
+    if rows.size == world.n:
+        return np.zeros(0, np.bool_)
+    wanted = np.zeros(world.n, np.bool_)
+    wanted[rows] = True
+    return wanted
+
+
+def _grid(world, hint):
+    """The grid of every live body (kernels/queries.grid) for queries that reach about
+    `hint` (its cells at least that wide; 0: about a body a cell): built when a query first
+    needs it, kept by the World's driver while the positions, radii, ids and box it was built
+    from hold, one per factor of 2 in hint."""
+    pos, radius, ids = _state(world)
+    lo, period = _box(world)
+    kept = world.driver.grids
+    basis = kept.get("basis")
+    if basis is None or not (np.array_equal(basis[0], pos) and np.array_equal(basis[1], radius)
+                             and np.array_equal(basis[2], ids)
+                             and np.array_equal(basis[3], lo)
+                             and np.array_equal(basis[4], period)):
+        kept.clear()
+        kept["basis"] = (pos.copy(), radius.copy(), ids.copy(), lo, period)
+    key = None if not hint > 0.0 else int(np.floor(np.log2(hint)))
+    g = kept.get(key)
+    if g is None:
+        g = kept[key] = kq.grid(pos, radius, np.arange(world.n, dtype=np.int64), lo, period,
+                                float(hint))
+    return g
 
 
 def _box(world):
@@ -212,13 +256,15 @@ def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=N
     lo, period = _box(world)
     x = _circles(world, rows)
     if x is not None:            # a compound body: within r of one of its circles
-        offsets, hits, dist = kq.overlaps(x.pos, x.radius, x.ident, x.rows, lo, period, c,
+        g = kq.grid(x.pos, x.radius, x.rows, lo, period, _mean(reach))
+        offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period, c,
                                           np.ascontiguousarray(reach, np.float64),
                                           np.zeros((c.shape[0], 3)), 0)
         q, hits, dist = _bodies(x, offsets, hits, dist)
         return Hits(np.searchsorted(q, np.arange(c.shape[0] + 1)).astype(np.int64),
                     x.ident[hits], dist)
-    offsets, hits, dist = kq.overlaps(pos, radius, ids, rows, lo, period, c,
+    offsets, hits, dist = kq.overlaps(_grid(world, _mean(reach)), pos, radius, ids,
+                                      _wanted(world, rows), period, c,
                                       np.ascontiguousarray(reach, np.float64),
                                       np.zeros((c.shape[0], 3)), 0)
     return Hits(offsets, ids[hits], dist)
@@ -241,7 +287,8 @@ def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
     x = _circles(world, rows)
     if x is not None:            # a compound body: when one of its circles overlaps the box
         mid = 0.5 * (a + b)
-        offsets, hits, dist = kq.overlaps(x.pos, x.radius, x.ident, x.rows, box_lo, period,
+        g = kq.grid(x.pos, x.radius, x.rows, box_lo, period, _mean((b - a).sum(axis=1) / 2))
+        offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period,
                                           mid, np.zeros(a.shape[0]), 0.5 * (b - a), 1)
         q, hits, dist = _bodies(x, offsets, hits, dist)
         # its distance: of its own centre (not the circle's) from the box's centre
@@ -255,7 +302,8 @@ def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
             q, hits, dist = q[order], hits[order], dist[order]
         return Hits(np.searchsorted(q, np.arange(a.shape[0] + 1)).astype(np.int64),
                     x.ident[hits], dist)
-    offsets, hits, dist = kq.overlaps(pos, radius, ids, rows, box_lo, period, 0.5 * (a + b),
+    offsets, hits, dist = kq.overlaps(_grid(world, _mean((b - a).sum(axis=1) / 2)), pos,
+                                      radius, ids, _wanted(world, rows), period, 0.5 * (a + b),
                                       np.zeros(a.shape[0]), 0.5 * (b - a), 1)
     return Hits(offsets, ids[hits], dist)
 
@@ -271,7 +319,8 @@ def nearest(world, points, k=1, kinds=None, mask=None, ignore=None, filter=None)
     x = _circles(world, rows)
     if x is not None:
         return _nearest_bodies(x, lo, period, p, k)
-    hits, dist = kq.nearest(pos, radius, ids, rows, lo, period, p, k)
+    hits, dist = kq.nearest(_grid(world, 0.0), pos, radius, ids, _wanted(world, rows), period,
+                            p, k)
     out = np.where(hits >= 0, ids[np.maximum(hits, 0)], -1) if ids.size else hits
     return out, dist
 
@@ -281,7 +330,8 @@ def _nearest_bodies(x, lo, period, p, k):
     The k nearest bodies are the first k distinct among the (k - 1) m + 1 nearest entries (m:
     the most circles of a body), a body first where its nearest circle is."""
     K = max(min((k - 1) * x.most + 1, x.rows.size), 1)
-    hits, dist = kq.nearest(x.pos, x.radius, x.ident, x.rows, lo, period, p, K)
+    hits, dist = kq.nearest(kq.grid(x.pos, x.radius, x.rows, lo, period, 0.0), x.pos, x.radius,
+                            x.ident, _ALL, period, p, K)
     Q = p.shape[0]
     body = np.where(hits >= 0, x.body[np.maximum(hits, 0)], -1)
     q = np.repeat(np.arange(Q), K)
@@ -472,8 +522,10 @@ def _cast(world, o, d, tmax, extra, skip, rows, first, walls):
     if x is not None:
         body = _cast_circles(x, lo, period, o, d, tmax, extra, skip, first)
     else:
-        offsets, hits, t = kq.raycasts(pos, radius, ids, rows, lo, period, o, d, tmax,
-                                       extra, skip, first)
+        # cells about as wide as the moving circles: their neighbourhoods stay a few cells
+        offsets, hits, t = kq.raycasts(_grid(world, _mean(extra)), pos, radius, ids,
+                                       _wanted(world, rows), period, o, d, tmax, extra, skip,
+                                       first)
         ray, point, normal = kq.surfaces(pos, period, o, d, offsets, hits, t)
         body = (ray, ids[hits], np.full(hits.size, -1), t, point, normal,
                 np.full(hits.size, -1))
@@ -520,9 +572,10 @@ def _cast_circles(x, lo, period, o, d, tmax, extra, skip, first):
             continue
         oo, dd = o[rays], d[rays]
         sk = np.where(multi[rays], -1, skip[rays]).astype(np.int64)   # a round row: entry i
-        offsets, hits, t = kq.raycasts(x.pos, x.radius, x.ident, x.rows, lo, period, oo, dd,
-                                       np.ascontiguousarray(tmax[rays]),
-                                       np.ascontiguousarray(extra[rays]), sk, many)
+        ee = np.ascontiguousarray(extra[rays])
+        g = kq.grid(x.pos, x.radius, x.rows, lo, period, _mean(ee))
+        offsets, hits, t = kq.raycasts(g, x.pos, x.radius, x.ident, _ALL, period, oo, dd,
+                                       np.ascontiguousarray(tmax[rays]), ee, sk, many)
         ray, point, normal = kq.surfaces(x.pos, period, oo, dd, offsets, hits, t)
         ray = rays[ray]
         keep = x.body[hits] != skip[ray]

@@ -584,3 +584,43 @@ def test_bad_ignore_or_filter_is_named(bad, message):
     if "ignore" in bad:                                    # a removed body's id, too
         with pytest.raises(ValueError, match=f"ignore = {drone} names no live body"):
             w.nearest((0.0, 0.0), ignore=[ship, drone])
+
+
+def _answers(w, centres, dirs):
+    """Every kind of query, with and without a candidate filter, as plain lists."""
+    hits = w.query_radius(centres, 3.0)
+    some = w.query_radius(centres, 3.0, ignore=w.ids[:5])
+    near = w.nearest(centres, 4, kinds=["asteroid"])
+    box = w.query_box(centres - 2.0, centres + 2.0)
+    rays = w.raycast(centres, dirs, 30.0, first=False, walls=False)
+    return [hits.offsets.tolist(), hits.ids.tolist(), hits.distances.tolist(),
+            some.ids.tolist(), near[0].tolist(), near[1].tolist(), box.ids.tolist(),
+            rays.offsets.tolist(), rays.body.tolist(), rays.distance.tolist()]
+
+
+def test_the_grid_queries_share_is_dropped_when_anything_changes():
+    """Queries between two steps share one grid (queries._grid); after a step, an added,
+    removed, moved or resized body, or a new boundary, every answer is a fresh World's
+    (a copy, which builds its own grid)."""
+    rng = np.random.default_rng(4)
+    w = sp.World(2, gravity="none", dt=0.5)
+    for _ in range(300):
+        w.add_body(1.0, rng.uniform(0, 40, 2), rng.normal(0, 1, 2), radius=0.3,
+                   kind="asteroid" if rng.random() < 0.5 else "debris")
+    centres = rng.uniform(0, 40, (12, 2))
+    dirs = rng.normal(size=(12, 2))
+    first = _answers(w, centres, dirs)
+    assert _answers(w, centres, dirs) == first           # the same grid, the same answers
+    assert "basis" in w.driver.grids
+    changes = [lambda: w.step(1),
+               lambda: w.add_body(1.0, centres[0] + 0.5, radius=0.3),
+               lambda: w.remove(w.ids[:3]),
+               lambda: w.set_body(int(w.ids[10]), pos=centres[1] + 0.2),
+               lambda: w.set_body(int(w.ids[11]), radius=5.0),
+               lambda: w.set_boundary("periodic", (0.0, 0.0), (20.0, 20.0))]
+    for change in changes:
+        before = _answers(w, centres, dirs)
+        change()
+        after = _answers(w, centres, dirs)
+        assert after == _answers(w.copy(), centres, dirs)
+        assert after != before                           # the change changed the answers

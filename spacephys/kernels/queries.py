@@ -1,7 +1,9 @@
 """Spatial queries between steps: which bodies lie within a distance of a point, inside a box,
-nearest to a point, along a ray. A uniform grid of the candidate bodies' centres is built for each call
-(a counting sort: linear in the bodies); bodies larger than a cell ("giants") are tested
-against every query directly.
+nearest to a point, along a ray. A uniform grid of the bodies' centres (`grid`: a counting
+sort, linear in the bodies) is built by the caller and may serve many calls (World keeps one
+while nothing moves, spacephys/queries.py); bodies larger than a cell ("giants") are tested
+against every query directly. Each search takes `wanted`: a (n,) bool mask of the rows it may
+find, or an empty array for every row of the grid.
 
 A body is a disc (2D) or a sphere (3D) of its radius: its distance from a point is the gap
 max(|p - c| - radius, 0) (0 when the point is inside it), and it overlaps a box when the box
@@ -41,6 +43,12 @@ def _wrapped(x, lo, period):
         if x >= lo + period:                 # rounding: x just below lo came back to the top
             x -= period
     return x
+
+
+@kernel(inline=True)
+def _unwanted(wanted, i):
+    """Whether row i is left out of a search (wanted: see the module)."""
+    return wanted.size != 0 and not wanted[i]
 
 
 @kernel(parallel=True)
@@ -196,7 +204,7 @@ def _range(x, reach, origin, cell, ncell, period):
 
 @kernel(lean=True)
 def _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query, ids_out, dist_out,
-           base):
+           base, wanted):
     """Count (ids_out empty) or write the hits of query q: the gridded bodies within reach of
     its cells, then the giants. Lean (no reference counts: it allocates nothing): called
     twice per query, its arrays' counts cost more than its work (11.3 -> 7.5 ms for 10^4
@@ -221,9 +229,13 @@ def _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query, ids_o
             for cz in range(z0, z1 + 1):
                 k = row + (cz % ncell[2] if period[2] > 0.0 else cz)
                 for e in range(start[k], start[k + 1]):
+                    if _unwanted(wanted, items[e]):
+                        continue
                     n = _test(gpos, grad, e, items[e], q, centres, r, half, period,
                               kind_of_query, ids_out, dist_out, base, n)
     for e in range(giants.size):
+        if _unwanted(wanted, giants[e]):
+            continue
         n = _test(pos, radius, giants[e], giants[e], q, centres, r, half, period,
                   kind_of_query, ids_out, dist_out, base, n)
     return n
@@ -287,7 +299,7 @@ def _by_cell(g, points, period):
 
 @kernel(lean=True)
 def _lane_overlaps(pos, radius, g, order, a0, a1, centres, reach, half, period,
-                   kind_of_query, counts, buf_i, buf_d, ident):
+                   kind_of_query, counts, buf_i, buf_d, ident, wanted):
     """Queries order[a0:a1] in one pass into this lane's buffers: each query's hits sorted,
     counts[q] set; a query that does not fit and those after it get counts -1. Returns the
     room used."""
@@ -299,7 +311,7 @@ def _lane_overlaps(pos, radius, g, order, a0, a1, centres, reach, half, period,
             counts[q] = -1
             continue
         n = _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query,
-                   buf_i[used:], buf_d[used:], 0)
+                   buf_i[used:], buf_d[used:], 0, wanted)
         if n > buf_i.size - used:
             full = True
             counts[q] = -1
@@ -311,17 +323,14 @@ def _lane_overlaps(pos, radius, g, order, a0, a1, centres, reach, half, period,
 
 
 @kernel(parallel=True)
-def overlaps(pos, radius, ident, rows, lo, period, centres, reach, half, kind_of_query):
-    """Every query's hits among the bodies `rows`: (offsets (Q + 1,), hits (H,) rows, dist
+def overlaps(g, pos, radius, ident, wanted, period, centres, reach, half, kind_of_query):
+    """Every query's hits among the bodies of the grid g (of pos, radius) that are wanted
+    (see the module): (offsets (Q + 1,), hits (H,) rows, dist
     (H,)), hits[offsets[q]:offsets[q+1]] sorted by distance then id (ident (n,): the body
     ids). kind_of_query 0: bodies within reach[q] of centres[q]; 1: bodies overlapping the
     box centres[q] +- half[q] (dist: from the box's centre). One pass: lanes of queries (in
     cell order) write into rooms sized from a sample of 64 queries; the few that do not fit
     are counted, then written in place (10^4 queries: 6.3 -> 5.0 ms against two passes)."""
-    hint = 0.0
-    for q in range(centres.shape[0]):
-        hint += reach[q] if kind_of_query == 0 else half[q, 0] + half[q, 1] + half[q, 2]
-    g = grid(pos, radius, rows, lo, period, hint / max(centres.shape[0], 1))
     nq = centres.shape[0]
     order = _by_cell(g, centres, period)
     lanes = 8 if nq >= MIN_PARALLEL else 1
@@ -333,7 +342,7 @@ def overlaps(pos, radius, ident, rows, lo, period, centres, reach, half, kind_of
     sample = 0
     for a in range(0, nq, step):
         sample += _visit(pos, radius, g, order[a], centres, reach, half, period,
-                         kind_of_query, none_i, none_d, 0)
+                         kind_of_query, none_i, none_d, 0, wanted)
     per = nq // lanes + 1
     room = int(1.5 * sample / max((nq + step - 1) // step, 1) * per) + 256
     buf_i = np.empty(lanes * room, np.int64)
@@ -342,14 +351,14 @@ def overlaps(pos, radius, ident, rows, lo, period, centres, reach, half, kind_of
         _lane_overlaps(pos, radius, g, order, lane * nq // lanes, (lane + 1) * nq // lanes,
                        centres, reach, half, period, kind_of_query, counts,
                        buf_i[lane * room:(lane + 1) * room],
-                       buf_d[lane * room:(lane + 1) * room], ident)
+                       buf_d[lane * room:(lane + 1) * room], ident, wanted)
     # the queries that did not fit: counted here, written in place below
     late = np.zeros(nq, np.bool_)
     for q in range(nq):
         if counts[q] < 0:
             late[q] = True
             counts[q] = _visit(pos, radius, g, q, centres, reach, half, period,
-                               kind_of_query, none_i, none_d, 0)
+                               kind_of_query, none_i, none_d, 0, wanted)
     offsets = np.empty(nq + 1, np.int64)
     offsets[0] = 0
     for q in range(nq):
@@ -363,7 +372,7 @@ def overlaps(pos, radius, ident, rows, lo, period, centres, reach, half, kind_of
             o = offsets[q]
             if late[q]:
                 _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query, hits,
-                       dist, o)
+                       dist, o, wanted)
                 _sort_hits(hits, dist, o, o + counts[q], ident)
                 continue
             for e in range(counts[q]):
@@ -392,7 +401,7 @@ def _offer(best_i, best_d, k, filled, i, d, ident):
 
 
 @kernel(lean=True)
-def _nearest_one(pos, radius, ident, g, x, y, z, k, period, best_i, best_d):
+def _nearest_one(pos, radius, ident, g, x, y, z, k, period, best_i, best_d, wanted):
     """The k nearest gridded bodies and giants to (x, y, z) (best_*, sorted): every body in
     the cells within r + rmax is offered, r doubling from the point's distance to the grid
     plus a cell until the k-th nearest is within r (no body outside can be nearer) or every
@@ -413,6 +422,8 @@ def _nearest_one(pos, radius, ident, g, x, y, z, k, period, best_i, best_d):
         filled = 0
         for e in range(giants.size):
             i = giants[e]
+            if _unwanted(wanted, i):
+                continue
             filled = _offer(best_i, best_d, k, filled, i,
                             _gap(pos, radius, i, x, y, z, period), ident)
         x0, x1 = _range(x, r + rmax, origin[0], cell[0], ncell[0], period[0])
@@ -427,6 +438,8 @@ def _nearest_one(pos, radius, ident, g, x, y, z, k, period, best_i, best_d):
                     key = ((cx % ncell[0]) * ncell[1] + cy % ncell[1]) * ncell[2] + \
                         cz % ncell[2]
                     for e in range(start[key], start[key + 1]):
+                        if _unwanted(wanted, items[e]):
+                            continue
                         filled = _offer(best_i, best_d, k, filled, items[e],
                                         _gap(gpos, grad, e, x, y, z, period), ident)
         seen_all = (x1 - x0 + 1 >= ncell[0] and y1 - y0 + 1 >= ncell[1]
@@ -437,29 +450,30 @@ def _nearest_one(pos, radius, ident, g, x, y, z, k, period, best_i, best_d):
 
 
 @kernel(parallel=True)
-def nearest(pos, radius, ident, rows, lo, period, points, k):
-    """The k nearest of the bodies `rows` to each point: (hits (Q, k) rows, -1 past the
-    bodies there are; dist (Q, k), inf there), sorted by distance then id."""
-    g = grid(pos, radius, rows, lo, period, 0.0)
+def nearest(g, pos, radius, ident, wanted, period, points, k):
+    """The k nearest wanted bodies of the grid g (see the module) to each point: (hits
+    (Q, k) rows, -1 past the bodies there are; dist (Q, k), inf there), sorted by distance
+    then id."""
     nq = points.shape[0]
     order = _by_cell(g, points, period)
     hits = np.empty((nq, k), np.int64)
     dist = np.empty((nq, k))
     if nq >= MIN_PARALLEL:
         for a in numba.prange(nq):
-            _nearest_row(pos, radius, ident, g, points, order[a], k, period, hits, dist)
+            _nearest_row(pos, radius, ident, g, points, order[a], k, period, hits, dist,
+                         wanted)
     else:
         for q in order:
-            _nearest_row(pos, radius, ident, g, points, q, k, period, hits, dist)
+            _nearest_row(pos, radius, ident, g, points, q, k, period, hits, dist, wanted)
     return hits, dist
 
 
 @kernel(lean=True)
-def _nearest_row(pos, radius, ident, g, points, q, k, period, hits, dist):
+def _nearest_row(pos, radius, ident, g, points, q, k, period, hits, dist, wanted):
     """Query q's k nearest into hits[q], dist[q] (-1 and inf past those found). Lean: it
     allocates nothing (10^4 queries, k = 1: 5.0 -> 4.0 ms)."""
     filled = _nearest_one(pos, radius, ident, g, points[q, 0], points[q, 1], points[q, 2], k,
-                          period, hits[q], dist[q])
+                          period, hits[q], dist[q], wanted)
     for j in range(filled, k):
         hits[q, j] = -1
         dist[q, j] = np.inf
@@ -533,7 +547,7 @@ def _to(cur, reach, n, period):
 
 @kernel(lean=True)
 def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch, mark,
-         out_rows, out_t, cap):
+         out_rows, out_t, cap, wanted):
     """The gridded bodies the ray o + t d (d unit, 0 <= t <= tmax) touches: a walk through
     the grid's cells along the ray (Amanatides and Woo 1987), each cell's neighbours within
     the largest radius tested too; periodic axes walked through their images. first: the
@@ -542,7 +556,7 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
     met again, through another cell or image, the nearer meeting is kept), the first cap
     written. Returns the count of hits (first: written to out_rows[0], out_t[0]). extra: a
     radius added to every body's (a shape cast: the moving circle's); skip: a row left out
-    (the moving body's own), -1 for none. scratch (a lane's, reused by its rays: arrays of a
+    (the moving body's own), -1 for none; wanted: see the module. scratch (a lane's, reused by its rays: arrays of a
     ray's own cost more than its short walk): seen (SEEN, 3), the walk cells lately
     scanned (a cell's neighbourhood shares most of its cells with the last one's: 3x fewer
     bodies tested in 2D, 9x in 3D); walk (3, 3) int64 and times (2, 3), the walk's cells and
@@ -628,7 +642,7 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
                     seen[h, 2] = az
                     key = (ix * ncell[1] + iy) * ncell[2] + iz
                     for e in range(start[key], start[key + 1]):
-                        if items[e] == skip:
+                        if items[e] == skip or _unwanted(wanted, items[e]):
                             continue
                         t = ray_sphere(o[0], o[1], o[2], d[0], d[1], d[2],
                                        _near(gpos[e, 0], o[0], sx, period[0]),
@@ -702,16 +716,16 @@ def _giant_t(pos, radius, i, o, d, period, extra):
 
 @kernel(lean=True)
 def _ray(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, q, first, stamp,
-         slot, scratch, mark, rows_out, t_out, cap):
+         slot, scratch, mark, rows_out, t_out, cap, wanted):
     """One ray's hits: the grid's walk, then the giants; returns the count."""
     o = origins[q]
     d = dirs[q]
     n = cast(g, ident, period, o, d, tmax[q], extra[q], skip[q], first, stamp, slot,
-             scratch, mark, rows_out, t_out, cap)
+             scratch, mark, rows_out, t_out, cap, wanted)
     giants = g[5]
     for e in range(giants.size):
         i = giants[e]
-        if i == skip[q]:
+        if i == skip[q] or _unwanted(wanted, i):
             continue
         t = _giant_t(pos, radius, i, o, d, period, extra[q])
         if t < 0.0 or t > tmax[q]:
@@ -731,7 +745,7 @@ def _ray(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, q, fir
 
 @kernel
 def _lane(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, lane, lanes, first,
-          counts, offsets, hits, ts):
+          counts, offsets, hits, ts, wanted):
     """The rays lane, lane + lanes, ...: first: the nearest hit into hits[q], ts[q]; else
     counts[q] (offsets empty) or the hits themselves, sorted (offsets given)."""
     stamp = np.empty(0 if first else g[4].size, np.int64)
@@ -742,26 +756,27 @@ def _lane(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, lane,
     for q in range(lane, origins.shape[0], lanes):
         if first:
             counts[q] = _ray(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip,
-                             q, True, stamp, slot, scratch, 0, hits[q:q + 1], ts[q:q + 1], 1)
+                             q, True, stamp, slot, scratch, 0, hits[q:q + 1], ts[q:q + 1], 1,
+                             wanted)
         elif offsets.size == 0:
             counts[q] = _ray(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip,
-                             q, False, stamp, slot, scratch, q, hits[:0], ts[:0], 0)
+                             q, False, stamp, slot, scratch, q, hits[:0], ts[:0], 0,
+                             wanted)
         else:
             a, b = offsets[q], offsets[q + 1]
             # a mark of its own for the second pass: the first pass's stamps are stale
             _ray(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, q, False,
-                 stamp, slot, scratch, q + origins.shape[0], hits[a:b], ts[a:b], b - a)
+                 stamp, slot, scratch, q + origins.shape[0], hits[a:b], ts[a:b], b - a, wanted)
             _sort_hits(hits, ts, a, b, ident)
 
 
 @kernel(parallel=True)
-def raycasts(pos, radius, ident, rows, lo, period, origins, dirs, tmax, extra, skip, first):
-    """Rays origins[q] + t dirs[q] (unit), 0 <= t <= tmax[q], against the bodies `rows`:
+def raycasts(g, pos, radius, ident, wanted, period, origins, dirs, tmax, extra, skip, first):
+    """Rays origins[q] + t dirs[q] (unit), 0 <= t <= tmax[q], against the wanted bodies of
+    the grid g (see the module; its cells best about as wide as the extra radii):
     (offsets (Q + 1,), hits (H,) rows, t (H,)), each ray's hits sorted by t then id; with
     first, at most one per ray (the nearest). extra (Q,): a radius added to every body's
     for ray q (a moving circle's: a shape cast); skip (Q,): a row ray q ignores (-1: none)."""
-    # cells about as wide as the moving circles: their neighbourhoods stay a few cells
-    g = grid(pos, radius, rows, lo, period, extra.sum() / max(extra.size, 1))
     nq = origins.shape[0]
     lanes = min(nq, 8) if nq >= MIN_PARALLEL else 1
     counts = np.empty(nq, np.int64)
@@ -774,10 +789,10 @@ def raycasts(pos, radius, ident, rows, lo, period, origins, dirs, tmax, extra, s
         if lanes > 1:
             for lane in numba.prange(lanes):
                 _lane(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip,
-                      np.int64(lane), lanes, first, counts, marks, hits, ts)
+                      np.int64(lane), lanes, first, counts, marks, hits, ts, wanted)
         else:
             _lane(pos, radius, ident, g, period, origins, dirs, tmax, extra, skip, 0, 1, first,
-                  counts, marks, hits, ts)
+                  counts, marks, hits, ts, wanted)
         if rnd == 0:
             offsets[0] = 0
             for q in range(nq):

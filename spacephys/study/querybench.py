@@ -1,6 +1,7 @@
 """`spacephys bench queries`: the World's spatial queries beside scipy's cKDTree on the same
 bodies and queries, the grid (ours) and the tree (theirs) built inside every timing, and the
-same answers checked.
+same answers checked; and a frame's queries: 20 batches of 10 radius queries among 4 000
+bodies, the grid built by the first (World keeps it while nothing moves) and the tree once.
 
 Bodies: point bodies uniform in a square (2D) or cube (3D) of side 1 000; queries uniform in
 the same region. Radius queries use the r that holds about 10 bodies on average. Rays (no
@@ -28,7 +29,7 @@ def _case(dim, n, nq, repeats):
 
     # radius queries
     w.query_radius(centres[:2], r)
-    t_ours, hits = best_of(lambda: w.query_radius(centres, r), repeats)
+    t_ours, hits = best_of(lambda: _fresh(w).query_radius(centres, r), repeats)
     t_theirs, found = best_of(lambda: cKDTree(w.pos).query_ball_point(centres, r), repeats)
     same = all(sorted(hits[q][0].tolist()) == sorted(found[q]) for q in range(nq))
     rows.append({"case": f"{nq} radius queries, {dim}D", "bodies": n, "queries": nq,
@@ -37,7 +38,7 @@ def _case(dim, n, nq, repeats):
     # nearest
     for k in (1, 10):
         w.nearest(centres[:2], k=k)
-        t_ours, (ids, d) = best_of(lambda: w.nearest(centres, k=k), repeats)
+        t_ours, (ids, d) = best_of(lambda: _fresh(w).nearest(centres, k=k), repeats)
         t_theirs, (dd, ii) = best_of(lambda: cKDTree(w.pos).query(centres, k=k), repeats)
         ii = ii.reshape(nq, k)
         same = bool(np.array_equal(ids, w.ids[ii]) and
@@ -51,7 +52,8 @@ def _case(dim, n, nq, repeats):
     dirs = rng.normal(size=(nq, dim))
     shapes.raycast(centres[:2], dirs[:2], 100.0)
     for first in (True, False):
-        t_ours, hits = best_of(lambda: shapes.raycast(centres, dirs, 100.0, first=first), repeats)
+        t_ours, hits = best_of(lambda: _fresh(shapes).raycast(centres, dirs, 100.0, first=first),
+                               repeats)
         rows.append({"case": f"{nq} rays ({'nearest' if first else 'every'} hit), {dim}D",
                      "bodies": n, "queries": nq, "mean_found": float(hits.counts().mean()),
                      "spacephys_s": t_ours, "scipy_s": None, "ratio": None,
@@ -59,11 +61,49 @@ def _case(dim, n, nq, repeats):
     # boxes of the same area/volume as the balls (no peer)
     half = 0.5 * (ball ** (1.0 / dim)) * r
     w.query_box(centres[:2] - half, centres[:2] + half)
-    t_ours, hits = best_of(lambda: w.query_box(centres - half, centres + half), repeats)
+    t_ours, hits = best_of(lambda: _fresh(w).query_box(centres - half, centres + half),
+                           repeats)
     rows.append({"case": f"{nq} box queries, {dim}D", "bodies": n, "queries": nq,
                  "mean_found": float(hits.counts().mean()), "spacephys_s": t_ours,
                  "scipy_s": None, "ratio": None, "same_answers": None})
     return rows
+
+
+def _fresh(w):
+    """w without the grid its last queries kept (queries._grid): built inside the timing."""
+    w.driver.grids.clear()
+    return w
+
+
+def _frame(dim, repeats, n=4000, batches=20, per=10):
+    """A frame's queries: `batches` calls of `per` radius queries (about 10 bodies each)
+    among n bodies, from a step's end (the grid built by the first call) against a cKDTree
+    built once and queried as many times."""
+    from scipy.spatial import cKDTree
+    from ..world import World
+    rng = np.random.default_rng(10 + dim)
+    side = 1000.0
+    w = World(dim=dim, gravity="none", capacity=n)
+    w.add_bodies(1.0, rng.uniform(0.0, side, (n, dim)))
+    ball = math.pi if dim == 2 else 4.0 / 3.0 * math.pi
+    r = (10.0 / (n / side ** dim) / ball) ** (1.0 / dim)
+    centres = rng.uniform(0.0, side, (batches, per, dim))
+
+    def ours():
+        _fresh(w)
+        return [w.query_radius(c, r) for c in centres]
+
+    def theirs():
+        tree = cKDTree(w.pos)
+        return [tree.query_ball_point(c, r) for c in centres]
+    ours()
+    t_ours, hits = best_of(ours, repeats)
+    t_theirs, found = best_of(theirs, repeats)
+    same = all(sorted(h[q][0].tolist()) == sorted(f[q]) for h, f in zip(hits, found)
+               for q in range(per))
+    return {"case": f"{batches} x {per} radius queries, {dim}D", "bodies": n,
+            "queries": batches * per, "spacephys_s": t_ours, "scipy_s": t_theirs,
+            "ratio": t_theirs / t_ours, "same_answers": bool(same)}
 
 
 def queries(quick=False):
@@ -72,6 +112,7 @@ def queries(quick=False):
     import scipy
     n, nq, repeats = (20_000, 2_000, 3) if quick else (100_000, 10_000, 5)
     cases = _case(2, n, nq, repeats) + _case(3, n, nq, repeats)
+    cases += [_frame(2, 3 * repeats), _frame(3, 3 * repeats)]
     return {**header("queries", quick), "scipy_version": scipy.__version__, "cases": cases}
 
 
