@@ -138,12 +138,10 @@ def _grid(world, hint):
     lo, period = _box(world)
     kept = world.driver.grids
     basis = kept.get("basis")
-    if basis is None or not (np.array_equal(basis[0], pos) and np.array_equal(basis[1], radius)
-                             and np.array_equal(basis[2], ids)
-                             and np.array_equal(basis[3], lo)
-                             and np.array_equal(basis[4], period)):
+    box = lo.tobytes() + period.tobytes()
+    if basis is None or not (basis[3] == box and kq.unchanged(pos, radius, ids, *basis[:3])):
         kept.clear()
-        kept["basis"] = (pos.copy(), radius.copy(), ids.copy(), lo, period)
+        kept["basis"] = (pos.copy(), radius.copy(), ids.copy(), box)
     key = None if not hint > 0.0 else int(np.floor(np.log2(hint)))
     g = kept.get(key)
     if g is None:

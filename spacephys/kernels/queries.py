@@ -51,6 +51,19 @@ def _unwanted(wanted, i):
     return wanted.size != 0 and not wanted[i]
 
 
+@kernel
+def unchanged(pos, radius, ids, bpos, bradius, bids):
+    """Whether pos (n, 3), radius (n,), ids (n,) equal bpos, bradius, bids (what a kept
+    grid was built from; NaN never equals)."""
+    if pos.shape[0] != bpos.shape[0]:
+        return False
+    for i in range(pos.shape[0]):
+        if (ids[i] != bids[i] or radius[i] != bradius[i] or pos[i, 0] != bpos[i, 0]
+                or pos[i, 1] != bpos[i, 1] or pos[i, 2] != bpos[i, 2]):
+            return False
+    return True
+
+
 @kernel(parallel=True)
 def grid(pos, radius, rows, lo, period, hint):
     """The grid of the bodies `rows`: (origin (3,), cell (3,) side per axis, ncell (3,),
@@ -347,11 +360,15 @@ def overlaps(g, pos, radius, ident, wanted, period, centres, reach, half, kind_o
     room = int(1.5 * sample / max((nq + step - 1) // step, 1) * per) + 256
     buf_i = np.empty(lanes * room, np.int64)
     buf_d = np.empty(lanes * room)
-    for lane in numba.prange(lanes):
-        _lane_overlaps(pos, radius, g, order, lane * nq // lanes, (lane + 1) * nq // lanes,
-                       centres, reach, half, period, kind_of_query, counts,
-                       buf_i[lane * room:(lane + 1) * room],
-                       buf_d[lane * room:(lane + 1) * room], ident, wanted)
+    if lanes > 1:
+        for lane in numba.prange(lanes):
+            _lane_overlaps(pos, radius, g, order, lane * nq // lanes,
+                           (lane + 1) * nq // lanes, centres, reach, half, period,
+                           kind_of_query, counts, buf_i[lane * room:(lane + 1) * room],
+                           buf_d[lane * room:(lane + 1) * room], ident, wanted)
+    else:            # a few queries: no parallel region (waking the threads costs more)
+        _lane_overlaps(pos, radius, g, order, 0, nq, centres, reach, half, period,
+                       kind_of_query, counts, buf_i, buf_d, ident, wanted)
     # the queries that did not fit: counted here, written in place below
     late = np.zeros(nq, np.bool_)
     for q in range(nq):
@@ -365,21 +382,37 @@ def overlaps(g, pos, radius, ident, wanted, period, centres, reach, half, kind_o
         offsets[q + 1] = offsets[q] + counts[q]
     hits = np.empty(offsets[nq], np.int64)
     dist = np.empty(offsets[nq])
-    for lane in numba.prange(lanes):
-        u = lane * room
-        for a in range(lane * nq // lanes, (lane + 1) * nq // lanes):
-            q = order[a]
-            o = offsets[q]
-            if late[q]:
-                _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query, hits,
-                       dist, o, wanted)
-                _sort_hits(hits, dist, o, o + counts[q], ident)
-                continue
-            for e in range(counts[q]):
-                hits[o + e] = buf_i[u + e]
-                dist[o + e] = buf_d[u + e]
-            u += counts[q]
+    if lanes > 1:
+        for lane in numba.prange(lanes):
+            _gather_lane(pos, radius, g, order, np.int64(lane), lanes, nq, room, centres,
+                         reach, half, period, kind_of_query, counts, late, offsets, buf_i,
+                         buf_d, hits, dist, ident, wanted)
+    else:
+        _gather_lane(pos, radius, g, order, 0, 1, nq, room, centres, reach, half, period,
+                     kind_of_query, counts, late, offsets, buf_i, buf_d, hits, dist, ident,
+                     wanted)
     return offsets, hits, dist
+
+
+@kernel(lean=True)
+def _gather_lane(pos, radius, g, order, lane, lanes, nq, room, centres, reach, half, period,
+                 kind_of_query, counts, late, offsets, buf_i, buf_d, hits, dist, ident,
+                 wanted):
+    """overlaps' second pass for one lane: its queries' hits from its buffer into hits,
+    dist at their offsets; those that did not fit searched again in place."""
+    u = lane * room
+    for a in range(lane * nq // lanes, (lane + 1) * nq // lanes):
+        q = order[a]
+        o = offsets[q]
+        if late[q]:
+            _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query, hits,
+                   dist, o, wanted)
+            _sort_hits(hits, dist, o, o + counts[q], ident)
+            continue
+        for e in range(counts[q]):
+            hits[o + e] = buf_i[u + e]
+            dist[o + e] = buf_d[u + e]
+        u += counts[q]
 
 
 @kernel(inline=True)
@@ -556,10 +589,10 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
     met again, through another cell or image, the nearer meeting is kept), the first cap
     written. Returns the count of hits (first: written to out_rows[0], out_t[0]). extra: a
     radius added to every body's (a shape cast: the moving circle's); skip: a row left out
-    (the moving body's own), -1 for none; wanted: see the module. scratch (a lane's, reused by its rays: arrays of a
-    ray's own cost more than its short walk): seen (SEEN, 3), the walk cells lately
-    scanned (a cell's neighbourhood shares most of its cells with the last one's: 3x fewer
-    bodies tested in 2D, 9x in 3D); walk (3, 3) int64 and times (2, 3), the walk's cells and
+    (the moving body's own), -1 for none; wanted: see the module. scratch (a lane's, reused
+    by its rays: arrays of a ray's own cost more than its short walk): seen (SEEN, 3), the
+    walk cells lately scanned (a cell's neighbourhood shares most of its cells with the last
+    one's: 3x fewer bodies tested in 2D, 9x in 3D); walk (3, 3) int64 and times (2, 3), the walk's cells and
     crossing times."""
     seen, walk, times = scratch
     origin, cell, ncell, start, items, giants, rmax, gpos, grad = g
