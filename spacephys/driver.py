@@ -42,6 +42,8 @@ class Driver:
         self.cut = 0
         # the spatial queries' grids and what they were built from (queries._grid)
         self.grids = {}
+        # the settings predictions chose to meet an error (prediction_settings.choose)
+        self.choices = {}
 
     def __getstate__(self):
         state = self.__dict__.copy()

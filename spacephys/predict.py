@@ -250,7 +250,7 @@ def _schedule(world, duration, points, integrator, dt):
 
 
 def predict(world, ids, duration, points=256, integrator=None, dt=None, tolerance=None,
-            target=None, about=None, background=False, coast=False):
+            target=None, about=None, background=False, coast=False, error=None):
     """World.predict and World.predict_async (the docstrings are there): everything is
     checked and the World's state taken in the caller's thread; background: the run goes to
     a worker thread (kernels release the GIL) and a PredictionHandle comes back."""
@@ -266,6 +266,15 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
     if not math.isfinite(duration):
         raise ValueError(f"duration = {duration}: must be finite")
     points = check.count("points", points, minimum=2)
+    if not isinstance(coast, (bool, np.bool_)):
+        raise ValueError(f"coast = {coast!r}: True or False")
+    if error is not None:
+        error = check.scalar("error", error, positive=True)
+        if integrator is not None or dt is not None or tolerance is not None:
+            raise ValueError(f"error = {error}: the prediction chooses its integrator and dt "
+                             f"for it; give error, or integrator, dt and tolerance, not both")
+        from .prediction_settings import choose
+        integrator, dt = choose(world, ids, rows, duration, points, error, bool(coast))
     if target is not None:
         world.index_of(target, "target")
     if about is not None and world.mass[world.index_of(about, "about")] <= 0.0:
@@ -278,8 +287,6 @@ def predict(world, ids, duration, points=256, integrator=None, dt=None, toleranc
         if not get_integrator(name).adaptive:
             raise ValueError(f"tolerance = {tolerance}: only the adaptive integrator takes a "
                              f"tolerance ({name} is fixed-step; give dt)")
-    if not isinstance(coast, (bool, np.bool_)):
-        raise ValueError(f"coast = {coast!r}: True or False")
     shadow = _shadow(world, name, step, tolerance, background, bool(coast))
     cand, crows, watched = _picks(shadow, world, ids, about, target)
     cmass = world.mass[crows].astype(np.float64)

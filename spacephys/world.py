@@ -1497,7 +1497,7 @@ class World:
         orbits.put_on_orbit(self, body_id, about, elements)
 
     def predict(self, ids, duration, *, points=256, integrator=None, dt=None, tolerance=None,
-                target=None, about=None, coast=False):
+                target=None, about=None, coast=False, error=None):
         """The predicted paths of the bodies `ids` (an id or a list) over `duration` [time]:
         a copy of this World is stepped (this one is unchanged), every body pulling, held
         controls, plans and collisions as here, with `integrator` (default this World's) and
@@ -1514,17 +1514,26 @@ class World:
         on), as a HUD shows them during a burn. Many passive bodies predicted
         together whose only coupling is the pulling bodies' motion, already recorded by the
         last prediction (spacephys/tape.py), run in two halves on two threads, bit for bit
-        the same paths (predict._Halves)."""
+        the same paths (predict._Halves).
+
+        error: instead of integrator, dt and tolerance, the largest error wanted, relative to
+        each body's distance from the body pulling it hardest (1e-6: a millionth of its orbit's
+        radius). The prediction chooses the fixed-step method and dt that meet it with the
+        fewest force evaluations, trying them on this scene at its first call (a few
+        predictions), and reuses the choice while the scene's character holds
+        (spacephys/prediction_settings.py). Without error, integrator or dt, the path is the
+        one this World will fly."""
         from .predict import predict
         return predict(self, ids, duration, points, integrator, dt, tolerance, target, about,
-                       coast=coast)
+                       coast=coast, error=error)
 
     def predict_async(self, ids, duration, **options):
         """predict() on a worker thread: the World's state is taken now (it is what is
         predicted), the arguments checked now, and a copy stepped beside the caller's own
         steps (the kernels release the GIL, and the copy's force loops stay on one thread).
         Start the next when the last is done(). Returns a handle:
-        done(), running(), result(timeout=None) -> sp.Prediction, cancel()."""
+        done(), running(), result(timeout=None) -> sp.Prediction, cancel(). With error=, the
+        trials that choose the settings (the first call's) run in the caller's thread."""
         from .predict import predict
         return predict(self, ids, duration, background=True, **options)
 

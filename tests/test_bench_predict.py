@@ -27,12 +27,15 @@ def test_the_errors_are_those_of_each_integrators_order(results):
     ias15 = next(c for c in results["rebound"] if c["case"] == "REBOUND ias15")
     assert ias15["error"] < 1e-9
     assert results["best"]["case"] == "yoshida6, 100 steps an orbit"
+    e = results["by_error"]                 # error=1e-6 alone chooses what the table shows
+    assert e["error"] <= e["asked"] == 1e-6
+    assert (e["integrator"], e["steps_an_orbit"]) == ("yoshida6", 100)
 
 
 def test_the_report_names_every_figure(results):
     table = format_predict(results)
     for text in ("fastest within 1e-6", "100 ships predicted in one call", "a World flying the same steps",
-                 "a HUD's call",
+                 "a HUD's call", "error=1e-06 alone",
                  "while a prediction runs beside", "launching one (predict_async)"):
         assert text in table, text
     f = results["frames"]

@@ -114,6 +114,7 @@ def predict_bench(quick=False):
             f"REBOUND leapfrog, {10 * (POINTS - 1) // ORBITS} steps an orbit"
         theirs.append({"case": label,
                        "warm_call_s": _best(run, repeats), "error": error(run())})
+    by_error = _by_error(error, repeats)
     options = best["options"] if best else _options("yoshida4", 1)
     w100, ids100 = scene(ships=100)
     many = lambda: w100.predict(ids100, DURATION, points=POINTS, **options)
@@ -121,10 +122,29 @@ def predict_bench(quick=False):
     hundred = _best(many, repeats)
     return {**header("predict", quick, rebound), "orbits": ORBITS, "points": POINTS,
             "bodies": w.n, "ship_period": PERIOD, "cases": cases, "rebound": theirs,
-            "best": best, "hundred_ships_s": hundred,
+            "best": best, "hundred_ships_s": hundred, "by_error": by_error,
             "stepping_s": {"1": _stepping(w, options, repeats),
                            "100": _stepping(w100, options, repeats)},
             "hud_s": _hud(options, repeats), "frames": _frames(quick, options)}
+
+
+def _by_error(error, repeats, asked=1e-6):
+    """World.predict(..., error=asked) alone, the settings its own choice
+    (spacephys/prediction_settings.py): the first call (the trials) and a warm call, the
+    error against the reference (`error`: pos -> float), the settings chosen; and 100 ships
+    likewise, warm."""
+    w, (ship,) = scene()
+    call = lambda: w.predict(ship, DURATION, points=POINTS, error=asked)
+    start = time.perf_counter()
+    pred = call()
+    first = time.perf_counter() - start
+    name, dt, _ = next(iter(w.driver.choices.values()))
+    w100, ids100 = scene(ships=100)
+    many = lambda: w100.predict(ids100, DURATION, points=POINTS, error=asked)
+    many()
+    return {"asked": asked, "first_call_s": first, "warm_call_s": _best(call, repeats),
+            "error": error(pred.pos[0]), "integrator": name,
+            "steps_an_orbit": round(PERIOD / dt), "hundred_ships_s": _best(many, repeats)}
 
 
 def _hud(options, repeats):
@@ -231,6 +251,11 @@ def format_predict(r):
                          if theirs else ""))
     lines.append(f"100 ships predicted in one call: {r['hundred_ships_s'] * 1e3:.2f} ms "
                  f"(target 20 ms)")
+    e = r["by_error"]
+    lines.append(f"error={e['asked']:g} alone: {e['integrator']}, {e['steps_an_orbit']} steps "
+                 f"an orbit chosen; {e['warm_call_s'] * 1e3:.3f} ms a call (first, with the "
+                 f"trials: {e['first_call_s'] * 1e3:.0f} ms), error {e['error']:.1e}; 100 ships "
+                 f"{e['hundred_ships_s'] * 1e3:.2f} ms")
     st = r["stepping_s"]
     lines.append(f"a World flying the same steps (all bodies, one thread, no samples or markers): "
                  f"{st['1'] * 1e3:.3f} ms for 1 ship, {st['100'] * 1e3:.2f} ms for 100")
