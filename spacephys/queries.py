@@ -31,7 +31,8 @@ _ALL = np.zeros(0, np.bool_)       # the searches' mask when every body of the g
 
 def _mean(values):
     """The mean of values (the grid's hint: the queries' reach), 0 for none."""
-    return float(np.sum(values)) / max(np.size(values), 1)
+    values = np.asarray(values, np.float64)
+    return float(values.sum()) / values.size if values.size else 0.0
 
 
 @dataclass(frozen=True)
@@ -129,13 +130,12 @@ def _wanted(world, rows):
     return wanted
 
 
-def _grid(world, hint):
+def _grid(world, hint, pos, radius, ids, lo, period):
     """The grid of every live body (kernels/queries.grid) for queries that reach about
     `hint` (its cells at least that wide; 0: about a body a cell): built when a query first
     needs it, kept by the World's driver while the positions, radii, ids and box it was built
-    from hold, one per factor of 2 in hint."""
-    pos, radius, ids = _state(world)
-    lo, period = _box(world)
+    from hold, one per factor of 2 in hint. pos, radius, ids: _state(world); lo, period:
+    _box(world)."""
     kept = world.driver.grids
     basis = kept.get("basis")
     box = lo.tobytes() + period.tobytes()
@@ -261,8 +261,8 @@ def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=N
         q, hits, dist = _bodies(x, offsets, hits, dist)
         return Hits(np.searchsorted(q, np.arange(c.shape[0] + 1)).astype(np.int64),
                     x.ident[hits], dist)
-    offsets, hits, dist = kq.overlaps(_grid(world, _mean(reach)), pos, radius, ids,
-                                      _wanted(world, rows), period, c,
+    g = _grid(world, _mean(reach), pos, radius, ids, lo, period)
+    offsets, hits, dist = kq.overlaps(g, pos, radius, ids, _wanted(world, rows), period, c,
                                       np.ascontiguousarray(reach, np.float64),
                                       np.zeros((c.shape[0], 3)), 0)
     return Hits(offsets, ids[hits], dist)
@@ -300,9 +300,9 @@ def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
             q, hits, dist = q[order], hits[order], dist[order]
         return Hits(np.searchsorted(q, np.arange(a.shape[0] + 1)).astype(np.int64),
                     x.ident[hits], dist)
-    offsets, hits, dist = kq.overlaps(_grid(world, _mean((b - a).sum(axis=1) / 2)), pos,
-                                      radius, ids, _wanted(world, rows), period, 0.5 * (a + b),
-                                      np.zeros(a.shape[0]), 0.5 * (b - a), 1)
+    g = _grid(world, _mean((b - a).sum(axis=1) / 2), pos, radius, ids, box_lo, period)
+    offsets, hits, dist = kq.overlaps(g, pos, radius, ids, _wanted(world, rows), period,
+                                      0.5 * (a + b), np.zeros(a.shape[0]), 0.5 * (b - a), 1)
     return Hits(offsets, ids[hits], dist)
 
 
@@ -317,8 +317,8 @@ def nearest(world, points, k=1, kinds=None, mask=None, ignore=None, filter=None)
     x = _circles(world, rows)
     if x is not None:
         return _nearest_bodies(x, lo, period, p, k)
-    hits, dist = kq.nearest(_grid(world, 0.0), pos, radius, ids, _wanted(world, rows), period,
-                            p, k)
+    g = _grid(world, 0.0, pos, radius, ids, lo, period)
+    hits, dist = kq.nearest(g, pos, radius, ids, _wanted(world, rows), period, p, k)
     out = np.where(hits >= 0, ids[np.maximum(hits, 0)], -1) if ids.size else hits
     return out, dist
 
@@ -521,9 +521,9 @@ def _cast(world, o, d, tmax, extra, skip, rows, first, walls):
         body = _cast_circles(x, lo, period, o, d, tmax, extra, skip, first)
     else:
         # cells about as wide as the moving circles: their neighbourhoods stay a few cells
-        offsets, hits, t = kq.raycasts(_grid(world, _mean(extra)), pos, radius, ids,
-                                       _wanted(world, rows), period, o, d, tmax, extra, skip,
-                                       first)
+        g = _grid(world, _mean(extra), pos, radius, ids, lo, period)
+        offsets, hits, t = kq.raycasts(g, pos, radius, ids, _wanted(world, rows), period, o,
+                                       d, tmax, extra, skip, first)
         ray, point, normal = kq.surfaces(pos, period, o, d, offsets, hits, t)
         body = (ray, ids[hits], np.full(hits.size, -1), t, point, normal,
                 np.full(hits.size, -1))
