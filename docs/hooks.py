@@ -88,12 +88,14 @@ FIELDS = re.compile(r"^\w+=[^,]*(?:, \w+=[^,]*)*$")
 STEP = re.compile(r"\.(\w+)|\[\"([^\"]*)\"\]")
 UNITS = {"s": lambda v: f"{v:.3g} s", "ms": lambda v: f"{v * 1e3:.3g} ms",
          "us": lambda v: f"{v * 1e6:.3g} µs", "ns": lambda v: f"{v * 1e9:.3g} ns",
-         "x": lambda v: f"{v:.3g}×", "e": lambda v: f"{v:.1e}"}
+         "x": lambda v: f"{v:.3g}×", "e": lambda v: f"{v:.1e}",
+         "MB": lambda v: f"{v / 1e6:.3g} MB"}
 
 
 def figure(results, name, path, unit=None):
     """The value at `path` (".key", '["row"]' and '["field=value, ..."]' steps) of the results of
-    benchmark `name`, written with three significant digits in `unit` (s, ms, us, ns, x;
+    benchmark `name`, written with three significant digits in `unit` (s, ms, us, ns, x, MB
+    from bytes;
     e: two digits, in powers of ten; none: a whole number in full, 100 000)."""
     value = results
     for key, row in STEP.findall(path):
