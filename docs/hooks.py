@@ -89,14 +89,16 @@ STEP = re.compile(r"\.(\w+)|\[\"([^\"]*)\"\]")
 UNITS = {"s": lambda v: f"{v:.3g} s", "ms": lambda v: f"{v * 1e3:.3g} ms",
          "us": lambda v: f"{v * 1e6:.3g} µs", "ns": lambda v: f"{v * 1e9:.3g} ns",
          "x": lambda v: f"{v:.3g}×", "e": lambda v: f"{v:.1e}",
-         "MB": lambda v: f"{v / 1e6:.3g} MB"}
+         "MB": lambda v: f"{v / 1e6:.3g} MB", "kB": lambda v: f"{v / 1e3:.3g} kB",
+         "pct": lambda v: f"{v * 100:.3g} %"}
 
 
 def figure(results, name, path, unit=None):
     """The value at `path` (".key", '["row"]' and '["field=value, ..."]' steps) of the results of
     benchmark `name`, written with three significant digits in `unit` (s, ms, us, ns, x, MB
-    from bytes;
-    e: two digits, in powers of ten; none: a whole number in full, 100 000)."""
+    and kB from bytes, pct from a fraction;
+    e: two digits, in powers of ten; none: three digits, or a whole number in full from
+    1 000: 100 000)."""
     value = results
     for key, row in STEP.findall(path):
         if key:
@@ -121,7 +123,9 @@ def figure(results, name, path, unit=None):
         return UNITS[unit](value)
     if isinstance(value, (bool, str)):
         return str(value)
-    return f"{value:,}".replace(",", " ") if isinstance(value, int) else f"{value:.3g}"
+    if isinstance(value, int) or abs(value) >= 1000:      # 3 170, not 3.17e+03
+        return f"{value:,.0f}".replace(",", " ")
+    return f"{value:.3g}"
 
 
 def figures(markdown, data=DATA):
