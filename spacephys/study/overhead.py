@@ -152,7 +152,7 @@ def _threads(quick):
     processes: the default choice ("auto"), always threads (the old default), one thread."""
     import numba
     from ..scenes import star_system, uniform_sphere
-    scenes = {"star_system (2 007 bodies, 6 pulling)":
+    scenes = {"star_system (2 007 bodies of which 6 pull)":
               lambda: star_system(integrator="yoshida4", dt=0.002),
               "cluster of 128": lambda: uniform_sphere(128, dt=1e-4),
               "cluster of 512": lambda: uniform_sphere(512, dt=1e-4)}
