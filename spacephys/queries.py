@@ -142,7 +142,7 @@ def _grid(world, hint, pos, radius, ids, lo, period):
     if basis is None or not (basis[3] == box and kq.unchanged(pos, radius, ids, *basis[:3])):
         kept.clear()
         kept["basis"] = (pos.copy(), radius.copy(), ids.copy(), box)
-    key = None if not hint > 0.0 else int(np.floor(np.log2(hint)))
+    key = None if not hint > 0.0 else float(np.floor(np.log2(hint)))     # inf: a key too
     g = kept.get(key)
     if g is None:
         g = kept[key] = kq.grid(pos, radius, np.arange(world.n, dtype=np.int64), lo, period,

@@ -624,3 +624,15 @@ def test_the_grid_queries_share_is_dropped_when_anything_changes():
         after = _answers(w, centres, dirs)
         assert after == _answers(w.copy(), centres, dirs)
         assert after != before                           # the change changed the answers
+
+
+def test_a_box_wider_than_floats_reach_finds_every_body():
+    """A box of +-1e308 (its size overflows to inf, and so does the grid's hint): every
+    body, as before the grid was shared (planted: a hint keyed as an int raised
+    OverflowError)."""
+    w = sp.World(2, gravity="none")
+    w.add_body(1.0, (0.0, 0.0), radius=1.0)
+    w.add_body(1.0, (5.0, 0.0), radius=1.0)
+    with np.errstate(over="ignore"):
+        hits = w.query_box((-1e308, -1e308), (1e308, 1e308))
+    assert hits.ids.tolist() == w.ids.tolist()
