@@ -114,6 +114,8 @@ class Driver:
         w = self.w
         t0 = w._t_base + w._steps * w._dt
         w._event_count[0] = 0
+        if self.grids and n:
+            self.grids.clear()         # the bodies move: the queries' grid and its copies go
         if w._actors.queued:
             self._begin_events()
         b = w._b

@@ -618,6 +618,10 @@ def test_the_grid_queries_share_is_dropped_when_anything_changes():
                lambda: w.set_body(int(w.ids[10]), pos=centres[1] + 0.2),
                lambda: w.set_body(int(w.ids[11]), radius=5.0),
                lambda: w.set_boundary("periodic", (0.0, 0.0), (20.0, 20.0))]
+    w.step(0)
+    assert "basis" in w.driver.grids                      # no step taken: kept
+    w.step(1)
+    assert w.driver.grids == {}                           # a step drops it (and its memory)
     for change in changes:
         before = _answers(w, centres, dirs)
         change()
