@@ -4,7 +4,7 @@ import itertools
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import spacephys as sp
@@ -200,7 +200,9 @@ def test_followers_enter_only_the_cells_others_cover_and_find_every_pair(seed, s
     tb = rng.uniform(0, 0.5, w.n) * (rng.random(w.n) < 0.3)
     grid, brute, plan = _grid_and_brute(w, B, tb)
     assert _followers(plan.rules) == k
-    assert len(brute) > ships // 2
+    # a scene with (almost) no pair tests nothing: drawn again (a lone ship and missile
+    # among slow debris in 3D can meet none, seed 837)
+    assume(len(brute) > ships // 2)
     assert grid == brute
 
 
