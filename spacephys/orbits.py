@@ -221,6 +221,15 @@ def kepler_state(mu, a, e, t, *, i=0.0, Omega=0.0, omega=0.0, M0=0.0):
     return elements_to_state(mu, a, e, i, Omega, omega, M=M0 + n * t)
 
 
+def hardest_pulling(world, rows):
+    """(k,) int64: for each of the rows (k,), the row of the body pulling on it hardest
+    (G m_j / d^2, the body itself left out), -1 where no body pulls on it."""
+    d2 = np.sum((world.pos[None, :, :] - world.pos[rows][:, None, :]) ** 2, axis=2)
+    pull = np.where(world.pulls, world.mass, 0.0)[None, :] / np.where(d2 > 0.0, d2, np.inf)
+    pull[np.arange(len(rows)), rows] = 0.0
+    return np.where(np.any(pull > 0.0, axis=1), np.argmax(pull, axis=1), -1).astype(np.int64)
+
+
 def _parent(world, body_id, about):
     """(row of the body, mu, parent position, parent velocity (3,), about id or None)."""
     i = world.index_of(body_id, "id")
@@ -234,13 +243,9 @@ def _parent(world, body_id, about):
         raise ValueError(f"no orbit to report with gravity={world.gravity!r}: give gravity "
                          f"'direct', 'tree' or 'central'")
     if about is None:
-        # the body pulling on it hardest (G m_j / d^2)
-        d2 = np.sum((world.pos - world.pos[i]) ** 2, axis=1)
-        pull = np.where(world.pulls, world.mass, 0.0) / np.where(d2 > 0.0, d2, np.inf)
-        pull[i] = 0.0
-        if not np.any(pull > 0.0):
+        j = int(hardest_pulling(world, np.array([i]))[0])
+        if j < 0:
             raise ValueError(f"id = {body_id}: no body pulls on it, so it has no orbit")
-        j = int(np.argmax(pull))
     else:
         j = world.index_of(about, "about")
         if j == i:

@@ -17,6 +17,7 @@ import math
 import numpy as np
 
 from .integrators import get_integrator
+from .orbits import hardest_pulling
 
 METHODS = ("yoshida8", "yoshida6", "yoshida4", "leapfrog")    # the highest order first
 SAFETY = 0.5              # the estimate aims at half the error asked
@@ -57,20 +58,11 @@ def choose(world, ids, rows, duration, points, error, coast):
 
 def _scale(world, rows):
     """(distance (k,) of each predicted body from the body pulling it hardest, that body's
-    id (k,)), or (None, None) when nothing pulls any of them."""
-    pulls = world.pulls & (world.mass > 0.0)
-    src = np.flatnonzero(pulls)
-    if not src.size:
+    id (k,)), or (None, None) when nothing pulls one of them."""
+    j = hardest_pulling(world, rows)
+    if np.any(j < 0):
         return None, None
-    pos, mass = world.pos, world.mass
-    d = np.linalg.norm(pos[rows][:, None, :] - pos[src][None, :, :], axis=2)
-    d[src[None, :] == rows[:, None]] = np.inf        # a body does not pull itself
-    pull = np.where(d > 0.0, mass[src][None, :] / np.where(d > 0.0, d, 1.0) ** 2, 0.0)
-    k = np.argmax(pull, axis=1)
-    scale = d[np.arange(rows.size), k]
-    if not np.all(np.isfinite(scale) & (scale > 0.0)):
-        return None, None
-    return scale, world.ids[src[k]]
+    return np.linalg.norm(world.pos[rows] - world.pos[j], axis=1), world.ids[j]
 
 
 def _steps_needed(world, ids, duration, points, interval, name, order, scale, error, coast,
