@@ -1,6 +1,6 @@
 """The broad phase: the pairs of bodies whose boxes swept over a step overlap, from a uniform
-grid. The box each body sweeps goes into every cell of the grid it touches; the cells' hashes
-are grouped by a radix sort (linear in N), and a pair is reported only in the cell holding
+grid. The box each body sweeps goes into every cell of the grid it touches; the cells' keys
+(Morton codes: a Z-order through space) are sorted by a radix sort (linear in N), and a pair is reported only in the cell holding
 the low corner of the overlap of its two boxes, so never twice. A few giants (planets among
 ships) look up the cells their boxes cover instead of setting a huge cell, and bodies whose
 kinds meet nothing but giants (debris that only hit planets) stay out of the grid and look
@@ -44,14 +44,39 @@ def _bounds(A, B, tb, radius, alive, lo, hi, rows):
 
 
 @kernel(inline=True)
-def _cell_key(cx, cy, cz):
-    """A 64-bit hash of a cell: entries are grouped by it. Two cells sharing a key (odds
-    about 1e-8 for a million cells) would only make a pair be tested twice."""
-    h = cx * -7046029254386353131 + cy * -4417276706812531889 + cz * 1609587929392839161
-    h ^= (h >> 31) & 0x1FFFFFFFF
-    h *= -7723592293110705685
-    h ^= (h >> 29) & 0x7FFFFFFFF
-    return h
+def _spread2(v):
+    """The low 31 bits of v, one to every second bit (bits 0, 2, ..., 60)."""
+    x = v & 0x7FFFFFFF
+    x = (x | (x << 16)) & 0x0000FFFF0000FFFF
+    x = (x | (x << 8)) & 0x00FF00FF00FF00FF
+    x = (x | (x << 4)) & 0x0F0F0F0F0F0F0F0F
+    x = (x | (x << 2)) & 0x3333333333333333
+    return (x | (x << 1)) & 0x5555555555555555
+
+
+@kernel(inline=True)
+def _spread3(v):
+    """The low 21 bits of v, one to every third bit (bits 0, 3, ..., 60)."""
+    x = v & 0x1FFFFF
+    x = (x | (x << 32)) & 0x1F00000000FFFF
+    x = (x | (x << 16)) & 0x1F0000FF0000FF
+    x = (x | (x << 8)) & 0x100F00F00F00F00F
+    x = (x | (x << 4)) & 0x10C30C30C30C30C3
+    return (x | (x << 2)) & 0x1249249249249249
+
+
+@kernel(inline=True)
+def _cell_key(x, y, z, ncell, cell):
+    """The key of cell (x, y, z) (wrapped around a period by ncell): its Morton code, the
+    bits of its indices interleaved (two axes when the grid is flat, cell[2] == 0), so that
+    the radix sort's order is a Z-order through space and a run of cells holds bodies near
+    each other (with the bodies' rows in space order too, their boxes are read from nearby
+    memory). Distinct cells share a key only when their indices agree modulo 2^31 (flat) or
+    2^21 on every axis; that would only make a pair be tested twice."""
+    x, y, z = _wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]), _wrap_index(z, ncell[2])
+    if cell[2] == 0.0:
+        return _spread2(x) | (_spread2(y) << 1)
+    return _spread3(x) | (_spread3(y) << 1) | (_spread3(z) << 2)
 
 
 @kernel(inline=True)
@@ -63,10 +88,9 @@ def _wrap_index(k, n):
 def _radix_sort(keys, values, keys_out, values_out, bits):
     """Sort (keys, values) by the low `bits` (a multiple of 8) bits of keys, 8 at a time
     (LSD radix: linear; each pass streams the arrays once and scatters into 256 streams,
-    which stay in cache: measured twice as fast as 11-bit digits at 3e5 entries). Only a
-    grouping is needed: entries of one cell end up adjacent, with a few other cells' entries
-    mixed into the same run of low bits (the scan compares full keys). Returns the sorted
-    arrays."""
+    which stay in cache: measured twice as fast as 11-bit digits at 3e5 entries). Entries of
+    one cell end up adjacent (with cells whose keys share those bits, over spans wider than
+    _sort_bits covers: the scan compares full keys). Returns the sorted arrays."""
     n = keys.size
     count = np.zeros(257, np.int64)
     src_k, src_v, dst_k, dst_v = keys, values, keys_out, values_out
@@ -145,13 +169,32 @@ def _entries(lo, hi, alive, gridded, kind, size, low, high, rules, L):
         room = spare.size // 4
         _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, spare[:room],
               spare[room:2 * room], single, lead)
-    # grouped by as many low bits of the hashes as keep other cells out of most runs (a run
-    # mixing two cells costs a skipped comparison; a pass of the sort costs a quarter of it)
-    bits = 16 if total < 1 << 11 else (24 if total < 1 << 21 else 32)
+    bits = _sort_bits(low, high, origin, cell, ncell)
     keys, bodies = _radix_sort(spare[:total], spare[room:room + total],
                                spare[2 * room:2 * room + total],
                                spare[3 * room:3 * room + total], bits)
     return keys, bodies, single, origin, cell, ncell, total, (1 << bits) - 1, lead
+
+
+@kernel
+def _sort_bits(low, high, origin, cell, ncell):
+    """How many low bits of the keys (a multiple of 8, 8 to 32) the radix sort groups the
+    entries by: enough for the cells across the span low..high (3,) to have runs of their
+    own (a key's low 2k or 3k bits hold its indices modulo 2^k), at most 32 (4 passes: a
+    span wider than 2^16 cells (flat) or 2^10 shares runs between cells that far apart,
+    whose keys the scan then tells apart)."""
+    widest = 1.0
+    for c in range(3):
+        if ncell[c] > 0:
+            widest = max(widest, float(ncell[c]))
+        elif cell[c] > 0.0:
+            widest = max(widest, math.floor((high[c] - origin[c]) * cell[c]) -
+                         math.floor((low[c] - origin[c]) * cell[c]) + 1.0)
+    k = 0
+    while k < 32 and 2.0 ** k < widest:
+        k += 1
+    need = k * (2 if cell[2] == 0.0 else 3)
+    return min(32, max(8, (need + 7) // 8 * 8))
 
 
 @kernel
@@ -193,12 +236,9 @@ def _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, keys, bodies, singl
                                     b >= lead_map.shape[1] or d >= lead_map.shape[2] or \
                                     not lead_map[a, b, d]:
                                 continue
-                        elif not _in_set(lead_set, _cell_key(_wrap_index(x, ncell[0]),
-                                                             _wrap_index(y, ncell[1]),
-                                                             _wrap_index(z, ncell[2]))):
+                        elif not _in_set(lead_set, _cell_key(x, y, z, ncell, cell)):
                             continue
-                    key = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
-                                    _wrap_index(z, ncell[2]))
+                    key = _cell_key(x, y, z, ncell, cell)
                     if total < keys.size:
                         keys[total] = key
                         bodies[total] = (i << _KIND_BITS) | kind[i]
@@ -245,8 +285,7 @@ def _lead_cells(lo, hi, alive, gridded, origin, cell, ncell):
         for x in range(first[0], last[0] + 1):
             for y in range(first[1], last[1] + 1):
                 for z in range(first[2], last[2] + 1):
-                    key = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
-                                    _wrap_index(z, ncell[2]))
+                    key = _cell_key(x, y, z, ncell, cell)
                     h = _slot(lead, key)
                     lead[h, 0] = key
                     lead[h, 1] = 1
@@ -275,7 +314,7 @@ def _follows(lead):
 
 
 @kernel(inline=True)
-def _led(table, occupied, low, x, y, z, ncell):
+def _led(table, occupied, low, x, y, z, ncell, cell):
     """Whether _lead_cells's cells (its set, map and low cell) hold cell (x, y, z) (ncell:
     the grid's, for the set's key). _fill writes this out: in its loop over 6e4 bodies the
     helper took 3x as long as the same test written there."""
@@ -283,8 +322,7 @@ def _led(table, occupied, low, x, y, z, ncell):
         a, b, c = x - low[0], y - low[1], z - low[2]
         return 0 <= a < occupied.shape[0] and 0 <= b < occupied.shape[1] and \
             0 <= c < occupied.shape[2] and occupied[a, b, c]
-    return _in_set(table, _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
-                                    _wrap_index(z, ncell[2])))
+    return _in_set(table, _cell_key(x, y, z, ncell, cell))
 
 
 @kernel(inline=True)
@@ -308,7 +346,7 @@ def _in_set(lead, key):
 @kernel(inline=True)
 def _run_end(keys, run, total, low_bits):
     """The end of the run of entries from `run` whose keys share the low bits the sort
-    grouped by (one cell's, now and then with another cell hashed alike)."""
+    grouped by (one cell's, or those of cells alike in those bits)."""
     end = run + 1
     while end < total and (keys[end] & low_bits) == (keys[run] & low_bits):
         end += 1
@@ -398,9 +436,9 @@ def _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell,
                         # the same arithmetic as that body's entries (a shift by a period
                         # would round differently and could miss the cell at a boundary)
                         edge = lo[i, c] if lo[i, c] >= lo[j, c] - shift else lo[j, c]
-                        first[c] = _wrap_index(int(math.floor((edge - origin[c]) * cell[c])),
-                                               ncell[c])
-                    home = home and _cell_key(first[0], first[1], first[2]) == keys[eu]
+                        first[c] = int(math.floor((edge - origin[c]) * cell[c]))
+                    home = home and _cell_key(first[0], first[1], first[2], ncell, cell) == \
+                        keys[eu]
                 # the rest of allowed last: most pairs sharing a cell fail the box test
                 if not home or (category[i] & mask[j]) == 0 or (category[j] & mask[i]) == 0 \
                         or owner[i] == j or owner[j] == i or grouped(group, i, j):
@@ -651,9 +689,7 @@ def _giants_grid(giants, alive, lo, hi, rules, L):
                 for y in range(f[1], t[1] + 1):
                     for z in range(f[2], t[2] + 1):
                         if sweep == 1:
-                            keys[total] = _cell_key(_wrap_index(x, ncell[0]),
-                                                    _wrap_index(y, ncell[1]),
-                                                    _wrap_index(z, ncell[2]))
+                            keys[total] = _cell_key(x, y, z, ncell, cell)
                             bodies[total] = g << _KIND_BITS
                         total += 1
         if sweep == 0:
@@ -869,8 +905,8 @@ def _meets_here(i, j, key, lo, hi, L, origin, cell, ncell, corner):
         if max(lo[i, c], lo[j, c] - shift) > min(hi[i, c], hi[j, c] - shift):
             return False
         edge = lo[i, c] if lo[i, c] >= lo[j, c] - shift else lo[j, c]
-        corner[c] = _wrap_index(int(math.floor((edge - origin[c]) * cell[c])), ncell[c])
-    return _cell_key(corner[0], corner[1], corner[2]) == key
+        corner[c] = int(math.floor((edge - origin[c]) * cell[c]))
+    return _cell_key(corner[0], corner[1], corner[2], ncell, cell) == key
 
 
 @kernel(lean=True)
@@ -893,10 +929,10 @@ def _grid_meets(i, grid, table, lo, hi, L, alive, skip, near, work, strict):
     for x in range(first[0], last[0] + 1):
         for y in range(first[1], last[1] + 1):
             for z in range(first[2], last[2] + 1):
-                if strict and following and not _led(lead_set, lead_map, lead_low, x, y, z, ncell):
+                if strict and following and not _led(lead_set, lead_map, lead_low, x, y, z, ncell,
+                                                             cell):
                     return -1
-                key = _cell_key(_wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]),
-                                _wrap_index(z, ncell[2]))
+                key = _cell_key(x, y, z, ncell, cell)
                 if table.shape[0]:                     # the key's first entry, if any
                     h = _slot(table, key)
                     a = table[h, 1] if table[h, 1] >= 0 else keys.size
