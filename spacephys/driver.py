@@ -19,7 +19,7 @@ import warnings
 
 import numpy as np
 
-from . import editing, measures
+from . import editing, measures, space_order
 from .errors import caller_level
 from .events import EVENT_DTYPE
 from .kernels import parties as kparties
@@ -44,10 +44,15 @@ class Driver:
         self.grids = {}
         # the settings predictions chose to meet an error (prediction_settings.choose)
         self.choices = {}
+        # space order (space_order.py): the plan last judged and its steps between sorts (0:
+        # never)
+        self.judged = None
+        self.every = 0
 
     def __getstate__(self):
         state = self.__dict__.copy()
         state["grids"] = {}            # a copy (World.copy, a prediction's) builds its own
+        state["judged"] = None
         return state
 
     # ---------------------------------------------------------------- the interface
@@ -147,6 +152,28 @@ class Driver:
             measures.check_health(w, t0, status)
         return status
 
+    def sorts(self, plan):
+        """Steps between sorts of the rows in space order for the scene `plan` holds (0:
+        never; space_order.py says when)."""
+        w = self.w
+        f = w._forces
+        if plan.rules is None or plan.actors is not None or plan.special or \
+                w._b.n < space_order.MIN_BODIES or f.gravity not in ("none", "uniform", "central") \
+                or f.user or f.tape is not None or f.tether_ids.shape[0] or \
+                not w._stepper.capabilities.rows_free:
+            return 0
+        return space_order.EVERY
+
+    def _sort(self):
+        """Put the rows in space order; True when a row moved (the tables go)."""
+        b = self.w._b
+        rows = space_order.order(b.pos[:b.n], b.ids[:b.n])
+        if rows is None or (rows == np.arange(b.n)).all():
+            return False
+        b.reorder(rows)
+        self.w._plan = None
+        return True
+
     def _special(self, plan, nsteps, frame_at):
         """With bodies on rails or coasting: (steps to take, whether time passes in one jump,
         whether bodies coast, the tables), the coasting bodies released or set coasting
@@ -201,6 +228,14 @@ class Driver:
         while nsteps:
             plan = w._plan or w.tables()
             take, jumping, coasting = nsteps, False, False
+            if plan is not self.judged:
+                self.judged, self.every = plan, self.sorts(plan)
+            # the rows in space order before a call whose steps pass a multiple of `every`
+            # (decided by the step count and the call alone: a World restored, or stepped
+            # alike without sorting, makes the same calls)
+            if self.every and (w._steps + nsteps - 1) // self.every > \
+                    (w._steps - 1) // self.every and self._sort():
+                plan = self.judged = w.tables()
             if plan.special:                       # bodies on rails, or coasting
                 take, jumping, coasting, plan = self._special(plan, nsteps, frame_at)
             first = w._event_count.item(0)
@@ -255,6 +290,7 @@ class Driver:
                 events = w._events[first:w._event_count[0]]
                 w._actors.merged(events)
                 dead = np.flatnonzero(~plan.alive)
+                dead = dead[np.argsort(w._b.ids[dead], kind="stable")]   # by id, not row
                 blasts = w._actors.explode_dead(dead, events)
                 w._b.remove(dead)
                 w._invalidate()

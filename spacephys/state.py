@@ -149,11 +149,12 @@ class Bodies:
 
     def remove(self, rows):
         """Delete the bodies at the given (validated, distinct) rows: the last live rows move
-        into the holes, so the cost is O(removed) whatever the number of bodies."""
+        into the holes, so the cost is O(removed) whatever the number of bodies. Their slots
+        are freed in the order of their ids, whatever rows they held."""
         rows = np.asarray(rows, dtype=np.int64)
         n = self.n
         m = n - rows.size
-        slots = self.ids[rows] & _SLOT_MASK
+        slots = np.sort(self.ids[rows]) & _SLOT_MASK
         self.generation[slots] += 1      # every id that named these bodies is now stale
         self.index[slots] = -1
         self.free = np.concatenate([self.free, slots])
@@ -167,6 +168,16 @@ class Bodies:
             col[holes] = col[movers]
         self.n = m
         self.index[self.ids[holes] & _SLOT_MASK] = holes
+
+    def reorder(self, order):
+        """Put the live rows in the order `order` ((n,) int64, a permutation of 0..n-1: the
+        new row k is the old row order[k]), every column in place (the arrays tables hold
+        stay these Bodies'), ids and slots kept."""
+        n = self.n
+        for name in self.columns:
+            col = getattr(self, name)
+            col[:n] = np.take(col, order, axis=0)     # (3x faster than col[order])
+        self.index[self.ids[:n] & _SLOT_MASK] = np.arange(n)
 
     # ------------------------------------------------------------ state
     def motion(self, rows=None, copy=True):

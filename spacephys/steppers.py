@@ -35,7 +35,9 @@ class Capabilities:
     integrates; fixed_bodies: immovable bodies; pulling_actors: ships whose mass changes while
     they pull; split_invariant: step(n) equals n calls of step(1) bit for bit; frames: a
     recording's frames taken inside the kernel; dominant_mass: it is made for scenes with one
-    dominant mass (its Kepler drifts are about it)."""
+    dominant mass (its Kepler drifts are about it); rows_free: a step is each body's own,
+    nothing summed over bodies or carried in row order, so the rows may be put in another
+    order (space_order.py)."""
     drag: bool = True
     models: tuple = ("none", "direct", "uniform", "central", "tree")
     fixed_bodies: bool = True
@@ -43,6 +45,7 @@ class Capabilities:
     split_invariant: bool = True
     frames: bool = True
     dominant_mass: bool = False
+    rows_free: bool = True
 
 
 class Stepper:
@@ -148,7 +151,8 @@ class GaussRadau(Stepper):
     (columns of World's bodies, so they move with them) the Kahan compensations and the
     polynomials."""
     family = "gauss_radau"
-    capabilities = Capabilities(models=("none", "direct", "uniform", "central"))
+    capabilities = Capabilities(models=("none", "direct", "uniform", "central"),
+                                rows_free=False)
     columns = GR_COLUMNS
 
     def __init__(self, spec):
@@ -238,7 +242,7 @@ class WisdomHolman(Stepper):
     but the Jacobi order, derived from the bodies."""
     family = "wisdom_holman"
     capabilities = Capabilities(models=("direct",), fixed_bodies=False, pulling_actors=False,
-                                split_invariant=False, dominant_mass=True)
+                                split_invariant=False, dominant_mass=True, rows_free=False)
 
     moving_mass = "the Jacobi frames"
 

@@ -45,3 +45,20 @@ def test_dense_field_covers_a_tenth_of_its_square():
     assert abs(np.pi * np.sum(w.radius ** 2) / side ** 2 - 0.10) < 1e-12
     assert 0.5 <= w.radius.min() and w.radius.max() <= 2.0
     assert np.allclose(w.mass, w.radius ** 2)
+
+
+def test_dense_scaling_times_both_orders_and_sorts_only_the_space_ordered(monkeypatch):
+    from spacephys import space_order
+    from spacephys.driver import Driver
+    moved = []
+    sort = Driver._sort
+    monkeypatch.setattr(Driver, "_sort", lambda self: moved.append(sort(self)) or moved[-1])
+    least = space_order.MIN_BODIES
+    out = hb.dense_scaling(quick=True)
+    assert space_order.MIN_BODIES == least
+    assert out["sizes"] == [12_500, 25_000, 50_000]
+    for case in ("space order", "creation order"):
+        per = [out[case][str(n)] for n in out["sizes"]]
+        assert all(0 < p < 1e5 for p in per)             # ns a body
+        assert out[case + " spread"] == max(per) / min(per)
+    assert moved.count(True) == len(out["sizes"])       # one sort each, in space order only

@@ -72,8 +72,9 @@ def largest(values, k):
 @kernel
 def contact_order(t, i, j, k):
     """(k,) int64: the order sorting the contacts (t, i, j)[:k] by time, then i, then j (a
-    merge sort). Contacts at one time (bodies overlapping at the start of a step) are
-    resolved in row order, whatever order the broad phase found them in."""
+    merge sort; i, j the bodies' ids). Contacts at one time (bodies overlapping at the start
+    of a step) are resolved in the order of their ids, whatever order the broad phase found
+    them in and whatever rows the bodies hold."""
     return stable_order((t, i, j), k)
 
 
@@ -176,3 +177,29 @@ def radix_order(keys):
         a, b = b, a
         order, tmp = tmp, order
     return order
+
+
+@kernel
+def radix_sort(keys, values, keys_out, values_out, bits):
+    """Sort (keys, values) by the low `bits` (a multiple of 8) bits of keys, 8 at a time
+    (LSD radix: linear; each pass streams the arrays once and scatters into 256 streams,
+    which stay in cache: measured twice as fast as 11-bit digits at 3e5 entries). Entries of
+    one cell end up adjacent (with cells whose keys share those bits, over spans wider than
+    _sort_bits covers: the scan compares full keys). Returns the sorted arrays."""
+    n = keys.size
+    count = np.zeros(257, np.int64)
+    src_k, src_v, dst_k, dst_v = keys, values, keys_out, values_out
+    for shift in range(0, bits, 8):
+        for d in range(257):
+            count[d] = 0
+        for e in range(n):
+            count[((src_k[e] >> shift) & 255) + 1] += 1
+        for d in range(256):
+            count[d + 1] += count[d]
+        for e in range(n):
+            d = (src_k[e] >> shift) & 255
+            dst_k[count[d]] = src_k[e]
+            dst_v[count[d]] = src_v[e]
+            count[d] += 1
+        src_k, src_v, dst_k, dst_v = dst_k, dst_v, src_k, src_v
+    return src_k, src_v

@@ -1,7 +1,8 @@
 """The broad phase: the pairs of bodies whose boxes swept over a step overlap, from a uniform
 grid. The box each body sweeps goes into every cell of the grid it touches; the cells' keys
-(Morton codes: a Z-order through space) are sorted by a radix sort (linear in N), and a pair is reported only in the cell holding
-the low corner of the overlap of its two boxes, so never twice. A few giants (planets among
+(Morton codes, kernels/morton.py: a Z-order through space) are sorted by a radix sort
+(linear in N), and a pair is reported only in the cell holding the low corner of the
+overlap of its two boxes, so never twice. A few giants (planets among
 ships) look up the cells their boxes cover instead of setting a huge cell, and bodies whose
 kinds meet nothing but giants (debris that only hit planets) stay out of the grid and look
 up a grid of the giants. A sparse scene takes cells about its span per body (grid_pairs says
@@ -17,8 +18,9 @@ import numpy as np
 
 from .._jit import kernel
 from . import libm
-from .arrays import grown_pairs, sort_in_place, stable_order
+from .arrays import grown_pairs, radix_sort, sort_in_place, stable_order
 from .codes import FOLLOWS, IGNORE, IN_GRID
+from .morton import spread2, spread3
 from .rules import allowed, grouped, periods, wrap
 
 _SPARSE = 0.5        # a sparse scene's coarse cell: this times the span's length per body
@@ -44,28 +46,6 @@ def _bounds(A, B, tb, radius, alive, lo, hi, rows):
 
 
 @kernel(inline=True)
-def _spread2(v):
-    """The low 31 bits of v, one to every second bit (bits 0, 2, ..., 60)."""
-    x = v & 0x7FFFFFFF
-    x = (x | (x << 16)) & 0x0000FFFF0000FFFF
-    x = (x | (x << 8)) & 0x00FF00FF00FF00FF
-    x = (x | (x << 4)) & 0x0F0F0F0F0F0F0F0F
-    x = (x | (x << 2)) & 0x3333333333333333
-    return (x | (x << 1)) & 0x5555555555555555
-
-
-@kernel(inline=True)
-def _spread3(v):
-    """The low 21 bits of v, one to every third bit (bits 0, 3, ..., 60)."""
-    x = v & 0x1FFFFF
-    x = (x | (x << 32)) & 0x1F00000000FFFF
-    x = (x | (x << 16)) & 0x1F0000FF0000FF
-    x = (x | (x << 8)) & 0x100F00F00F00F00F
-    x = (x | (x << 4)) & 0x10C30C30C30C30C3
-    return (x | (x << 2)) & 0x1249249249249249
-
-
-@kernel(inline=True)
 def _cell_key(x, y, z, ncell, cell):
     """The key of cell (x, y, z) (wrapped around a period by ncell): its Morton code, the
     bits of its indices interleaved (two axes when the grid is flat, cell[2] == 0), so that
@@ -75,39 +55,13 @@ def _cell_key(x, y, z, ncell, cell):
     2^21 on every axis; that would only make a pair be tested twice."""
     x, y, z = _wrap_index(x, ncell[0]), _wrap_index(y, ncell[1]), _wrap_index(z, ncell[2])
     if cell[2] == 0.0:
-        return _spread2(x) | (_spread2(y) << 1)
-    return _spread3(x) | (_spread3(y) << 1) | (_spread3(z) << 2)
+        return spread2(x) | (spread2(y) << 1)
+    return spread3(x) | (spread3(y) << 1) | (spread3(z) << 2)
 
 
 @kernel(inline=True)
 def _wrap_index(k, n):
     return k % n if n > 0 else k
-
-
-@kernel
-def _radix_sort(keys, values, keys_out, values_out, bits):
-    """Sort (keys, values) by the low `bits` (a multiple of 8) bits of keys, 8 at a time
-    (LSD radix: linear; each pass streams the arrays once and scatters into 256 streams,
-    which stay in cache: measured twice as fast as 11-bit digits at 3e5 entries). Entries of
-    one cell end up adjacent (with cells whose keys share those bits, over spans wider than
-    _sort_bits covers: the scan compares full keys). Returns the sorted arrays."""
-    n = keys.size
-    count = np.zeros(257, np.int64)
-    src_k, src_v, dst_k, dst_v = keys, values, keys_out, values_out
-    for shift in range(0, bits, 8):
-        for d in range(257):
-            count[d] = 0
-        for e in range(n):
-            count[((src_k[e] >> shift) & 255) + 1] += 1
-        for d in range(256):
-            count[d + 1] += count[d]
-        for e in range(n):
-            d = (src_k[e] >> shift) & 255
-            dst_k[count[d]] = src_k[e]
-            dst_v[count[d]] = src_v[e]
-            count[d] += 1
-        src_k, src_v, dst_k, dst_v = dst_k, dst_v, src_k, src_v
-    return src_k, src_v
 
 
 @kernel
@@ -170,7 +124,7 @@ def _entries(lo, hi, alive, gridded, kind, size, low, high, rules, L):
         _fill(lo, hi, alive, gridded, kind, origin, cell, ncell, spare[:room],
               spare[room:2 * room], single, lead)
     bits = _sort_bits(low, high, origin, cell, ncell)
-    keys, bodies = _radix_sort(spare[:total], spare[room:room + total],
+    keys, bodies = radix_sort(spare[:total], spare[room:room + total],
                                spare[2 * room:2 * room + total],
                                spare[3 * room:3 * room + total], bits)
     return keys, bodies, single, origin, cell, ncell, total, (1 << bits) - 1, lead

@@ -6,8 +6,9 @@ p(t) = A + B t, t in [0, 1] of the step.
 1. Broad phase (kernels/broadphase.py): the pairs whose swept boxes overlap.
 2. Narrow phase (kernels/impact.py): the earliest t at which each pair, and each body and a
    wall, touch.
-3. Contacts are resolved in time order (at one time in row order, so the outcome does not
-   depend on the grid) by the responses (kernels/responses.py). A body takes one contact per
+3. Contacts are resolved in time order (at one time in the order of the bodies' ids, so the
+   outcome depends neither on the grid nor on the rows the bodies hold: a pair's body a is
+   the one of the lower id) by the responses (kernels/responses.py). A body takes one contact per
    pass; passes repeat until no contact is left (each looks only the bodies whose lines
    changed up in the first pass's grid, testing those changed since directly), and a last
    pass makes sure no pair ends the step overlapping and approaching.
@@ -122,6 +123,7 @@ def collide_step(state, rules, dt, t0):
                 for q in range(nc):
                     stale[changed[q]] = False
                 nc = 0
+        _by_id(pairs, ids)
         pt, pi_, pj_ = pair_contacts(A, B, tb, pairs, L, rules, shapes)
         # contacts: (time, i, j) with j < 0 for walls (-1 - row; box walls after the walls);
         # after the first pass only the bodies whose lines changed can meet a wall anew
@@ -154,7 +156,13 @@ def collide_step(state, rules, dt, t0):
                     k += 1
         if k == 0:
             break
-        order = contact_order(ct, ci, cj, k)
+        # (ids in place of rows: walls' negative codes stay as they are)
+        ki = np.empty(k, np.int64)
+        kj = np.empty(k, np.int64)
+        for q in range(k):
+            ki[q] = ids[ci[q]]
+            kj[q] = ids[cj[q]] if cj[q] >= 0 else cj[q]
+        order = contact_order(ct, ki, kj, k)
         for q in range(nm):
             touched[moved[q]] = False
         nm = 0
@@ -164,11 +172,11 @@ def collide_step(state, rules, dt, t0):
             j = cj[c] if cj[c] < 0 else survivor(merged_into, cj[c])
             if i == j or not alive[i] or (j >= 0 and not alive[j]):
                 continue
-            chained = j >= 0 and allowed(rules, kind, min(i, j), max(i, j)) == MERGE
+            if j >= 0 and ids[i] > ids[j]:
+                i, j = j, i
+            chained = j >= 0 and allowed(rules, kind, i, j) == MERGE
             if not chained and (touched[i] or (j >= 0 and touched[j])):
                 continue
-            if j >= 0 and i > j:
-                i, j = j, i
             t = max(ct[c], tb[i], tb[j] if j >= 0 else 0.0)
             first = state.count[0]
             if last:
@@ -213,6 +221,16 @@ def collide_step(state, rules, dt, t0):
             if ever[i]:
                 vel[i, c] = V1[i, c] + D[i, c]
     return result
+
+
+@kernel(lean=True)
+def _by_id(pairs, ids):
+    """Each pair (m, 2) of rows as (the lower id's, the higher id's), in place."""
+    for q in range(pairs.shape[0]):
+        if ids[pairs[q, 0]] > ids[pairs[q, 1]]:
+            i = pairs[q, 0]
+            pairs[q, 0] = pairs[q, 1]
+            pairs[q, 1] = i
 
 
 @kernel

@@ -8,7 +8,7 @@ import numpy as np
 from .._jit import kernel
 from .codes import (BOUNCE, ELASTIC, EV_CONTACT_BEGIN, EV_CONTACT_END, EV_SENSOR_BEGIN,
                     EV_SENSOR_END, SENSOR)
-from .arrays import stable_order
+from .arrays import contact_order, stable_order
 from . import shapes as kshapes
 from .impact import exit_time
 from .rules import allowed, wrap
@@ -65,7 +65,8 @@ def touches(state, rules, dt, t0, L, shapes):
     -- both in one step for a body that passes through. A contact pair (elastic, bounce) is in
     touch while the gap is within CONTACT_SLOP: contact_begin at the bounce of a step that
     ends touching and would a step later, contact_end at the step that ends apart (a clean bounce
-    is a bounce only). Appended after the step's other events, in time order (then by row)."""
+    is a bounce only). Appended after the step's other events, in time order (then by the
+    pair's ids; a pair's body a is the one of the lower id)."""
     ids, alive, kind = state.ids, state.alive, rules.kind
     A, B, tb, radius = rules.A, rules.B, rules.tb, rules.radius
     P = rules.ntouch[0]
@@ -75,8 +76,8 @@ def touches(state, rules, dt, t0, L, shapes):
     cj = np.empty(m, np.int64)
     ct = np.empty(m)
     cwas = np.zeros(m, np.int64)             # 0: met now; 1: a sensor pair in touch; 2: a contact
-    keys = np.empty(m, np.int64)
-    n = ids.size
+    ka = np.empty(m, np.int64)               # the pair's ids, lower first: its sort keys
+    kb = np.empty(m, np.int64)
     ev_kind = np.empty(2 * m, np.int64)      # the events, sorted by time before recording
     ev_i = np.empty(2 * m, np.int64)
     ev_j = np.empty(2 * m, np.int64)
@@ -92,19 +93,19 @@ def touches(state, rules, dt, t0, L, shapes):
             record(state, EV_SENSOR_END if rules.touch[p, 2] else EV_CONTACT_END,
                    rules.touch[p, 0], rules.touch[p, 1], t0, 0.0, point, point, 0.0, 0.0, 0.0)
             continue
-        ci[k] = min(i, j)
-        cj[k] = max(i, j)
+        ci[k], cj[k] = (i, j) if ids[i] < ids[j] else (j, i)
         ct[k] = np.inf
         cwas[k] = 1 if rules.touch[p, 2] else 2
-        keys[k] = ci[k] * n + cj[k]
         k += 1
     for f in range(F):
-        ci[k] = rules.found[f, 0]
-        cj[k] = rules.found[f, 1]
+        i, j = rules.found[f, 0], rules.found[f, 1]
+        ci[k], cj[k] = (i, j) if ids[i] < ids[j] else (j, i)
         ct[k] = rules.found_t[f]
-        keys[k] = ci[k] * n + cj[k]
         k += 1
-    order = stable_order(keys, k)
+    for q in range(k):
+        ka[q] = ids[ci[q]]
+        kb[q] = ids[cj[q]]
+    order = contact_order(np.zeros(k), ka, kb, k)
     nt = 0
     q = 0
     while q < k:
@@ -113,7 +114,7 @@ def touches(state, rules, dt, t0, L, shapes):
         i, j = ci[first], cj[first]
         was = 0
         t_in = np.inf
-        while q < k and keys[order[q]] == keys[first]:
+        while q < k and ka[order[q]] == ka[first] and kb[order[q]] == kb[first]:
             e = order[q]
             was = max(was, cwas[e])
             t_in = min(t_in, ct[e])

@@ -116,8 +116,9 @@ def collisions(quick=False):
     t_grid, pairs_grid, _ = min(_detection_pass(small) for _ in range(3))
     merge = _merging_cluster(2000 if quick else 10_000, 5 if quick else 10,
                              0.01 if quick else 0.004, 1 if quick else 2)
-    from .heavybench import dense
+    from .heavybench import dense, dense_scaling
     return {**header("collisions", quick, rebound), "dense": dense(quick),
+            "dense_scaling": dense_scaling(quick),
             "detection": passes, "scaling": passes[sizes[1]]["seconds"] / passes[sizes[0]]["seconds"],
             "brute_vs_grid": {"bodies": small.n, "brute_seconds": t_brute,
                               "grid_seconds": t_grid, "pairs_brute": pairs_brute,
@@ -135,6 +136,16 @@ def format_collisions(results):
         f"200k/100k = {d['scaling']:.2f}",
         [(f"{n} circles, {k}", d["cases"][str(n)][k]) for n in d["sizes"]
          for k in ("quiet", "one core busy")]) + [""]
+    sc = results["dense_scaling"]
+    lines.append(f"the dense field's step per body [ns] (median of {sc['steps']}; goal: within "
+                 f"1.3x from 12 500 to 800 000)")
+    lines.append(f"{'circles':>9s} {'space order':>12s} {'creation order':>15s}")
+    for n in sc["sizes"]:
+        lines.append(f"{n:9d} {sc['space order'][str(n)]:12.1f} "
+                     f"{sc['creation order'][str(n)]:15.1f}")
+    lines.append(f"{'spread':>9s} {sc['space order spread']:11.2f}x "
+                 f"{sc['creation order spread']:14.2f}x")
+    lines.append("")
     for n, d in results["detection"].items():
         lines.append(f"{n:>7} circles: one broad + narrow pass {d['seconds'] * 1e3:7.2f} ms "
                      f"({d['pairs']} candidate pairs, {d['contacts']} contacts); a whole "

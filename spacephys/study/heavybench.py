@@ -203,6 +203,38 @@ def dense(quick=False):
     return {"sizes": list(sizes), "steps": steps, "cases": rows, "scaling": quiet[1] / quiet[0]}
 
 
+def dense_scaling(quick=False):
+    """The dense field's cost per body from 12 500 to 800 000 circles (quick: to 50 000),
+    the median of single steps after two (the first sorts the rows), with the rows in space
+    order (the default: spacephys/space_order.py) and, alternated with it, in creation order
+    (its sorting off): {"sizes", "steps", "space order"/"creation order": {n: ns a body}}."""
+    from .. import space_order
+    sizes = (12_500, 25_000, 50_000) if quick else \
+        (12_500, 25_000, 50_000, 100_000, 200_000, 400_000, 800_000)
+    steps = 5 if quick else 9
+    least = space_order.MIN_BODIES
+    out = {"sizes": list(sizes), "steps": steps, "space order": {}, "creation order": {}}
+    try:
+        for n in sizes:
+            for case, bound in (("creation order", 2 ** 62), ("space order", 0)):
+                space_order.MIN_BODIES = bound
+                w = dense_field(n)
+                w.step(2)
+                times = []
+                for _ in range(steps):
+                    start = time.perf_counter()
+                    w.step(1)
+                    times.append(time.perf_counter() - start)
+                out[case][str(n)] = float(np.median(times)) / n * 1e9
+                del w
+    finally:
+        space_order.MIN_BODIES = least
+    for case in ("space order", "creation order"):
+        per = [out[case][str(n)] for n in sizes]
+        out[case + " spread"] = max(per) / min(per)
+    return out
+
+
 def fleet_game(quick=False):
     """The game's fleet battle: 200 ships, 2 000 missiles, 50 000 debris (quick: a quarter),
     300 steps (5 s at 60 Hz: the salvos arrive, ships explode)."""
