@@ -211,7 +211,7 @@ def dense_scaling(quick=False):
     from .. import space_order
     sizes = (12_500, 25_000, 50_000) if quick else \
         (12_500, 25_000, 50_000, 100_000, 200_000, 400_000, 800_000)
-    steps = 5 if quick else 9
+    steps = 5 if quick else 15
     least = space_order.MIN_BODIES
     out = {"sizes": list(sizes), "steps": steps, "space order": {}, "creation order": {}}
     try:
