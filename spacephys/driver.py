@@ -158,8 +158,7 @@ class Driver:
         w = self.w
         f = w._forces
         if plan.rules is None or plan.actors is not None or plan.special or \
-                w._b.n < space_order.MIN_BODIES or \
-                f.gravity not in ("none", "uniform", "central") or f.user or \
+                w._b.n < space_order.MIN_BODIES or f.mutual or f.user or \
                 f.tape is not None or f.tether_ids.shape[0] or \
                 not w._stepper.capabilities.rows_free:
             return 0

@@ -105,7 +105,7 @@ def touches(state, rules, dt, t0, L, shapes):
     for q in range(k):
         ka[q] = ids[ci[q]]
         kb[q] = ids[cj[q]]
-    order = contact_order(np.zeros(k), ka, kb, k)
+    order = contact_order(np.zeros(k), ka, kb, k)    # (by ids: the contacts' compiled sort)
     nt = 0
     q = 0
     while q < k:
