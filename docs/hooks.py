@@ -6,7 +6,7 @@
 - Figures from data: a page quotes a benchmark's figure as `{{ overhead.calls["step(1), 2
   bodies"].spacephys_s | us }}`, and the build writes it from the benchmark's latest results
   committed in docs/data/<benchmark>.json (`spacephys bench NAME --json`, with the date and
-  the CPU in it), so a re-run updates every page that quotes it and no two pages can disagree.
+  the CPU in it; the work-precision study's in docs/tradeoff/, beside its plots), so a re-run updates every page that quotes it and no two pages can disagree.
   A path that names nothing fails the build.
 - PlainDocstrings, for the API reference: the docstrings are plain prose, with arguments on
   lines of their own ("tof : float > 0, the time of flight [time]", continued on indented
@@ -81,24 +81,35 @@ def on_files(files, config):
 
 
 DATA = ROOT / "docs" / "data"
+# the work-precision study writes its plots beside its results: the page shows both
+RESULTS = (DATA, ROOT / "docs" / "tradeoff")
 # {{ bench.key["row"].key | unit }}: ["key"] of a dict, or the row of a list with a value
 # equal to "row", or with "field=value" (or "a=1, b=2": every field so)
 FIGURE = re.compile(r"\{\{\s*([a-z_]+)((?:\.\w+|\[\"[^\"]*\"\])+)\s*(?:\|\s*(\w+)\s*)?\}\}")
 FIELDS = re.compile(r"^\w+=[^,]*(?:, \w+=[^,]*)*$")
 STEP = re.compile(r"\.(\w+)|\[\"([^\"]*)\"\]")
-UNITS = {"s": lambda v: f"{v:.3g} s", "ms": lambda v: f"{v * 1e3:.3g} ms",
-         "us": lambda v: f"{v * 1e6:.3g} µs", "ns": lambda v: f"{v * 1e9:.3g} ns",
-         "x": lambda v: f"{v:.3g}×", "e": lambda v: f"{v:.1e}",
-         "MB": lambda v: f"{v / 1e6:.3g} MB", "kB": lambda v: f"{v / 1e3:.3g} kB",
-         "pct": lambda v: f"{v * 100:.3g} %"}
+
+
+def _number(v):
+    """Three significant digits, or a whole number in full from 1 000 (3 170, not 3.17e+03)."""
+    if isinstance(v, int) or abs(v) >= 1000:
+        return f"{v:,.0f}".replace(",", " ")
+    return f"{v:.3g}"
+
+
+UNITS = {"s": lambda v: f"{_number(v)} s", "ms": lambda v: f"{_number(v * 1e3)} ms",
+         "us": lambda v: f"{_number(v * 1e6)} µs", "ns": lambda v: f"{_number(v * 1e9)} ns",
+         "x": lambda v: f"{_number(v)}×", "e": lambda v: f"{v:.1e}",
+         "MB": lambda v: f"{_number(v / 1e6)} MB", "kB": lambda v: f"{_number(v / 1e3)} kB",
+         "km": lambda v: f"{_number(v / 1e3)} km",
+         "pct": lambda v: f"{_number(v * 100)} %"}
 
 
 def figure(results, name, path, unit=None):
     """The value at `path` (".key", '["row"]' and '["field=value, ..."]' steps) of the results of
-    benchmark `name`, written with three significant digits in `unit` (s, ms, us, ns, x, MB
-    and kB from bytes, pct from a fraction;
-    e: two digits, in powers of ten; none: three digits, or a whole number in full from
-    1 000: 100 000)."""
+    benchmark `name`, written with three significant digits, or a whole number in full from
+    1 000 (100 000), in `unit` (s, ms, us, ns, x, MB and kB from bytes, km from metres, pct from a fraction;
+    e: two digits, in powers of ten; none: as it is; count: how many items a list holds)."""
     value = results
     for key, row in STEP.findall(path):
         if key:
@@ -116,6 +127,8 @@ def figure(results, name, path, unit=None):
             if len(rows) != 1:
                 raise KeyError(f"{name}{path}: {len(rows)} rows named {row!r}")
             value = rows[0]
+    if unit == "count" and isinstance(value, list):
+        return str(len(value))
     if value is None or isinstance(value, (dict, list)) or \
             unit is not None and (isinstance(value, str) or unit not in UNITS):
         raise KeyError(f"{name}{path}: cannot write {value!r} in {unit!r}")
@@ -123,22 +136,20 @@ def figure(results, name, path, unit=None):
         return UNITS[unit](value)
     if isinstance(value, (bool, str)):
         return str(value)
-    if isinstance(value, int) or abs(value) >= 1000:      # 3 170, not 3.17e+03
-        return f"{value:,.0f}".replace(",", " ")
-    return f"{value:.3g}"
+    return _number(value)
 
 
-def figures(markdown, data=DATA):
-    """markdown with every {{ ... }} figure written from data/<benchmark>.json."""
+def figures(markdown, folders=RESULTS):
+    """markdown with every {{ ... }} figure written from <benchmark>.json in `folders`."""
     loaded = {}
 
     def one(m):
         name = m.group(1)
         if name not in loaded:
-            path = data / f"{name}.json"
-            if not path.is_file():
-                raise KeyError(f"{{{{ {name}...}}}}: no results in {path}")
-            loaded[name] = json.loads(path.read_text())
+            found = [f / f"{name}.json" for f in folders if (f / f"{name}.json").is_file()]
+            if not found:
+                raise KeyError(f"{{{{ {name}...}}}}: no {name}.json in {folders}")
+            loaded[name] = json.loads(found[0].read_text())
         return figure(loaded[name], name, m.group(2), m.group(3))
     return FIGURE.sub(one, markdown)
 

@@ -167,7 +167,7 @@ def _hooks():
 def test_figures_on_the_pages_are_written_from_the_committed_results():
     hooks = _hooks()
     results = {}
-    for path in sorted((ROOT / "docs" / "data").glob("*.json")):
+    for path in sorted(p for folder in hooks.RESULTS for p in folder.glob("*.json")):
         r = results[path.stem] = json.loads(path.read_text())
         assert r["benchmark"] == path.stem and r["quick"] is False, path.name
         assert re.fullmatch(r"\d{4}-\d\d-\d\d", r["date"]) and r["cpu"], path.name
@@ -181,9 +181,14 @@ def test_figures_on_the_pages_are_written_from_the_committed_results():
     assert step["case"] == "step(1), 2 bodies"
     line = 'a step: {{ overhead.calls["step(1), 2 bodies"].spacephys_s | us }}'
     assert hooks.figures(line) == f"a step: {step['spacephys_s'] * 1e6:.3g} µs"
+    assert hooks.figures("{{ overhead.calls | count }}") == str(len(results["overhead"]["calls"]))
+    assert hooks.figure({"t": 0.0020014}, "b", ".t", "us") == "2 001 µs"     # not 2e+03
+    assert hooks.figure({"t": 0.0020014}, "b", ".t", "ms") == "2 ms"
+    assert hooks.figure({"d": 65163201.0}, "b", ".d", "km") == "65 163 km"
     for wrong in ('{{ overhead.calls["step(2)"].spacephys_s | us }}',
                   '{{ overhead.calls["step(1), 2 bodies"].seconds | us }}',
                   '{{ overhead.cpu | us }}', '{{ overhead.calls | us }}',
-                  '{{ overhead.calls["duel control()"].rebound_s | us }}', '{{ nobench.x }}'):
+                  '{{ overhead.calls["duel control()"].rebound_s | us }}', '{{ nobench.x }}',
+                  '{{ overhead.cpu | count }}'):
         with pytest.raises(KeyError):
             hooks.figures(wrong)

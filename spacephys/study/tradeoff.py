@@ -11,6 +11,7 @@ import time
 
 import numpy as np
 
+from . import header
 from .. import scenes
 from ..entities import ShipSpec
 from ..integrators import INTEGRATORS
@@ -103,13 +104,14 @@ def study(quick=False, out_dir=None):
                              "failed": str(e).split("\n")[0]})
                 continue
             err = float(np.max(np.abs(w.pos - ref_w.pos))) / scale
-            rows.append({"scene": scene, "integrator": name, "dt": dt,
-                         "tolerance": kw.get("tolerance"), "steps": round(T / dt),
+            tol = kw.get("tolerance")
+            rows.append({"scene": scene, "integrator": name, "dt": dt, "tolerance": tol,
+                         "setting": f"dt {dt:g}" if tol is None else f"tol {tol:g}",
+                         "steps": round(T / dt),
                          "seconds": seconds, "seconds_per_time": seconds / T,
                          "energy_error": energy_error,
                          "position_error": err if math.isfinite(err) else math.inf})
-    results = {"benchmark": "tradeoff", "quick": quick, "rows": rows,
-               "best": _cheapest(rows)}
+    results = {**header("tradeoff", quick), "rows": rows, "best": _cheapest(rows)}
     if out_dir is not None:
         _write(results, out_dir)
     return results
@@ -177,10 +179,8 @@ def markdown(results):
             if r is None:
                 cells.append("none measured")
             else:
-                step = (f"tol {r['tolerance']:g}" if r.get("tolerance") is not None
-                        else f"dt {r['dt']:g}")
-                cells.append(f"{r['integrator']} ({step}): {r['seconds_per_time'] * 1e3:.3g} "
-                             f"ms per time unit")
+                cells.append(f"{r['integrator']} ({r['setting']}): "
+                             f"{r['seconds_per_time'] * 1e3:.3g} ms per time unit")
         lines.append(f"| {scene} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -215,7 +215,6 @@ def peers(quick=False, out_dir=None):
     """The same scenes and ladders with REBOUND's leapfrog, WHFast and IAS15 beside ours;
     the cost ratio at equal accuracy, interpolated along each method's work-precision
     curve. Thrust has no REBOUND counterpart here: the dogfight is left out."""
-    import numba
     from . import rebound as peer
     rebound = peer.load()
     rows, ratios = [], []
@@ -252,8 +251,7 @@ def peers(quick=False, out_dir=None):
             ratios.append({"scene": scene, "spacephys": ours, "rebound": theirs,
                            "ratio": _equal_accuracy_ratio(curve["spacephys"],
                                                           curve["rebound"])})
-    results = {"benchmark": "peers", "quick": quick, "rows": rows, "ratios": ratios,
-               "versions": {"numba": numba.__version__, "rebound": rebound.__version__}}
+    results = {**header("peers", quick, rebound), "rows": rows, "ratios": ratios}
     if out_dir is not None:
         os.makedirs(out_dir, exist_ok=True)
         with open(os.path.join(out_dir, "peers.json"), "w") as f:
