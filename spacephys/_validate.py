@@ -17,24 +17,17 @@ def floats(name, value, shape=None, *, minimum=None, positive=False):
     Raises ValueError naming `name` for non-numbers, wrong shapes, NaN/inf, values below
     `minimum` or, with positive=True, values <= 0.
     """
-    if isinstance(value, (str, bytes)):
-        raise ValueError(f"{name} = {value!r}: expected a number, not text")
-    try:
-        raw = np.asarray(value)
-        # text, bools, complex numbers and objects would convert silently; refuse them
-        if raw.dtype.kind not in "iuf":
-            raise TypeError
-        arr = np.array(raw, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"{name} = {value!r}: expected real numbers") from None
+    if type(value) is np.ndarray and value.dtype == np.float64:
+        arr = value.copy()                  # the common case, checked below
+    else:
+        arr = _real(name, value)
     if shape is not None:
         ok = arr.ndim == len(shape) and all(s is None or s == a for s, a in zip(shape, arr.shape))
         if not ok:
             want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
             raise ValueError(f"{name} has shape {arr.shape}, expected {want}")
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        where, v = _first_bad(name, arr, bad)
+    if not np.isfinite(arr).all():
+        where, v = _first_bad(name, arr, ~np.isfinite(arr))
         raise ValueError(f"{where} = {v}: must be finite (no NaN or inf)")
     if minimum is not None:
         bad = arr < minimum
@@ -47,6 +40,20 @@ def floats(name, value, shape=None, *, minimum=None, positive=False):
             where, v = _first_bad(name, arr, bad)
             raise ValueError(f"{where} = {v}: must be > 0")
     return arr
+
+
+def _real(name, value):
+    """value as a new float64 array; ValueError for text, bools, complex numbers, objects
+    (numpy would convert them silently)."""
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{name} = {value!r}: expected a number, not text")
+    try:
+        raw = np.asarray(value)
+        if raw.dtype.kind not in "iuf":
+            raise TypeError
+        return np.array(raw, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name} = {value!r}: expected real numbers") from None
 
 
 def scalar(name, value, *, minimum=None, positive=False):
@@ -80,6 +87,8 @@ def count(name, value, *, minimum=0):
 
 def per_body(name, value, k, *, minimum=None):
     """A scalar broadcast to k bodies or a (k,) array, checked as in floats."""
+    if type(value) is float and math.isfinite(value) and (minimum is None or value >= minimum):
+        return np.full(k, value)             # the common case, without the array checks
     arr = floats(name, value, minimum=minimum)
     if arr.ndim == 0:
         return np.full(k, float(arr))

@@ -7,6 +7,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import spacephys as sp
+from spacephys.kernels import queries as kq
 
 BOX = 5.0                       # the scene's half-width (and the periodic box's)
 
@@ -141,6 +142,27 @@ def test_query_box_is_brute_force(scene, hx, hy):
     for q in range(centres.shape[0]):
         ids, d = hits[q]
         _same_hits(w, ids, d, dist[q], out[q] <= -tol, np.abs(out[q]) <= tol, tol)
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+def test_a_few_queries_with_many_hits_each_are_the_brute_force(periodic):
+    """A batch too small to be sampled whose hits overflow the rooms it is given (a few
+    queries of hundreds of hits each, and one of none): every query's hits, in order."""
+    rng = np.random.default_rng(5)
+    w = sp.World(dim=2, gravity="none")
+    w.add_bodies(1.0, rng.uniform(-BOX, BOX, (1500, 2)), radius=rng.uniform(0.0, 0.05, 1500))
+    if periodic:
+        w.set_boundary("periodic", lo=(-BOX, -BOX), hi=(BOX, BOX))
+    centres = np.array([[0.0, 0.0], [4.0, -4.5], [-3.0, 2.0], [1e3, 1e3]])
+    r = np.array([2.5, 3.0, 1.5, 0.1])
+    hits = w.query_radius(centres, r)
+    gap, _, _ = _brute(w, None, _c3(w, centres), _period(w))
+    tol = _tol(w, centres)
+    assert hits.counts()[:3].min() > kq.ROOM and hits.counts()[3] == 0
+    assert hits.counts().sum() > kq.ROOM * len(centres) and len(centres) < kq.SAMPLED
+    for q in range(centres.shape[0]):
+        ids, d = hits[q]
+        _same_hits(w, ids, d, gap[q], gap[q] <= r[q] - tol, np.abs(gap[q] - r[q]) <= tol, tol)
 
 
 def test_a_query_finds_bodies_across_the_periodic_seam():
