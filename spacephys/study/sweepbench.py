@@ -3,7 +3,7 @@ the same runs in a plain loop in this process (the runs themselves), and what ea
 compiled.
 
 The runs: the shipped scenario dogfight (two ships around a planet, guided missiles, explosions)
-over two guidance constants x two steps x seeds, each run about 50 ms. Each cluster is
+over two guidance constants x two steps x seeds, each run about 0.1 s. Each cluster is
 started and its workers given one run each before the timing (a worker's first run loads
 the kernels from numba's cache): the timing is the sweep itself, its first run alone
 included (that is how sp.sweep starts).
