@@ -6,8 +6,9 @@
 - Figures from data: a page quotes a benchmark's figure as `{{ overhead.calls["step(1), 2
   bodies"].spacephys_s | us }}`, and the build writes it from the benchmark's latest results
   committed in docs/data/<benchmark>.json (`spacephys bench NAME --json`, with the date and
-  the CPU in it; the work-precision study's in docs/tradeoff/, beside its plots), so a re-run updates every page that quotes it and no two pages can disagree.
-  A path that names nothing fails the build.
+  the CPU in it; the work-precision study's in docs/tradeoff/, beside its plots), so a
+  re-run updates every page that quotes it and no two pages can disagree. A path that names
+  nothing fails the build.
 - PlainDocstrings, for the API reference: the docstrings are plain prose, with arguments on
   lines of their own ("tof : float > 0, the time of flight [time]", continued on indented
   lines); Markdown would run those lines into one paragraph, so each becomes an item of a
@@ -108,8 +109,9 @@ UNITS = {"s": lambda v: f"{_number(v)} s", "ms": lambda v: f"{_number(v * 1e3)} 
 def figure(results, name, path, unit=None):
     """The value at `path` (".key", '["row"]' and '["field=value, ..."]' steps) of the results of
     benchmark `name`, written with three significant digits, or a whole number in full from
-    1 000 (100 000), in `unit` (s, ms, us, ns, x, MB and kB from bytes, km from metres, pct from a fraction;
-    e: two digits, in powers of ten; none: as it is; count: how many items a list holds)."""
+    1 000 (100 000), in `unit` (s, ms, us, ns, x, MB and kB from bytes, km from metres, pct
+    from a fraction; e: two digits, in powers of ten; none: as it is; count: how many items a
+    list holds)."""
     value = results
     for key, row in STEP.findall(path):
         if key:
@@ -146,10 +148,11 @@ def figures(markdown, folders=RESULTS):
     def one(m):
         name = m.group(1)
         if name not in loaded:
-            found = [f / f"{name}.json" for f in folders if (f / f"{name}.json").is_file()]
-            if not found:
+            path = next((p for p in (f / f"{name}.json" for f in folders) if p.is_file()),
+                        None)
+            if path is None:
                 raise KeyError(f"{{{{ {name}...}}}}: no {name}.json in {folders}")
-            loaded[name] = json.loads(found[0].read_text())
+            loaded[name] = json.loads(path.read_text())
         return figure(loaded[name], name, m.group(2), m.group(3))
     return FIGURE.sub(one, markdown)
 

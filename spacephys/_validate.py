@@ -56,11 +56,17 @@ def _real(name, value):
         raise ValueError(f"{name} = {value!r}: expected real numbers") from None
 
 
+def _plain(value, minimum, positive=False):
+    """Whether value is a float that passes floats' checks as it is (the common case,
+    checked without numpy)."""
+    return type(value) is float and math.isfinite(value) and \
+        (minimum is None or value >= minimum) and (not positive or value > 0.0)
+
+
 def scalar(name, value, *, minimum=None, positive=False):
     """A finite float (see floats)."""
-    if type(value) is float and math.isfinite(value) and \
-            (minimum is None or value >= minimum) and (not positive or value > 0.0):
-        return value                 # the common case, without numpy
+    if _plain(value, minimum, positive):
+        return value
     if isinstance(value, np.ndarray) and value.ndim == 0:
         value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.floating,
@@ -87,8 +93,8 @@ def count(name, value, *, minimum=0):
 
 def per_body(name, value, k, *, minimum=None):
     """A scalar broadcast to k bodies or a (k,) array, checked as in floats."""
-    if type(value) is float and math.isfinite(value) and (minimum is None or value >= minimum):
-        return np.full(k, value)             # the common case, without the array checks
+    if _plain(value, minimum):
+        return np.full(k, value)
     arr = floats(name, value, minimum=minimum)
     if arr.ndim == 0:
         return np.full(k, float(arr))

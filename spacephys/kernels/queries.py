@@ -344,8 +344,8 @@ def overlaps(g, pos, radius, ident, wanted, period, centres, reach, half, kind_o
     (H,)), hits[offsets[q]:offsets[q+1]] sorted by distance then id (ident (n,): the body
     ids). kind_of_query 0: bodies within reach[q] of centres[q]; 1: bodies overlapping the
     box centres[q] +- half[q] (dist: from the box's centre). One pass: lanes of queries (in
-    cell order) write into rooms sized from a sample of 64 queries (fewer than SAMPLED
-    queries: ROOM hits each); the few that do not fit are counted, then written in place
+    cell order) write into rooms sized from a sample of SAMPLED queries (fewer than that:
+    ROOM hits each); the few that do not fit are counted, then written in place
     (10^4 queries: 6.3 -> 5.0 ms against two passes)."""
     nq = centres.shape[0]
     order = _by_cell(g, centres, period)
@@ -359,8 +359,8 @@ def overlaps(g, pos, radius, ident, wanted, period, centres, reach, half, kind_o
         # the call included); those that do not fit go late, as below
         room = ROOM * nq
     else:
-        # each lane's room: from a sample of 64 queries, half as much again
-        step = max(1, nq // 64)
+        # each lane's room: from a sample of SAMPLED queries, half as much again
+        step = max(1, nq // SAMPLED)
         sample = 0
         for a in range(0, nq, step):
             sample += _visit(pos, radius, g, order[a], centres, reach, half, period,
