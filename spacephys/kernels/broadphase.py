@@ -2,10 +2,10 @@
 grid. The box each body sweeps goes into every cell of the grid it touches; the cells' keys
 (Morton codes, kernels/morton.py: a Z-order through space) are sorted by a radix sort
 (linear in N), and a pair is reported only in the cell holding the low corner of the
-overlap of its two boxes, so never twice. A few giants (planets among
-ships) look up the cells their boxes cover instead of setting a huge cell, and bodies whose
-kinds meet nothing but giants (debris that only hit planets) stay out of the grid and look
-up a grid of the giants. A sparse scene takes cells about its span per body (grid_pairs says
+overlap of its two boxes, so never twice. A few giants (planets among ships) look up the
+cells their boxes cover instead of setting a huge cell (or test the grid's bodies, when it
+has fewer entries than those cells), and bodies whose kinds meet nothing but giants (debris
+that only hit planets) stay out of the grid and look up a grid of the giants. A sparse scene takes cells about its span per body (grid_pairs says
 when). Later passes of a step look only the bodies whose lines changed up in the first
 pass's grid (focused_pairs). The hot loops are written out and write into arrays they are
 given: numba's helpers returning tuples, the tables' fields read per pair, an array replaced
@@ -507,11 +507,16 @@ def grid_pairs(A, B, tb, alive, rules, lo, hi):
         if not alive[g]:
             continue
         # (strict=False and followers skipped: those of a kind a giant meets look the
-        # giants up themselves, below)
-        count = _grid_meets(g, grid, nothing, lo, hi, L, alive, follower, near, work, False)
-        if count < 0:                                  # a giant over too many cells: all
-            # (the grid's bodies but followers, not all: 64 planets over 5e4 debris that
-            # meet only them, and so no grid, took 3.5 ms a step)
+        # giants up themselves, below); a giant over more cells than the grid has entries
+        # tests the grid's bodies instead (a planet of a dogfight over 10^3 cells of its
+        # two ships took 10 us a step looking them up)
+        count = -1
+        if _cells_of(g, lo, hi, origin, cell, ncell, work[0], work[1]) <= min(4096.0, total):
+            count = _grid_meets(g, grid, nothing, lo, hi, L, alive, follower, near, work,
+                                False)
+        if count < 0:                                  # the grid's bodies: all
+            # (but followers, not all: 64 planets over 5e4 debris that meet only them, and
+            # so no grid, took 3.5 ms a step)
             if not listed:
                 entered = _entered(alive, gridded)
                 listed = True
@@ -845,18 +850,25 @@ def _cell_range(i, lo, hi, origin, cell, ncell, first, last):
     """The cells of i's box into first, last (3,); False when it covers more than 4096 or
     lies past any cell number an int64 holds (a box far out or swept far: a line a contact
     changed after the grid was sized), in floats first."""
+    return _cells_of(i, lo, hi, origin, cell, ncell, first, last) <= 4096.0
+
+
+@kernel(inline=True)
+def _cells_of(i, lo, hi, origin, cell, ncell, first, last):
+    """How many cells i's box covers, their range into first, last (3,); inf when it lies
+    past any cell number an int64 holds."""
     count = 1.0
     for c in range(3):
         f0 = np.floor((lo[i, c] - origin[c]) * cell[c])    # (a float: NaN fails below;
         f1 = np.floor((hi[i, c] - origin[c]) * cell[c])    # math.floor's int64 would not)
         if not (abs(f0) < 2.0 ** 52 and abs(f1) < 2.0 ** 52):
-            return False
+            return np.inf
         first[c] = int(f0)
         last[c] = int(f1)
         if ncell[c] > 0 and last[c] - first[c] >= ncell[c]:
             last[c] = first[c] + ncell[c] - 1
         count *= last[c] - first[c] + 1
-    return count <= 4096.0
+    return count
 
 
 @kernel(inline=True)
