@@ -55,10 +55,12 @@ def rails(quick=False):
                 w.set_rails(p, ephemeris=eph)
         ways[way] = w
     timing = {}
+    repeats = 3 if quick else 5
     for way, w in ways.items():
         probe = w.copy()
-        timing[way] = per_step(probe.step, steps_for(probe.step, 0.05 if quick else 0.3),
-                               3 if quick else 5)
+        # (steps_for's two and the repeats' within the span the ephemeris was fitted over)
+        n = min(steps_for(probe.step, 0.05 if quick else 0.3), (steps[-1] - 2) // repeats)
+        timing[way] = per_step(probe.step, n, repeats)
     rows = []
     done = 0
     results = {way: [] for way in ways}

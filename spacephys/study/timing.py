@@ -35,6 +35,7 @@ def per_step(run, steps, repeats):
 
 def steps_for(run, budget):
     """How many steps of `run` take about `budget` seconds (after one warm-up step)."""
+    run(1)
     start = time.perf_counter()
     run(1)
     return max(1, int(budget / max(time.perf_counter() - start, 1e-9)))
