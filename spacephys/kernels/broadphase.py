@@ -5,12 +5,13 @@ grid. The box each body sweeps goes into every cell of the grid it touches; the 
 overlap of its two boxes, so never twice. A few giants (planets among ships) look up the
 cells their boxes cover instead of setting a huge cell (or test the grid's bodies, when it
 has fewer entries than those cells), and bodies whose kinds meet nothing but giants (debris
-that only hit planets) stay out of the grid and look up a grid of the giants. A sparse scene takes cells about its span per body (grid_pairs says
-when). Later passes of a step look only the bodies whose lines changed up in the first
-pass's grid (focused_pairs). The hot loops are written out and write into arrays they are
-given: numba's helpers returning tuples, the tables' fields read per pair, an array replaced
-inside a loop, and arrays passed with reference counting to a helper called per body
-(lean=True avoids it) each cost two to ten times the work.
+that only hit planets) stay out of the grid and look up a grid of the giants. A sparse scene
+takes cells about its span per body (grid_pairs says when). Later passes of a step look only
+the bodies whose lines changed up in the first pass's grid (focused_pairs). The hot loops
+are written out and write into arrays they are given: numba's helpers returning tuples, the
+tables' fields read per pair, an array replaced inside a loop, and arrays passed with
+reference counting to a helper called per body (lean=True avoids it) each cost two to ten
+times the work.
 """
 import math
 

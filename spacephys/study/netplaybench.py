@@ -66,7 +66,7 @@ def _latency(quick, latency=0.1, jitter=0.02):
     spec = modes[0].torpedo
     sessions = [Session(m.world, k, c, specs=(spec,))
                 for k, (m, c) in enumerate(zip(modes, (a, b)))]
-    modes[0].world.digest()            # its kernel loaded before the sessions' digests are timed
+    modes[0].world.digest()            # its kernel loaded before the sessions' are timed
     times, done = [], [0, 0]
     tick = time.perf_counter()
     try:
