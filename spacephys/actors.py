@@ -526,6 +526,15 @@ class Actors:
         b.explosion[rows] = self._explosion_index(spec)
         return new
 
+    def engines_lit(self):
+        """World.engines_lit (the docstring is there)."""
+        b = self.b
+        lit = np.zeros(b.n, bool)
+        rows = self.engines()
+        if rows.size:                      # (a World that never had one has no such columns)
+            lit[rows] = (b.throttle[rows] > 0.0) & (b.fuel[rows] > 0.0)
+        return lit
+
     def intensity(self):
         """World.intensity (the docstring is there)."""
         b = self.b

@@ -1113,6 +1113,12 @@ class World:
         return b.ids[self._actors.engines()]
 
     @property
+    def engines_lit(self):
+        """(n,) bool, for renderers: whether each body's engine is lit (a ship or missile
+        with throttle > 0 and fuel left: controls() and fuel() of each at once)."""
+        return self._actors.engines_lit()
+
+    @property
     def intensity(self):
         """(n,) float in [0, 1] for renderers: (1 - age/lifetime)^fade for bodies with a
         lifetime (debris fade out), 1 for the others."""

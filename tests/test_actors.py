@@ -435,6 +435,36 @@ def test_body_lifetime_and_intensity():
     assert a not in w and b in w
 
 
+def test_engines_lit_is_each_actors_throttle_and_fuel_at_once():
+    # a ship burning, one idle, one throttled with an empty tank, a missile, a rotor (a body
+    # given a spin: it has the actors' columns but no engine) and a plain body
+    w = _ship_world(dt=0.1, gravity="none")
+    burning = w.add_ship(sp.ShipSpec(**ENGINE), (0.0, 0.0))
+    idle = w.add_ship(sp.ShipSpec(**ENGINE), (5.0, 0.0))
+    dry = w.add_ship(sp.ShipSpec(**ENGINE), (10.0, 0.0))
+    rock = w.add_body(1.0, (20.0, 0.0))
+    w.set_body(rock, angular_velocity=1.0)
+    w.add_body(1.0, (30.0, 0.0))
+    w.control(burning, throttle=1.0)
+    w.control(dry, throttle=0.5)
+    w.set_fuel(dry, 0.0)
+    missile = w.launch(burning, sp.MissileSpec(mass=0.1, fuel_mass=0.1, thrust=1.0,
+                                               exhaust_speed=10.0))
+    w.step(1)
+    lit = w.engines_lit
+    assert lit.dtype == bool and lit.shape == (w.n,)
+    by_one = {int(i): w.controls(int(i))[0] > 0.0 and w.fuel(int(i)) > 0.0
+              for i in w.actor_ids}
+    assert {int(i) for i in w.ids[lit]} == {i for i, on in by_one.items() if on} == \
+        {burning, missile}
+    assert not lit[w.index_of(rock)] and not lit[w.index_of(dry)] and not lit[w.index_of(idle)]
+    w.control(burning, throttle=0.0)
+    assert list(w.ids[w.engines_lit]) == [missile]
+    plain = _ship_world(gravity="none")                 # no actor ever: no actors' columns
+    plain.add_body(1.0, (0.0, 0.0))
+    assert plain.engines_lit.tolist() == [False]
+
+
 # ----------------------------------------------------------------------------- integrators
 
 def test_wisdom_holman_refuses_an_active_ship_and_takes_passive_ones():

@@ -75,11 +75,11 @@ class Mode:
         """The colour of a ship or missile: its side's."""
         return TEAM_COLOURS[0]
 
-    def thrusting(self, body_id):
-        """Whether a ship's engine is lit (for the flame): read from the World, so that a
-        replay shows it too."""
+    def flames(self):
+        """The ids of the ships and missiles whose engine is lit (for the flames): read from
+        the World, so that a replay shows them too."""
         w = self.world
-        return w.controls(body_id)[0] > 0.0 and w.fuel(body_id) > 0.0
+        return w.ids[w.engines_lit]
 
     def adopt(self, ship):
         """A replay re-ran the add_ship of a ship this mode brought back (a respawn): take it

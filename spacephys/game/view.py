@@ -28,7 +28,7 @@ class View:
         ships = [int(i) for i in w.actor_ids]
         self.painter.draw(w, alpha, camera, path=overlay.get("paths", []),
                           colours={body: mode.colour(body) for body in ships},
-                          flames=[body for body in ships if mode.thrusting(body)])
+                          flames=[int(i) for i in mode.flames()])
         for pos, colour, label in overlay.get("markers", []):
             x, y = camera(np.asarray(pos))
             pygame.draw.circle(self.surface, colour, (x, y), 4, 1)
