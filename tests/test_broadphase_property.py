@@ -739,3 +739,21 @@ def test_the_giants_candidates_are_the_k_largest_radii_ties_in_row_order(radii, 
     from spacephys.kernels.arrays import largest
     values = np.array(radii, np.float64)
     assert largest(values, k).tolist() == np.argsort(-values, kind="stable")[:k].tolist()
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(0, 70), st.sampled_from([8, 16, 24, 32, 56]), st.integers(0, 2 ** 32))
+def test_the_grids_sort_is_stable_by_the_low_bits_below_and_above_its_small_size(n, bits, seed):
+    """arrays.radix_sort: the entries in a stable order of their keys' low `bits` bits, as
+    numpy's stable argsort gives it, whether sorted by insertion (fewer than SMALL_SORT) or by
+    radix passes; keys that share their low bits (one cell's entries) keep their order."""
+    from spacephys.kernels.arrays import SMALL_SORT, radix_sort
+    rng = np.random.default_rng(seed)
+    # few distinct low parts, high bits that differ: ties the sort must keep in order
+    keys = (rng.integers(0, 6, n) | (rng.integers(0, 1 << 20, n) << bits)).astype(np.int64)
+    values = np.arange(n, dtype=np.int64)
+    want = np.argsort(keys & ((1 << bits) - 1), kind="stable")
+    got_k, got_v = radix_sort(keys.copy(), values.copy(), np.empty(n, np.int64),
+                              np.empty(n, np.int64), bits)
+    assert got_v.tolist() == want.tolist() and got_k.tolist() == keys[want].tolist()
+    assert SMALL_SORT <= 70                   # both ways are drawn

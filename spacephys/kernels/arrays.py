@@ -179,14 +179,32 @@ def radix_order(keys):
     return order
 
 
+SMALL_SORT = 32         # below this many entries radix_sort sorts by insertion
+
+
 @kernel
 def radix_sort(keys, values, keys_out, values_out, bits):
     """Sort (keys, values) by the low `bits` (a multiple of 8) bits of keys, 8 at a time
     (LSD radix: linear; each pass streams the arrays once and scatters into 256 streams,
     which stay in cache: measured twice as fast as 11-bit digits at 3e5 entries). Entries of
     one cell end up adjacent (with cells whose keys share those bits, over spans wider than
-    _sort_bits covers: the scan compares full keys). Returns the sorted arrays."""
+    _sort_bits covers: the scan compares full keys). Returns the sorted arrays. Fewer than
+    SMALL_SORT entries are sorted in place by insertion, stable by the same bits: the same
+    order, without each pass's 256 counts (a duel's grid holds two entries)."""
     n = keys.size
+    if n < SMALL_SORT and bits < 63:
+        mask = (np.int64(1) << bits) - 1
+        for e in range(1, n):
+            k, v = keys[e], values[e]
+            low = k & mask
+            p = e
+            while p > 0 and (keys[p - 1] & mask) > low:
+                keys[p] = keys[p - 1]
+                values[p] = values[p - 1]
+                p -= 1
+            keys[p] = k
+            values[p] = v
+        return keys, values
     count = np.zeros(257, np.int64)
     src_k, src_v, dst_k, dst_v = keys, values, keys_out, values_out
     for shift in range(0, bits, 8):
