@@ -87,13 +87,14 @@ def elements_to_state(mu, a=None, e=0.0, i=0.0, Omega=0.0, omega=0.0, *, f=None,
     f = check.scalar("f", f)
     # a (1 - e^2) as before q existed: the scenes built on it keep their bits
     p = q * (1.0 + e) if a is None else a * (1.0 - e * e)
-    if e >= 1.0 and 1.0 + e * libm.py.cos(f) <= 0.0:
+    cf, sf = libm.py.cos(f), libm.py.sin(f)
+    if e >= 1.0 and 1.0 + e * cf <= 0.0:
         limit = libm.py.acos(-1.0 / e)
         raise ValueError(f"f = {f}: an orbit of e = {e} has no point there (|f| < {limit:.6g})")
-    r = p / (1.0 + e * libm.py.cos(f))
+    r = p / (1.0 + e * cf)
     P, Q = _rotation(check.scalar("i", i), check.scalar("Omega", Omega), check.scalar("omega", omega))
-    pos = r * (libm.py.cos(f) * P + libm.py.sin(f) * Q)
-    vel = np.sqrt(mu / p) * (-libm.py.sin(f) * P + (e + libm.py.cos(f)) * Q)
+    pos = r * (cf * P + sf * Q)
+    vel = np.sqrt(mu / p) * (-sf * P + (e + cf) * Q)
     return pos, vel
 
 

@@ -680,9 +680,12 @@ def _add_ring(w, t, ids):
         by_a = np.argsort(a, kind="stable")
         inside[by_a] = np.cumsum(mass[by_a]) - mass[by_a]
     pos, vel = np.empty((k, w.dim)), np.empty((k, w.dim))
-    for j in range(k):
-        p, v = elements_to_state(w.G * (parent.mass + inside[j] + mass[j]), a[j], e[j],
-                                 inc[j], node[j], peri[j], M=M[j])
+    mu = w.G * (parent.mass + inside + mass)
+    # Python floats, not numpy's: elements_to_state's checks take them as they are (a numpy
+    # scalar goes through an array each check, half of a 2 000-body ring's build)
+    rows = zip(*(x.tolist() for x in (mu, a, e, inc, node, peri, M)))
+    for j, (mu_j, a_j, e_j, i_j, node_j, peri_j, M_j) in enumerate(rows):
+        p, v = elements_to_state(mu_j, a_j, e_j, i_j, node_j, peri_j, M=M_j)
         pos[j], vel[j] = parent.pos + p[:w.dim], parent.vel + v[:w.dim]
     kw = {} if t["active"] is None else {"active": t["active"]}
     return w.add_bodies(mass, pos, vel, radius=radius, kind=t["kind"], **kw)
