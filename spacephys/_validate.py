@@ -94,7 +94,9 @@ def count(name, value, *, minimum=0):
 def per_body(name, value, k, *, minimum=None):
     """A scalar broadcast to k bodies or a (k,) array, checked as in floats."""
     if _plain(value, minimum):
-        return np.full(k, value)
+        arr = np.empty(k)                   # (np.full's Python wrapper: 2 us of a query)
+        arr.fill(value)
+        return arr
     arr = floats(name, value, minimum=minimum)
     if arr.ndim == 0:
         return np.full(k, float(arr))

@@ -25,7 +25,7 @@ from .events import EVENT_DTYPE
 from .kernels import parties as kparties
 from .kernels import rails as krails
 from .kernels import state as kstate
-from .kernels.codes import FAILED, NONFINITE, REMOVED
+from .kernels.codes import FAILED, NONFINITE, PERIODIC, REMOVED
 
 # bytes a frame holds per body: pos, vel (3 float64 each) and mass
 FRAME_BYTES_PER_BODY = 56
@@ -61,8 +61,17 @@ class Driver:
         components, z = 0 in 2D): the World's own arrays, not copies; one array for one
         name, else a tuple. For code that hands them to kernels; read, never write."""
         b = self.w._b
-        got = tuple(getattr(b, name)[:b.n] for name in names)
+        n = b.n
+        got = tuple([getattr(b, name)[:n] for name in names])
         return got[0] if len(got) == 1 else got
+
+    def periodic_box(self):
+        """(lo (3,), period (3,)): a periodic boundary's corner and sides, period 0 on open
+        axes (both 0 without one). New arrays."""
+        c = self.w._collisions
+        if c.boundary != PERIODIC:
+            return np.zeros(3), np.zeros(3)
+        return c.box[0].copy(), c.box[1] - c.box[0]
 
     def has(self, column):
         """Whether the bodies have the column (ships' columns come with the first ship)."""

@@ -17,6 +17,7 @@ circles as entries of their own (the body's id, where they are now) in its place
 the answers back to bodies (`_Circles`). A World without one runs the kernels on its own
 columns, as it always did.
 """
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,7 +33,7 @@ _ALL = np.zeros(0, np.bool_)       # the searches' mask when every body of the g
 def _mean(values):
     """The mean of values (the grid's hint: the queries' reach), 0 for none."""
     values = np.asarray(values, np.float64)
-    return float(values.sum()) / values.size if values.size else 0.0
+    return float(np.add.reduce(values, axis=None)) / values.size if values.size else 0.0
 
 
 @dataclass(frozen=True)
@@ -78,6 +79,13 @@ def _points(name, value, dim):
     arr = np.asarray(value, dtype=np.float64) if not isinstance(value, np.ndarray) else value
     if arr.ndim == 1:
         arr = arr[None, :]
+    if arr.dtype == np.float64 and arr.ndim == 2 and arr.shape[1] == dim:
+        # floats of the right shape (a frame's many small batches), checked here, with
+        # numpy's reductions called directly (check.floats: 2.3 us of a 20 us query)
+        if np.logical_and.reduce(np.isfinite(arr), axis=None):
+            out = np.zeros((arr.shape[0], 3))
+            out[:, :dim] = arr
+            return out
     arr = check.floats(name, arr, (None, dim))
     out = np.zeros((arr.shape[0], 3))
     out[:, :dim] = arr
@@ -95,15 +103,16 @@ def _filter(value):
 
 
 def _candidates(world, kinds, mask, ignore=None, filter=None):
-    """int64 rows of the bodies a query may find: of one of the kind codes `kinds` (None:
-    every kind; World checks them), whose category shares a bit with `mask` (None: every
-    body), that pass `filter` (a Filter or (category, mask)) and are not among the ids
-    `ignore` (an id or ids of live bodies)."""
+    """int64 rows of the bodies a query may find (None: every body, the common case, asked
+    many times a frame): of one of the kind codes `kinds` (None: every kind; World checks
+    them), whose category shares a bit with `mask` (None: every body), that pass `filter` (a
+    Filter or (category, mask)) and are not among the ids `ignore` (an id or ids of live
+    bodies)."""
     filter = _filter(filter)
     if ignore is not None:
         ignore = editing.index_of(world, ignore, "ignore")
     if kinds is None and mask is None and filter is None and ignore is None:
-        return np.arange(world.n, dtype=np.int64)
+        return None
     ok = np.ones(world.n, bool)
     if ignore is not None:
         ok[ignore] = False
@@ -122,8 +131,8 @@ def _candidates(world, kinds, mask, ignore=None, filter=None):
 
 def _wanted(world, rows):
     """The searches' mask of the candidate rows (kernels/queries): empty when every body is
-    a candidate (rows are unique: n of them are all), else (n,) bool."""
-    if rows.size == world.n:
+    a candidate (rows None, or all n of them: they are unique), else (n,) bool."""
+    if rows is None or rows.size == world.n:
         return np.zeros(0, np.bool_)
     wanted = np.zeros(world.n, np.bool_)
     wanted[rows] = True
@@ -142,7 +151,9 @@ def _grid(world, hint, pos, radius, ids, lo, period):
     if basis is None or not (basis[3] == box and kq.unchanged(pos, radius, ids, *basis[:3])):
         kept.clear()
         kept["basis"] = (pos.copy(), radius.copy(), ids.copy(), box)
-    key = None if not hint > 0.0 else float(np.floor(np.log2(hint)))     # inf: a key too
+    # one grid per factor of 2 in hint (inf: a key too)
+    key = None if not hint > 0.0 else math.inf if hint == math.inf else \
+        math.floor(math.log2(hint))
     g = kept.get(key)
     if g is None:
         g = kept[key] = kq.grid(pos, radius, np.arange(world.n, dtype=np.int64), lo, period,
@@ -152,12 +163,7 @@ def _grid(world, hint, pos, radius, ids, lo, period):
 
 def _box(world):
     """(lo (3,), period (3,)): the periodic box (period 0 on open axes)."""
-    mode, lo, hi, _ = world.boundary
-    lo3, period = np.zeros(3), np.zeros(3)
-    if mode == "periodic":
-        lo3[:world.dim] = lo
-        period[:world.dim] = hi - lo
-    return lo3, period
+    return world.driver.periodic_box()
 
 
 def _state(world):
@@ -192,14 +198,16 @@ def _compound(world):
 
 
 def _circles(world, rows):
-    """A _Circles of the candidate rows `rows`, or None when the World has no compound body
-    (the queries then run on its own columns, as before there were any)."""
+    """A _Circles of the candidate rows `rows` (None: every row), or None when the World has
+    no compound body (the queries then run on its own columns, as before there were any)."""
     got = _compound(world)
     if got is None:
         return None
     cid, k, centres, cr = got
     pos, radius, ids = _state(world)
     n, dim = world.n, world.dim
+    if rows is None:
+        rows = np.arange(n, dtype=np.int64)
     crow = np.asarray(world.index_of(cid), np.int64)
     compound = np.zeros(n, bool)
     compound[crow] = True

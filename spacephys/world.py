@@ -10,7 +10,9 @@ are modules of their own, its methods delegating to them. The parts are the Worl
 nothing else reads its private attributes (docs/architecture.md).
 """
 import copy
+import importlib
 import math
+import sys
 from typing import NamedTuple, Optional
 
 import numpy as np
@@ -52,6 +54,14 @@ def _readonly(arr):
 
 # advance()'s default warp, told apart from a warp asked by its identity
 NO_WARP = 1.0
+
+
+
+def _queries():
+    """spacephys.queries, imported by the first query (import spacephys stays lean); a
+    look-up, not an import statement, after it (1 us of each query)."""
+    return sys.modules.get(f"{__package__}.queries") or \
+        importlib.import_module(f"{__package__}.queries")
 
 
 class World:
@@ -1404,14 +1414,13 @@ class World:
         radius R counts from |d| <= r + R): an sp.Hits (hits[q] -> (ids, distances), sorted
         by distance then id). centers (dim,) or (Q, dim); r >= 0, a number or (Q,). Periodic
         boundaries wrap."""
-        from .queries import query_radius
-        return query_radius(self, centers, r, self._query_kinds(kinds), mask, ignore, filter)
+        return _queries().query_radius(self, centers, r, self._query_kinds(kinds), mask,
+                                       ignore, filter)
 
     def query_box(self, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
         """The bodies overlapping each axis-aligned box lo..hi ((dim,) or (Q, dim) each): an
         sp.Hits sorted by the distance of their centres from the box's centre."""
-        from .queries import query_box
-        return query_box(self, lo, hi, self._query_kinds(kinds), mask, ignore, filter)
+        return _queries().query_box(self, lo, hi, self._query_kinds(kinds), mask, ignore, filter)
 
     def raycast(self, origins, directions, max_distance, kinds=None, mask=None, first=True,
                 walls=True, ignore=None, filter=None):
@@ -1423,9 +1432,8 @@ class World:
         shooter. Periodic boundaries: rays run on through the seam. A compound body is met
         at its circles (per hit `circles`, per ray `circle`: which one; -1 round or a
         wall), as every query meets them."""
-        from .queries import raycast
-        return raycast(self, origins, directions, max_distance, self._query_kinds(kinds),
-                       mask, first, walls, ignore, filter)
+        return _queries().raycast(self, origins, directions, max_distance,
+                                  self._query_kinds(kinds), mask, first, walls, ignore, filter)
 
     def shapecast(self, shape, displacement, kinds=None, mask=None, walls=True, ignore=None,
                   filter=None):
@@ -1435,15 +1443,13 @@ class World:
         per shape: distances along the move (over |displacement|: the time of impact),
         points the shape's centre at first contact, normals toward it. A compound body
         (met, or cast as `shape`) is its circles, as they are now."""
-        from .queries import shapecast
-        return shapecast(self, shape, displacement, self._query_kinds(kinds), mask, walls,
-                         ignore, filter)
+        return _queries().shapecast(self, shape, displacement, self._query_kinds(kinds), mask,
+                                    walls, ignore, filter)
 
     def nearest(self, points, k=1, kinds=None, mask=None, ignore=None, filter=None):
         """The k bodies nearest each point (by the gap to their surface): (ids (Q, k),
         distances (Q, k)), sorted; -1 and inf past the bodies there are."""
-        from .queries import nearest
-        return nearest(self, points, k, self._query_kinds(kinds), mask, ignore, filter)
+        return _queries().nearest(self, points, k, self._query_kinds(kinds), mask, ignore, filter)
 
     # ---------------------------------------------------------------- diagnostics
     def gravity_accelerations(self, ids=None, exact=False):

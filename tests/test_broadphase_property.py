@@ -757,3 +757,17 @@ def test_the_grids_sort_is_stable_by_the_low_bits_below_and_above_its_small_size
                               np.empty(n, np.int64), bits)
     assert got_v.tolist() == want.tolist() and got_k.tolist() == keys[want].tolist()
     assert SMALL_SORT <= 70                   # both ways are drawn
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(0, 70), st.sampled_from([3, 1 << 11, 1 << 40, 1 << 62]), st.integers(0, 2 ** 32))
+def test_the_order_of_keys_is_numpys_stable_argsort_below_and_above_its_small_size(n, top, seed):
+    """arrays.radix_order (the queries' cells, the tree's keys): numpy's stable argsort of the
+    keys, ties in index order, whether sorted by insertion (fewer than SMALL_SORT keys) or by
+    radix passes."""
+    from spacephys.kernels.arrays import SMALL_SORT, radix_order
+    rng = np.random.default_rng(seed)
+    keys = rng.integers(0, top, n).astype(np.int64)
+    keys[rng.random(n) < 0.3] = top // 2            # ties the order must keep
+    assert radix_order(keys).tolist() == np.argsort(keys, kind="stable").tolist()
+    assert SMALL_SORT <= 70                          # both ways are drawn

