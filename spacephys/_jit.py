@@ -112,7 +112,21 @@ class _Dispatcher(CPUDispatcher):
                                          {k: types.unliteral(v) for k, v in kws.items()})
 
     def enable_caching(self):
-        self._cache = _by_address.Cache(self.py_func)
+        self.__dict__["_cache"] = None          # made by the first compile or load (below)
+
+    @property
+    def _cache(self):
+        """numba's cache of this kernel, made when first used: making one checks that its
+        folder is writable with a temporary file, which for every kernel at import took
+        20 ms of a warm start."""
+        cache = self.__dict__["_cache"]
+        if cache is None:
+            cache = self.__dict__["_cache"] = _by_address.Cache(self.py_func)
+        return cache
+
+    @_cache.setter
+    def _cache(self, value):
+        self.__dict__["_cache"] = value
 
 
 class _ByAddress(_Dispatcher):
