@@ -17,9 +17,10 @@ def rng():
 # choices by them, a busy core's share): `dev.py test` runs them alone, after the rest, so that
 # another worker's compilation does not skew what they compare (a single such test elsewhere is
 # marked @pytest.mark.timed where it stands). A benchmark's test that only checks its report
-# (test_bench_play, _queries, _overhead, _compile, test_tradeoff) runs with the rest.
+# (test_bench_play, _queries, _overhead, _compile, _tree but for one test, test_tradeoff) runs
+# with the rest.
 TIMED = ("test_bench_heavy.py", "test_bench_models.py", "test_bench_predict.py",
-         "test_bench_threads.py", "test_bench_tree.py", "test_recommend.py")
+         "test_bench_threads.py", "test_recommend.py")
 
 
 def pytest_collection_modifyitems(config, items):
