@@ -56,7 +56,6 @@ def _readonly(arr):
 NO_WARP = 1.0
 
 
-
 def _queries():
     """spacephys.queries, imported by the first query (import spacephys stays lean); a
     look-up, not an import statement, after it (1 us of each query)."""

@@ -140,8 +140,8 @@ def warm_start(repeats=3):
         path = DEFAULT
         _probe(_SCENARIO_PROBE, cache, path)                    # fills the cache
         warm = [_probe(_SCENARIO_PROBE, cache, path) for _ in range(repeats)]
-        floor = [float(subprocess.run([sys.executable, "-c", _FLOOR_PROBE], env=_env(cache), check=True,
-                                      capture_output=True, text=True).stdout)
+        floor = [float(subprocess.run([sys.executable, "-c", _FLOOR_PROBE], env=_env(cache),
+                                      check=True, capture_output=True, text=True).stdout)
                  for _ in range(repeats + 1)][1:]               # the first one compiles
     return {"import_s": min(w["import_s"] for w in warm),
             "first_step_s": min(w["first_step_s"] for w in warm),
