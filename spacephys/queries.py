@@ -79,14 +79,12 @@ def _points(name, value, dim):
     arr = np.asarray(value, dtype=np.float64) if not isinstance(value, np.ndarray) else value
     if arr.ndim == 1:
         arr = arr[None, :]
-    if arr.dtype == np.float64 and arr.ndim == 2 and arr.shape[1] == dim:
-        # floats of the right shape (a frame's many small batches), checked here, with
-        # numpy's reductions called directly (check.floats: 2.3 us of a 20 us query)
-        if np.logical_and.reduce(np.isfinite(arr), axis=None):
-            out = np.zeros((arr.shape[0], 3))
-            out[:, :dim] = arr
-            return out
-    arr = check.floats(name, arr, (None, dim))
+    # finite floats of the right shape (a frame's many small batches) pass with numpy's
+    # reductions called directly; the rest go through check.floats (2.3 us of a 20 us query)
+    plain = arr.dtype == np.float64 and arr.ndim == 2 and arr.shape[1] == dim and \
+        np.logical_and.reduce(np.isfinite(arr), axis=None)
+    if not plain:
+        arr = check.floats(name, arr, (None, dim))
     out = np.zeros((arr.shape[0], 3))
     out[:, :dim] = arr
     return out
@@ -133,7 +131,7 @@ def _wanted(world, rows):
     """The searches' mask of the candidate rows (kernels/queries): empty when every body is
     a candidate (rows None, or all n of them: they are unique), else (n,) bool."""
     if rows is None or rows.size == world.n:
-        return np.zeros(0, np.bool_)
+        return _ALL
     wanted = np.zeros(world.n, np.bool_)
     wanted[rows] = True
     return wanted
