@@ -695,6 +695,17 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
             tdelta[c] = np.inf
     for h in range(SEEN):
         seen[h, 0] = _NEVER
+    # the walk in scalars: kept in arrays, LLVM would read them again after every store
+    # into seen and the outputs
+    o0, o1, o2 = o[0], o[1], o[2]
+    d0, d1, d2 = d[0], d[1], d[2]
+    p0, p1, p2 = period[0], period[1], period[2]
+    n0, n1, n2 = ncell[0], ncell[1], ncell[2]
+    c0, c1, c2 = cur[0], cur[1], cur[2]
+    r0, r1, r2 = reach[0], reach[1], reach[2]
+    s0, s1, s2 = step[0], step[1], step[2]
+    u0, u1, u2 = tnext[0], tnext[1], tnext[2]
+    e0, e1, e2 = tdelta[0], tdelta[1], tdelta[2]
     n = 0
     best = np.inf
     t_cell = t0
@@ -703,19 +714,16 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
         # of the cell that point is in: past the nearest meeting, nothing nearer is left
         if first and n and best < t_cell:
             break
-        for ax in range(_from(cur[0], reach[0], ncell[0], period[0]),
-                        _to(cur[0], reach[0], ncell[0], period[0]) + 1):
-            ix, sx = _axis_cell(ax, ncell[0], period[0])
+        for ax in range(_from(c0, r0, n0, p0), _to(c0, r0, n0, p0) + 1):
+            ix, sx = _axis_cell(ax, n0, p0)
             if ix < 0:
                 continue
-            for ay in range(_from(cur[1], reach[1], ncell[1], period[1]),
-                            _to(cur[1], reach[1], ncell[1], period[1]) + 1):
-                iy, sy = _axis_cell(ay, ncell[1], period[1])
+            for ay in range(_from(c1, r1, n1, p1), _to(c1, r1, n1, p1) + 1):
+                iy, sy = _axis_cell(ay, n1, p1)
                 if iy < 0:
                     continue
-                for az in range(_from(cur[2], reach[2], ncell[2], period[2]),
-                                _to(cur[2], reach[2], ncell[2], period[2]) + 1):
-                    iz, sz = _axis_cell(az, ncell[2], period[2])
+                for az in range(_from(c2, r2, n2, p2), _to(c2, r2, n2, p2) + 1):
+                    iz, sz = _axis_cell(az, n2, p2)
                     if iz < 0:
                         continue
                     # scanned lately (this cell, this image)? a hash of the walk indices
@@ -725,14 +733,14 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
                     seen[h, 0] = ax
                     seen[h, 1] = ay
                     seen[h, 2] = az
-                    key = (ix * ncell[1] + iy) * ncell[2] + iz
+                    key = (ix * n1 + iy) * n2 + iz
                     for e in range(start[key], start[key + 1]):
                         if items[e] == skip or _unwanted(wanted, items[e]):
                             continue
-                        t = ray_sphere(o[0], o[1], o[2], d[0], d[1], d[2],
-                                       _near(gpos[e, 0], o[0], sx, period[0]),
-                                       _near(gpos[e, 1], o[1], sy, period[1]),
-                                       _near(gpos[e, 2], o[2], sz, period[2]), grad[e] + extra)
+                        t = ray_sphere(o0, o1, o2, d0, d1, d2,
+                                       _near(gpos[e, 0], o0, sx, p0),
+                                       _near(gpos[e, 1], o1, sy, p1),
+                                       _near(gpos[e, 2], o2, sz, p2), grad[e] + extra)
                         if t < 0.0 or t > tmax:
                             continue
                         if not first and stamp[e] == mark:
@@ -756,20 +764,35 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
                                 out_rows[n] = items[e]
                                 out_t[n] = t
                             n += 1
-        c = 0                                    # across the nearest face
-        if tnext[1] < tnext[c]:
+        # across the nearest face; past the grid and its reach on an open axis nothing is
+        # left ahead (and the walk ends even when cells of 1e-300 far from the origin leave
+        # tnext where it was)
+        c = 0
+        tc = u0
+        if u1 < tc:
             c = 1
-        if tnext[2] < tnext[c]:
+            tc = u1
+        if u2 < tc:
             c = 2
-        if tnext[c] == np.inf:
+            tc = u2
+        if tc == np.inf:
             break
-        t_cell = tnext[c]
-        cur[c] += step[c]
-        tnext[c] += tdelta[c]
-        # past the grid and its reach on an open axis: nothing is left ahead (and the walk
-        # ends even when cells of 1e-300 far from the origin leave tnext where it was)
-        if period[c] == 0.0 and (cur[c] > ncell[c] - 1 + reach[c] or cur[c] < -reach[c]):
-            break
+        t_cell = tc
+        if c == 0:
+            c0 += s0
+            u0 += e0
+            if p0 == 0.0 and (c0 > n0 - 1 + r0 or c0 < -r0):
+                break
+        elif c == 1:
+            c1 += s1
+            u1 += e1
+            if p1 == 0.0 and (c1 > n1 - 1 + r1 or c1 < -r1):
+                break
+        else:
+            c2 += s2
+            u2 += e2
+            if p2 == 0.0 and (c2 > n2 - 1 + r2 or c2 < -r2):
+                break
     return n
 
 
