@@ -40,8 +40,10 @@ class Driver:
         # pass in jumps), and how many steps it left untaken
         self.budget = None
         self.cut = 0
-        # the spatial queries' grids and what they were built from (queries._grid)
+        # the spatial queries' grids and what they were built from, and their memory, reused
+        # by the next ones (queries._grid, queries._Memory)
         self.grids = {}
+        self.grid_memory = None
         # the settings predictions chose to meet an error (prediction_settings.choose)
         self.choices = {}
         # space order (space_order.py): the plan last judged and its steps between sorts (0:
@@ -52,6 +54,7 @@ class Driver:
     def __getstate__(self):
         state = self.__dict__.copy()
         state["grids"] = {}            # a copy (World.copy, a prediction's) builds its own
+        state["grid_memory"] = None    # in memory of its own
         state["judged"] = None
         return state
 

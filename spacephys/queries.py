@@ -140,25 +140,70 @@ def _wanted(world, rows):
     return wanted
 
 
+class _Memory:
+    """The memory of the grids a World's queries keep (its driver's grid_memory): the
+    buffers of the basis (the columns the grids were built from), of the rows 0..n-1, and of
+    the grids themselves (kernels/queries.grid's), reused once the grids they held are
+    dropped. A grid and basis of 10^5 bodies in new memory spent more on the pages' first
+    touch than on their build."""
+
+    def __init__(self):
+        self.basis = (np.empty((0, 3)), np.empty(0), np.empty(0, np.int64))
+        self.all_rows = np.empty(0, np.int64)
+        self.lent = []           # the memory of the grids in driver.grids
+        self.spare = []          # memory no grid uses
+
+    def drop(self):
+        """Every grid is gone (driver.grids cleared): their memory is spare."""
+        self.spare += self.lent
+        self.lent = []
+
+    def copies(self, pos, radius, ids):
+        """(pos, radius, ids) copied into the basis buffers (grown when short)."""
+        n = pos.shape[0]
+        if self.basis[0].shape[0] < n:
+            self.basis = (np.empty((n, 3)), np.empty(n), np.empty(n, np.int64))
+        out = tuple(b[:n] for b in self.basis)
+        for b, col in zip(out, (pos, radius, ids)):
+            np.copyto(b, col)
+        return out
+
+    def rows(self, n):
+        """(n,) int64: 0 .. n - 1."""
+        if self.all_rows.size < n:
+            self.all_rows = np.arange(n, dtype=np.int64)
+        return self.all_rows[:n]
+
+    def grid(self, pos, radius, rows, lo, period, hint):
+        """kq.grid in spare memory, the memory then lent to it."""
+        g, held = kq.grid(pos, radius, rows, lo, period, hint,
+                          self.spare.pop() if self.spare else kq.NO_MEMORY)
+        self.lent.append(held)
+        return g
+
+
 def _grid(world, hint, pos, radius, ids, lo, period):
     """The grid of every live body (kernels/queries.grid) for queries that reach about
     `hint` (its cells at least that wide; 0: about a body a cell): built when a query first
     needs it, kept by the World's driver while the positions, radii, ids and box it was built
-    from hold, one per factor of 2 in hint. pos, radius, ids: _state(world); lo, period:
-    _box(world)."""
+    from hold, one per factor of 2 in hint; built in the memory of the grids dropped before
+    (_Memory). pos, radius, ids: _state(world); lo, period: _box(world)."""
     kept = world.driver.grids
     basis = kept.get("basis")
     box = lo.tobytes() + period.tobytes()
     if basis is None or not (basis[3] == box and kq.unchanged(pos, radius, ids, *basis[:3])):
         kept.clear()
-        kept["basis"] = (pos.copy(), radius.copy(), ids.copy(), box)
+        if world.driver.grid_memory is None:
+            world.driver.grid_memory = _Memory()
+        world.driver.grid_memory.drop()
+        kept["basis"] = world.driver.grid_memory.copies(pos, radius, ids) + (box,)
     # one grid per factor of 2 in hint (inf: a key too)
     key = None if not hint > 0.0 else math.inf if hint == math.inf else \
         math.floor(math.log2(hint))
     g = kept.get(key)
     if g is None:
-        g = kept[key] = kq.grid(pos, radius, np.arange(world.n, dtype=np.int64), lo, period,
-                                float(hint))
+        memory = world.driver.grid_memory
+        g = kept[key] = memory.grid(pos, radius, memory.rows(world.n), lo, period, float(hint))
     return g
 
 
@@ -264,7 +309,7 @@ def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=N
     lo, period = _box(world)
     x = _circles(world, rows)
     if x is not None:            # a compound body: within r of one of its circles
-        g = kq.grid(x.pos, x.radius, x.rows, lo, period, hint)
+        g = kq.grid(x.pos, x.radius, x.rows, lo, period, hint, kq.NO_MEMORY)[0]
         offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period, c,
                                           reach, _NO_HALF, 0)
         q, hits, dist = _bodies(x, offsets, hits, dist)
@@ -293,7 +338,8 @@ def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
     x = _circles(world, rows)
     if x is not None:            # a compound body: when one of its circles overlaps the box
         mid = 0.5 * (a + b)
-        g = kq.grid(x.pos, x.radius, x.rows, box_lo, period, _mean((b - a).sum(axis=1) / 2))
+        g = kq.grid(x.pos, x.radius, x.rows, box_lo, period,
+                    _mean((b - a).sum(axis=1) / 2), kq.NO_MEMORY)[0]
         offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period,
                                           mid, np.zeros(a.shape[0]), 0.5 * (b - a), 1)
         q, hits, dist = _bodies(x, offsets, hits, dist)
@@ -336,8 +382,8 @@ def _nearest_bodies(x, lo, period, p, k):
     The k nearest bodies are the first k distinct among the (k - 1) m + 1 nearest entries (m:
     the most circles of a body), a body first where its nearest circle is."""
     K = max(min((k - 1) * x.most + 1, x.rows.size), 1)
-    hits, dist = kq.nearest(kq.grid(x.pos, x.radius, x.rows, lo, period, 0.0), x.pos, x.radius,
-                            x.ident, _ALL, period, p, K)
+    g = kq.grid(x.pos, x.radius, x.rows, lo, period, 0.0, kq.NO_MEMORY)[0]
+    hits, dist = kq.nearest(g, x.pos, x.radius, x.ident, _ALL, period, p, K)
     Q = p.shape[0]
     body = np.where(hits >= 0, x.body[np.maximum(hits, 0)], -1)
     q = np.repeat(np.arange(Q), K)
@@ -579,7 +625,7 @@ def _cast_circles(x, lo, period, o, d, tmax, extra, skip, first):
         oo, dd = o[rays], d[rays]
         sk = np.where(multi[rays], -1, skip[rays]).astype(np.int64)   # a round row: entry i
         ee = np.ascontiguousarray(extra[rays])
-        g = kq.grid(x.pos, x.radius, x.rows, lo, period, _mean(ee))
+        g = kq.grid(x.pos, x.radius, x.rows, lo, period, _mean(ee), kq.NO_MEMORY)[0]
         offsets, hits, t = kq.raycasts(g, x.pos, x.radius, x.ident, _ALL, period, oo, dd,
                                        np.ascontiguousarray(tmax[rays]), ee, sk, many)
         ray, point, normal = kq.surfaces(x.pos, period, oo, dd, offsets, hits, t)

@@ -652,6 +652,31 @@ def test_the_grid_queries_share_is_dropped_when_anything_changes():
         assert after != before                           # the change changed the answers
 
 
+def test_a_rebuilt_grid_reuses_memory_and_a_copy_builds_in_its_own():
+    """A grid built after a step reuses the memory of the one the step dropped
+    (queries._Memory), and answers as a fresh World does; a copy builds its grids in
+    memory of its own, so that its queries never overwrite the original's kept grid."""
+    rng = np.random.default_rng(5)
+    w = sp.World(2, gravity="none", dt=0.5)
+    w.add_bodies(1.0, rng.uniform(0, 40, (400, 2)), rng.normal(0, 1, (400, 2)), radius=0.3)
+    centres = rng.uniform(0, 40, (12, 2))
+    dirs = rng.normal(size=(12, 2))
+    _answers(w, centres, dirs)
+    held = [a for grid in w.driver.grid_memory.lent for a in grid if a.size]
+    w.step(1)
+    mine = _answers(w, centres, dirs)
+    again = [a for grid in w.driver.grid_memory.lent for a in grid]
+    assert any(a is b for a in again for b in held)       # the dropped grids' memory reused
+    assert mine == _answers(w.copy(), centres, dirs)
+    c = w.copy()
+    c.set_body(int(c.ids[0]), pos=centres[0])             # the copy's grids differ
+    c.step(1)
+    theirs = _answers(c, centres, dirs)
+    assert theirs != mine
+    assert _answers(w, centres, dirs) == mine             # the original's kept grid intact
+    assert theirs == _answers(c.copy(), centres, dirs)
+
+
 def test_a_box_wider_than_floats_reach_finds_every_body():
     """A box of +-1e308 (its size overflows to inf, and so does the grid's hint): every
     body, as before the grid was shared (planted: a hint keyed as an int raised

@@ -25,6 +25,9 @@ SEEN = 128                  # a ray walk's memory of the cells it scanned (a pow
 SAMPLED = 64                # fewest queries whose buffers are sized from a sample
 ROOM = 64                   # hits a query's buffer holds below that
 _NEVER = -(1 << 62)         # no walk index
+# a grid's memory when there is none to reuse (grid)
+NO_MEMORY = (np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0, np.int64),
+             np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 3)), np.empty(0))
 
 
 @kernel(inline=True)
@@ -93,11 +96,28 @@ def _same_bits(a, b):
     return d == 0
 
 
+@kernel(inline=True)
+def _grown(buf, size):
+    """buf when it holds size elements, else a new array of size (buf's dtype)."""
+    return buf if buf.size >= size else np.empty(size, buf.dtype)
+
+
+@kernel(inline=True)
+def _grown_rows(buf, rows):
+    """buf (r, 3) when r >= rows, else a new (rows, 3) array."""
+    return buf if buf.shape[0] >= rows else np.empty((rows, 3))
+
+
 @kernel(parallel=True)
-def grid(pos, radius, rows, lo, period, hint):
-    """The grid of the bodies `rows`: (origin (3,), cell (3,) side per axis, ncell (3,),
-    start (C + 1,), items (k,) rows by cell, giants (g,) rows, rmax: the largest radius of a
-    gridded body, gpos (k, 3) and grad (k,): the items' centres and radii in their order).
+def grid(pos, radius, rows, lo, period, hint, memory):
+    """(the grid of the bodies `rows`, its memory). The grid: (origin (3,), cell (3,) side
+    per axis, ncell (3,), start (C + 1,), items (k,) rows by cell, giants (g,) rows, rmax:
+    the largest radius of a gridded body, gpos (k, 3) and grad (k,): the items' centres and
+    radii in their order), its arrays the leading parts of its memory: (giants, count,
+    key, start, items, gpos, grad) buffers, those of `memory` where large enough (a grid no
+    longer used: the new one's arrays may overlap its), else new (NO_MEMORY: all new). A
+    grid of 10^5 bodies in new memory spent more on the pages' first touch than on its
+    build.
     lo, period (3,): a periodic box's corner and sides (0: open axis); hint: the smallest
     cell side wanted (the queries' reach: a cell about as wide as a query visits few
     cells), 0 for none."""
@@ -152,9 +172,14 @@ def grid(pos, radius, rows, lo, period, hint):
         if hi[c] > origin[c]:
             side = cell[c] if side == 0.0 else min(side, cell[c])
     # giants (bodies wider than a cell: tested directly) aside; the others' cells counted
-    giants = np.empty(m, np.int64)
-    count = np.zeros(total + 1, np.int64)
-    key = np.empty(m, np.int64)
+    giants_buf = _grown(memory[0], m)
+    count_buf = _grown(memory[1], total + 1)
+    key_buf = _grown(memory[2], m)
+    giants = giants_buf[:m]
+    count = count_buf[:total + 1]
+    for k in range(total + 1):
+        count[k] = 0
+    key = key_buf[:m]
     ng = 0
     rmax = 0.0
     # the grid's shape in scalars: read from arrays, LLVM would read them again after every
@@ -177,11 +202,15 @@ def grid(pos, radius, rows, lo, period, hint):
             _cell_of(pos[i, 2], l2, p2, o2, c2, n2)
         key[a] = k
         count[k + 1] += 1
-    giants = giants[:ng].copy()
+    giants = giants[:ng]
     for k in range(total):
         count[k + 1] += count[k]
-    start = count.copy()
-    items = np.empty(m - ng, np.int64)
+    start_buf = _grown(memory[3], total + 1)
+    start = start_buf[:total + 1]
+    for k in range(total + 1):
+        start[k] = count[k]
+    items_buf = _grown(memory[4], m - ng)
+    items = items_buf[:m - ng]
     for a in range(m):
         if key[a] >= 0:
             items[count[key[a]]] = rows[a]
@@ -189,15 +218,18 @@ def grid(pos, radius, rows, lo, period, hint):
     # the gridded bodies' centres (in the periodic box, as their cells) and radii in cell
     # order: a cell's bodies side by side. Read from all over pos: on threads when many
     # (10^5 bodies: the grid 1.9 -> 1.3 ms)
-    gpos = np.empty((items.size, 3))
-    grad = np.empty(items.size)
+    gpos_buf = _grown_rows(memory[5], items.size)
+    grad_buf = _grown(memory[6], items.size)
+    gpos = gpos_buf[:items.size]
+    grad = grad_buf[:items.size]
     if items.size >= MIN_PARALLEL_BODIES:
         for e in numba.prange(items.size):
             _copy_body(pos, radius, lo, period, items, gpos, grad, np.int64(e))
     else:
         for e in range(items.size):
             _copy_body(pos, radius, lo, period, items, gpos, grad, e)
-    return origin, cell, ncell, start, items, giants, rmax, gpos, grad
+    return ((origin, cell, ncell, start, items, giants, rmax, gpos, grad),
+            (giants_buf, count_buf, key_buf, start_buf, items_buf, gpos_buf, grad_buf))
 
 
 @kernel(inline=True)
