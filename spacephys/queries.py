@@ -6,7 +6,9 @@ searches are kernels/queries.py.
 The grid holds every live body and serves every query until a body moves, is added or
 removed, or changes its radius, or the boundary changes (`_grid`: kept by the World's driver,
 which drops it at the next step, and checked against the columns it was built from): the
-queries a game asks between two steps share one. A query's candidates are a mask the searches skip by, not a grid of their own.
+queries a game asks between two steps share one. A query's candidates are a mask the
+searches skip by, not a grid of their own. The next grid is built in the memory of those
+dropped before it (`_Memory`, the driver's grid_memory).
 
 A body is a disc (2D) or sphere (3D) of its radius; a distance is the gap between a point
 and its surface (0 inside it). Each query's answers are sorted by distance, then id.
