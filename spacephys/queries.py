@@ -147,7 +147,8 @@ class _Memory:
     buffers of the basis (the columns the grids were built from), of the rows 0..n-1, and of
     the grids themselves (kernels/queries.grid's), reused once the grids they held are
     dropped. A grid and basis of 10^5 bodies in new memory spent more on the pages' first
-    touch than on their build."""
+    touch than on their build. Grown, never shrunk: sized for the most bodies the World has
+    held (a copy starts with none)."""
 
     def __init__(self):
         self.basis = (np.empty((0, 3)), np.empty(0), np.empty(0, np.int64))
