@@ -194,20 +194,26 @@ def _grid(world, hint, pos, radius, ids, lo, period):
     kept = world.driver.grids
     basis = kept.get("basis")
     box = lo.tobytes() + period.tobytes()
+    if world.driver.grid_memory is None:
+        world.driver.grid_memory = _Memory()
+    memory = world.driver.grid_memory
     if basis is None or not (basis[3] == box and kq.unchanged(pos, radius, ids, *basis[:3])):
         kept.clear()
-        if world.driver.grid_memory is None:
-            world.driver.grid_memory = _Memory()
-        world.driver.grid_memory.drop()
-        kept["basis"] = world.driver.grid_memory.copies(pos, radius, ids) + (box,)
+        memory.drop()
+        kept["basis"] = memory.copies(pos, radius, ids) + (box,)
     # one grid per factor of 2 in hint (inf: a key too)
     key = None if not hint > 0.0 else math.inf if hint == math.inf else \
         math.floor(math.log2(hint))
     g = kept.get(key)
     if g is None:
-        memory = world.driver.grid_memory
         g = kept[key] = memory.grid(pos, radius, memory.rows(world.n), lo, period, float(hint))
     return g
+
+
+def _grid_once(pos, radius, rows, lo, period, hint):
+    """kq.grid in new memory, for a grid one call uses and drops (a compound body's
+    circles)."""
+    return kq.grid(pos, radius, rows, lo, period, hint, kq.NO_MEMORY)[0]
 
 
 def _box(world):
@@ -312,7 +318,7 @@ def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=N
     lo, period = _box(world)
     x = _circles(world, rows)
     if x is not None:            # a compound body: within r of one of its circles
-        g = kq.grid(x.pos, x.radius, x.rows, lo, period, hint, kq.NO_MEMORY)[0]
+        g = _grid_once(x.pos, x.radius, x.rows, lo, period, hint)
         offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period, c,
                                           reach, _NO_HALF, 0)
         q, hits, dist = _bodies(x, offsets, hits, dist)
@@ -341,8 +347,8 @@ def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
     x = _circles(world, rows)
     if x is not None:            # a compound body: when one of its circles overlaps the box
         mid = 0.5 * (a + b)
-        g = kq.grid(x.pos, x.radius, x.rows, box_lo, period,
-                    _mean((b - a).sum(axis=1) / 2), kq.NO_MEMORY)[0]
+        g = _grid_once(x.pos, x.radius, x.rows, box_lo, period,
+                       _mean((b - a).sum(axis=1) / 2))
         offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period,
                                           mid, np.zeros(a.shape[0]), 0.5 * (b - a), 1)
         q, hits, dist = _bodies(x, offsets, hits, dist)
@@ -385,7 +391,7 @@ def _nearest_bodies(x, lo, period, p, k):
     The k nearest bodies are the first k distinct among the (k - 1) m + 1 nearest entries (m:
     the most circles of a body), a body first where its nearest circle is."""
     K = max(min((k - 1) * x.most + 1, x.rows.size), 1)
-    g = kq.grid(x.pos, x.radius, x.rows, lo, period, 0.0, kq.NO_MEMORY)[0]
+    g = _grid_once(x.pos, x.radius, x.rows, lo, period, 0.0)
     hits, dist = kq.nearest(g, x.pos, x.radius, x.ident, _ALL, period, p, K)
     Q = p.shape[0]
     body = np.where(hits >= 0, x.body[np.maximum(hits, 0)], -1)
@@ -628,7 +634,7 @@ def _cast_circles(x, lo, period, o, d, tmax, extra, skip, first):
         oo, dd = o[rays], d[rays]
         sk = np.where(multi[rays], -1, skip[rays]).astype(np.int64)   # a round row: entry i
         ee = np.ascontiguousarray(extra[rays])
-        g = kq.grid(x.pos, x.radius, x.rows, lo, period, _mean(ee), kq.NO_MEMORY)[0]
+        g = _grid_once(x.pos, x.radius, x.rows, lo, period, _mean(ee))
         offsets, hits, t = kq.raycasts(g, x.pos, x.radius, x.ident, _ALL, period, oo, dd,
                                        np.ascontiguousarray(tmax[rays]), ee, sk, many)
         ray, point, normal = kq.surfaces(x.pos, period, oo, dd, offsets, hits, t)

@@ -176,9 +176,7 @@ def grid(pos, radius, rows, lo, period, hint, memory):
     count_buf = _grown(memory[1], total + 1)
     key_buf = _grown(memory[2], m)
     giants = giants_buf[:m]
-    count = count_buf[:total + 1]
-    for k in range(total + 1):
-        count[k] = 0
+    count = arrays.zeroed(count_buf[:total + 1])
     key = key_buf[:m]
     ng = 0
     rmax = 0.0
