@@ -17,7 +17,6 @@ compiled or loaded from the cache. A cached caller refers to it by name, so befo
 loads a caller from the cache the callees it needs are loaded first: `Cache` stores the list
 (the slots its machine code names) beside the caller's machine code.
 """
-import contextlib
 import ctypes
 import hashlib
 import importlib
@@ -103,23 +102,7 @@ def load(need):
     disp = importlib.import_module(module)
     for part in qualname.split("."):
         disp = getattr(disp, part)
-    with for_kernels():
-        disp.compile(args)
-
-
-# >0 while a kernel's compile asks for the kernels it calls: they need no Python wrapper
-# (_jit._Dispatcher)
-FOR_KERNELS = [0]
-
-
-@contextlib.contextmanager
-def for_kernels():
-    """The compiles inside are of kernels for other kernels to call, not Python."""
-    FOR_KERNELS[0] += 1
-    try:
-        yield
-    finally:
-        FOR_KERNELS[0] -= 1
+    disp.compile(args)
 
 
 class _CacheImpl(CompileResultCacheImpl):
@@ -139,21 +122,5 @@ class _CacheImpl(CompileResultCacheImpl):
 
 class Cache(FunctionCache):
     """numba's cache of compiled kernels, which also keeps the kernels each one calls by
-    address, and loads those first. wrapped: whether the next load or save is of the kernel
-    compiled with its Python wrapper (_jit._Dispatcher), a key of its own."""
+    address, and loads those first."""
     _impl_class = _CacheImpl
-    wrapped = True
-
-    def _index_key(self, sig, codegen):
-        return super()._index_key(sig, codegen) + (self.wrapped,)
-
-    def load_overload(self, sig, target_context):
-        """The kernel compiled for sig; for kernels to call, the wrapped one serves too."""
-        cres = super().load_overload(sig, target_context)
-        if cres is None and not self.wrapped:
-            self.wrapped = True
-            try:
-                cres = super().load_overload(sig, target_context)
-            finally:
-                self.wrapped = False
-        return cres

@@ -29,8 +29,7 @@ import numpy as np  # noqa: E402
 from . import cache as _cache  # noqa: E402  (the cache folder, before any kernel is defined)
 from . import _by_address  # noqa: E402
 from numba import types
-from numba.core import cgutils, sigutils
-from numba.core.compiler_lock import global_compiler_lock
+from numba.core import cgutils
 from numba.core.errors import NumbaPerformanceWarning, RequireLiteralValue
 from numba.core.registry import CPUDispatcher
 from numba.experimental.structref import _Utils
@@ -102,51 +101,15 @@ def kernel(fn=None, *, parallel=False, inline=False, lean=False, counted=False,
 
 
 class _Dispatcher(CPUDispatcher):
-    """numba's dispatcher, but:
-
-    - a call from another kernel compiles it for its arguments' plain types: numba would
-      compile a function again for every constant an argument is given (walk(..., False)
-      and walk(..., same) twice; a prange index, uint64, once more), and each copy
-      re-optimises everything it calls. Branches on None stay pruned (None is a type of its
-      own).
-    - a kernel compiled for another kernel has no Python wrapper (the code that unboxes its
-      arguments from Python objects: 63 wrappers, 1.7 s of Gauss-Radau's cold first step);
-      called from Python later, it is compiled once more with one. The two are cached
-      apart (Cache.wrapped), and numba's table of what Python may call holds only the
-      wrapped.
-    """
+    """numba's dispatcher, but a call from another kernel compiles it for its arguments'
+    plain types: numba would compile a function again for every constant an argument is
+    given (walk(..., False) and walk(..., same) twice; a prange index, uint64, once more),
+    and each copy re-optimises everything it calls. Branches on None stay pruned (None is a
+    type of its own)."""
 
     def get_call_template(self, args, kws):
-        with _by_address.for_kernels():
-            return super().get_call_template(
-                tuple(types.unliteral(a) for a in args),
-                {k: types.unliteral(v) for k, v in kws.items()})
-
-    def compile(self, sig):
-        wrapped = not _by_address.FOR_KERNELS[0]
-        with global_compiler_lock:
-            args = tuple(sigutils.normalize_signature(sig)[0])
-            existing = self.overloads.get(args)
-            if existing is not None:
-                if not wrapped or _has_wrapper(existing):
-                    return existing.entry_point
-                del self.overloads[args]              # compiled for kernels: again, wrapped
-            self.targetoptions["no_cpython_wrapper"] = not wrapped
-            self._cache.wrapped = wrapped
-            depth = _by_address.FOR_KERNELS[0]
-            _by_address.FOR_KERNELS[0] = 0           # its callees: as they are called
-            try:
-                return super().compile(sig)
-            finally:
-                _by_address.FOR_KERNELS[0] = depth
-                if existing is not None and args not in self.overloads:
-                    self.overloads[args] = existing
-
-    def add_overload(self, cres):
-        if _has_wrapper(cres):
-            super().add_overload(cres)
-        else:
-            self.overloads[tuple(cres.signature.args)] = cres
+        return super().get_call_template(tuple(types.unliteral(a) for a in args),
+                                         {k: types.unliteral(v) for k, v in kws.items()})
 
     def enable_caching(self):
         self.__dict__["_cache"] = None          # made by the first compile or load (below)
@@ -164,12 +127,6 @@ class _Dispatcher(CPUDispatcher):
     @_cache.setter
     def _cache(self, value):
         self.__dict__["_cache"] = value
-
-
-def _has_wrapper(cres):
-    """Whether a compiled kernel can be called from Python."""
-    return cres.objectmode or cres.library.get_pointer_to_function(
-        cres.fndesc.llvm_cpython_wrapper_name) != 0
 
 
 class _ByAddress(_Dispatcher):
@@ -190,7 +147,9 @@ def _compiled(fn, opts, cls):
 
 
 def _options(parallel=False, inline=False, lean=False, counted=False, forceinline=False):
-    # only explicit prange loops become threaded: numba would also turn array expressions and
+    # no_cfunc_wrapper: numba would build every function a wrapper callable from C (100 of
+    # them, 2.1 s of a Gauss-Radau scene's profiled cold first step); no kernel is called so.
+    # Only explicit prange loops become threaded: numba would also turn array expressions and
     # numpy calls (np.zeros, np.cumsum) into parallel regions, which wake the thread pool on
     # every call however small the scene, and stall for milliseconds when another process or
     # a game's own threads hold the cores

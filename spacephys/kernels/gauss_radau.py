@@ -314,7 +314,7 @@ def _needy_riders(riders, b, a0, h, dt_scale, mask, converged):
     return needy
 
 
-@kernel(parallel=True, by_address=True)
+@kernel(parallel=True)
 def _substep_riders(needy, h, dt_scale, reject_above, control, fx, t, nodes, c_gb, d_bg, pos,
                     csx, vel, csv, a0, b, g, x, v, a, b7, stats, actors, burn, t_off,
                     needy_mask):
@@ -473,7 +473,6 @@ def _scratch(method, state, fx, actors):
             zeroed(np.empty(n, np.bool_)), rider, movers, burn)
 
 
-@kernel(parallel=True, counted=True, by_address=True)
 def _interval(method, carry, sa, burns, fx, t_start, dt_out, k, kicked, played):
     """One output interval of dt_out from t_start, landing exactly on its end, in adaptive
     steps. The collision pass runs at the end of each interval (so dt_out caps the collision
@@ -632,12 +631,5 @@ def _interval(method, carry, sa, burns, fx, t_start, dt_out, k, kicked, played):
     return True
 
 
-def _advance(method, carry, sa, burns, fx, t_start, dt_out, k, kicked, played):
-    """The family's advance: _interval, called by address (compiled once on its own, not
-    again inside every step kernel; its seven or more force evaluations a call dwarf the
-    call)."""
-    return _interval(method, carry, sa, burns, fx, t_start, dt_out, k, kicked, played)
-
-
-step.register(GaussRadau, start_=_scratch, advance_=_advance, keep=True, parallel=True,
+step.register(GaussRadau, start_=_scratch, advance_=_interval, keep=True, parallel=True,
               counted=True)
