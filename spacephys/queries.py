@@ -79,7 +79,16 @@ class Hits:
 
 def _points(name, value, dim):
     """(Q, 3) float64 from a (dim,) point or (Q, dim) points."""
-    arr = np.asarray(value, dtype=np.float64) if not isinstance(value, np.ndarray) else value
+    arr = value
+    if not isinstance(value, np.ndarray):
+        try:
+            arr = np.asarray(value)
+        except ValueError:
+            arr = np.empty(0, object)                  # ragged: check.floats names it
+        # numbers as they are; text, booleans and the rest refused by check.floats, naming
+        # the field (numpy would convert booleans, or say only what it could not convert)
+        arr = arr.astype(np.float64, copy=False) if arr.dtype.kind in "iuf" else \
+            check.floats(name, value)
     if arr.ndim == 1:
         arr = arr[None, :]
     # floats of the right shape (a frame's many small batches) are checked and copied by
