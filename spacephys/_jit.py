@@ -29,7 +29,7 @@ import numpy as np  # noqa: E402
 from . import cache as _cache  # noqa: E402  (the cache folder, before any kernel is defined)
 from . import _by_address  # noqa: E402
 from numba import types
-from numba.core import cgutils
+from numba.core import cgutils, sigutils, typing, utils
 from numba.core.errors import NumbaPerformanceWarning, RequireLiteralValue
 from numba.core.registry import CPUDispatcher
 from numba.experimental.structref import _Utils
@@ -67,7 +67,7 @@ PRANGE_ONLY = {"prange": True, "comprehension": False, "reduction": False,
 
 
 def kernel(fn=None, *, parallel=False, inline=False, lean=False, counted=False,
-           by_address=False, forceinline=False):
+           by_address=False, forceinline=False, returns=None):
     """Compile `fn` with numba: cached, numpy error model (x/0 gives inf, no exception check).
 
     parallel : compile prange loops to threads.
@@ -86,6 +86,9 @@ def kernel(fn=None, *, parallel=False, inline=False, lean=False, counted=False,
     by_address : compiled once on its own and called from other kernels through a pointer
     (spacephys/_by_address.py), so that no caller compiles it again: for a large kernel that
     runs once a step.
+    returns : for a by_address kernel, its return type (a numba type), so that a call to it
+    can be typed before it is compiled and the parts of a step compiled side by side
+    (_by_address.complete).
     forceinline : inlined by LLVM into every caller (numba's forceinline), for the functions
     a step calls each step or force evaluation with the hoisted tables: numba hands each
     array on as 7-9 machine words, so a call that takes a table's arrays pushes about 140
@@ -95,9 +98,12 @@ def kernel(fn=None, *, parallel=False, inline=False, lean=False, counted=False,
     """
     opts = _options(parallel, inline, lean, counted, forceinline)
     cls = _ByAddress if by_address else _Dispatcher
-    if fn is None:
-        return lambda f: _compiled(f, opts, cls)
-    return _compiled(fn, opts, cls)
+
+    def made(f):
+        disp = _compiled(f, opts, cls)
+        disp.returns = returns
+        return disp
+    return made if fn is None else made(fn)
 
 
 class _Dispatcher(CPUDispatcher):
@@ -130,7 +136,23 @@ class _Dispatcher(CPUDispatcher):
 
 
 class _ByAddress(_Dispatcher):
-    """A kernel other kernels call through its address (kernel's by_address)."""
+    """A kernel other kernels call through its address (kernel's by_address), typed from
+    its declared return type while deferring (spacephys/_by_address.py)."""
+    returns = None
+
+    def get_call_template(self, args, kws):
+        args = tuple(types.unliteral(a) for a in args)
+        if self.returns is None or kws or args in self.overloads or not _by_address.defers():
+            return super().get_call_template(args, kws)
+        _by_address.defer(self, args, self.returns)
+        sig = typing.signature(self.returns, *args)
+        template = typing.make_concrete_template(f"CallTemplate({self.py_func.__name__})",
+                                                 key=self.py_func.__name__, signatures=[sig])
+        return template, utils.pysignature(self.py_func), args, kws
+
+    def get_overload(self, sig):
+        key = _by_address.typed_key(self, tuple(sigutils.normalize_signature(sig)[0]))
+        return key if key is not None else super().get_overload(sig)
 
     def add_overload(self, cres):
         super().add_overload(cres)

@@ -10,11 +10,15 @@ that says why. Adding an integrator family: its table and integration registered
 kernels/step.py (a kernel file of its own) and a Stepper subclass registered in STEPPERS (a
 method of an existing family is only a table in integrators.py).
 """
+import sys
 from dataclasses import dataclass
 
 import numpy as np
+from numba.core.compiler_lock import global_compiler_lock
 
-from ._jit import announced
+from . import _by_address
+from . import cache as _cache
+from ._jit import _cores_taken, announced
 from .errors import InstabilityError
 from .integrators import get_integrator
 from .kernels import gauss_radau as kgr
@@ -316,13 +320,49 @@ class Plan:
                 getattr(a, "_numba_type_", None) for a in args[:4])
             entry = _ENTRIES.get(kinds)
             if entry is None:                  # new in this process: compile or load once
-                with announced(f"{label} for this scene"):
-                    result = kernel(*args)
                 sig = tuple(kernel.typeof_pyval(a) for a in args)
+                with announced(f"{label} for this scene"):
+                    _compile(kernel, sig)
                 _ENTRIES[kinds] = self.entries[key] = kernel.overloads[sig].entry_point
-                return result
+                return kernel(*args)
             self.entries[key] = entry
         return entry(*args)
+
+
+def _compile(kernel, sig):
+    """Compile (or load) the step kernel for the argument types sig, the parts it calls by
+    address typed from their declarations and compiled side by side on the cores other
+    programs leave free (spacephys/_by_address.py; SPACEPHYS_COMPILE_HELPERS: at most that
+    many other processes, 0 for none). Under numba's lock: no other thread runs the kernel
+    before every part is in place."""
+    with global_compiler_lock:
+        if sig in kernel.overloads:
+            return
+        with _by_address.deferring():
+            kernel.compile(sig)
+        _by_address.complete(_helpers())
+
+
+def _helpers():
+    """How many helper processes a step's compile may start: SPACEPHYS_COMPILE_HELPERS when
+    set, else one fewer than the cores no other program is using (Linux's count of runnable
+    threads; elsewhere, none)."""
+    import os
+    told = os.environ.get("SPACEPHYS_COMPILE_HELPERS")
+    if told is not None:
+        try:
+            return max(0, int(told))
+        except ValueError:
+            raise ValueError(f"SPACEPHYS_COMPILE_HELPERS = {told!r}: expected a whole number "
+                             f"of processes (0: none)") from None
+    if not _cache.ENABLED or getattr(sys, "frozen", False):
+        return 0                     # helpers hand their machine code over through the cache
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:
+        return 0
+    taken = _cores_taken()
+    return 0 if taken is None else max(0, cores - 1 - taken)
 
 
 # (kernel, frames or not, the tables' types) -> the compiled entry point: plans rebuilt for

@@ -136,3 +136,72 @@ def test_no_kernel_is_compiled_with_a_c_wrapper(tmp_path, monkeypatch):
         lib, desc = cres.library, cres.fndesc
         assert lib.get_pointer_to_function(desc.llvm_cfunc_wrapper_name) == 0
         assert lib.get_pointer_to_function(desc.llvm_func_name) != 0     # the kernel is there
+
+
+LATER = textwrap.dedent('''
+    import numpy as np
+    from numba import types
+    from spacephys._jit import kernel
+
+    @kernel(by_address=True, returns=types.float64)
+    def first(x):
+        return x.sum()
+
+    @kernel(by_address=True, returns=types.float64)
+    def second(x):
+        return (x * x).sum()
+
+    @kernel(by_address=True, returns=types.int64)
+    def wrong(x):
+        return x.sum()
+
+    @kernel
+    def both(x):
+        return first(x) + 10.0 * second(x)
+
+    @kernel
+    def mistaken(x):
+        return wrong(x)
+''')
+
+
+def test_kernels_that_declare_what_they_return_are_typed_first_and_compiled_after(
+        tmp_path, monkeypatch):
+    # while deferring, a caller compiles without its callees (their slots empty); complete()
+    # compiles them, one in a helper process (which hands it over through the cache), and
+    # fills the slots before anything runs
+    (tmp_path / "later_mod.py").write_text(LATER)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import later_mod as m
+    x = np.arange(5.0)
+    sig = (m.both.typeof_pyval(x),)
+    with _by_address.deferring():
+        m.both.compile(sig)
+    assert not m.first.overloads and not m.second.overloads       # typed, not compiled
+    _by_address.complete(helpers=1)
+    assert m.both(x) == 10.0 + 10.0 * 30.0
+    # the first on the list went to the helper: this process loaded it from the cache, and
+    # compiled the other itself
+    assert sum(m.first.stats.cache_hits.values()) == 1
+    assert sum(m.second.stats.cache_misses.values()) == 1
+
+
+def test_a_declared_return_type_that_is_not_the_kernels_is_refused(tmp_path, monkeypatch):
+    (tmp_path / "later_mod2.py").write_text(LATER)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import later_mod2 as m
+    with _by_address.deferring():
+        m.mistaken.compile((m.mistaken.typeof_pyval(np.arange(3.0)),))
+    with pytest.raises(TypeError, match=r"later_mod2\.wrong returns float64 .* declares int64"):
+        _by_address.complete()
+
+
+def test_the_helpers_are_those_asked_for_or_the_free_cores(monkeypatch):
+    from spacephys import steppers
+    monkeypatch.setenv("SPACEPHYS_COMPILE_HELPERS", "3")
+    assert steppers._helpers() == 3
+    monkeypatch.setenv("SPACEPHYS_COMPILE_HELPERS", "two")
+    with pytest.raises(ValueError, match="SPACEPHYS_COMPILE_HELPERS = 'two'"):
+        steppers._helpers()
+    monkeypatch.delenv("SPACEPHYS_COMPILE_HELPERS")
+    assert 0 <= steppers._helpers() < os.cpu_count()

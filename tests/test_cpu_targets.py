@@ -63,8 +63,11 @@ def _compiled_for(cpu, tmp_path_factory):
         folder = Path(sp.__file__).parent / "__pycache__"
     else:
         folder = tmp_path_factory.mktemp("cache")
+    # with a helper process compiling parts of each step side by side (_by_address.complete),
+    # whatever the load: the digests then also show that its machine code is the same
     return dict(os.environ, NUMBA_CPU_NAME=cpu, NUMBA_CPU_FEATURES="",
-                NUMBA_CACHE_DIR=str(folder / "targets" / cpu), SDL_VIDEODRIVER="dummy")
+                NUMBA_CACHE_DIR=str(folder / "targets" / cpu), SDL_VIDEODRIVER="dummy",
+                SPACEPHYS_COMPILE_HELPERS="1")
 
 
 @pytest.mark.parametrize("cpu", list(targets()))

@@ -16,6 +16,7 @@ times the work.
 import math
 
 import numpy as np
+from numba import types
 
 from .._jit import kernel
 from . import libm
@@ -415,7 +416,17 @@ def _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell,
     return m
 
 
-@kernel(by_address=True)
+# the types grid_pairs and focused_pairs return (see _jit.kernel's returns): pairs (m, 2),
+# and the grid (keys, bodies, origin, inverse cell, ncell, low bits, (_lead_cells's table,
+# its occupied cells, their rows))
+_PAIRS = types.Array(types.int64, 2, "C")
+_ROWS = types.Array(types.int64, 1, "C")
+_GRID = types.Tuple((_ROWS, _ROWS, types.Array(types.float64, 1, "C"),
+                     types.Array(types.float64, 1, "C"), _ROWS, types.int64,
+                     types.Tuple((_PAIRS, types.Array(types.bool_, 3, "C"), _ROWS))))
+
+
+@kernel(by_address=True, returns=types.Tuple((_PAIRS, _GRID)))
 def grid_pairs(A, B, tb, alive, rules, lo, hi):
     """candidate_pairs, and the grid it built: (keys (E,), bodies (E,): the entries (cell
     key, row << _KIND_BITS | its kind) grouped by cell, origin (3,), inverse cell (3,),
@@ -742,7 +753,7 @@ def _boxes_meet(lo, hi, i, j, L):
     return True
 
 
-@kernel(by_address=True)
+@kernel(by_address=True, returns=types.Tuple((_PAIRS, types.bool_)))
 def focused_pairs(A, B, tb, alive, rules, lo, hi, focus, in_focus, stale, changed, grid,
                   is_giant):
     """Pairs with at least one body of `focus` (whose lines changed in the last pass) and

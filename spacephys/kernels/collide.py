@@ -16,6 +16,7 @@ p(t) = A + B t, t in [0, 1] of the step.
 The table is kernels/rules.Rules.
 """
 import numpy as np
+from numba import types
 
 from .._jit import kernel
 from .arrays import contact_order, sort_in_place
@@ -30,7 +31,7 @@ from .touch import touches
 _MAX_PASSES = 32
 
 
-@kernel(by_address=True)
+@kernel(by_address=True, returns=types.int64)
 def collide_step(state, rules, dt, t0):
     """Find and resolve every contact of one step, in time order.
 

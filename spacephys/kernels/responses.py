@@ -8,6 +8,7 @@ velocity swap of equal masses needs exact rounding.
 import math
 
 import numpy as np
+from numba import types
 
 from .._jit import kernel
 from . import libm
@@ -46,7 +47,7 @@ def _velocity_at(V0, V1, D, k, t, out):
         out[c] = V0[k, c] + t * (V1[k, c] - V0[k, c]) + D[k, c]
 
 
-@kernel(by_address=True)
+@kernel(by_address=True, returns=types.int64)
 def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rules, dt, t0,
              L, state, shapes):
     """Apply response resp to the contact of i and j at time t of the step. Returns
@@ -208,7 +209,7 @@ def respond(i, j, t, resp, e, A, B, tb, V0, V1, D, mass, radius, alive, ids, rul
     return BODIES_GONE
 
 
-@kernel(by_address=True)
+@kernel(by_address=True, returns=types.int64)
 def respond_wall(i, t, n0, n1, n2, e, A, B, tb, V0, V1, D, mass, radius, ids, rules, dt, t0,
                   state, k, shapes):
     """Reflect body i off a wall (immovable) with restitution e: v -= (1 + e) (v . n) n

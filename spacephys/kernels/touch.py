@@ -4,6 +4,7 @@ the end of each step, and their begin and end events (sensor_begin/end, contact_
 import math
 
 import numpy as np
+from numba import types
 
 from .._jit import kernel
 from .codes import (BOUNCE, ELASTIC, EV_CONTACT_BEGIN, EV_CONTACT_END, EV_SENSOR_BEGIN,
@@ -55,7 +56,7 @@ def _touch_event(state, rules, kind, i, j, t, dt, t0, L, shapes):
     kshapes.name(shapes, state, first)
 
 
-@kernel(by_address=True)
+@kernel(by_address=True, returns=types.none)
 def touches(state, rules, dt, t0, L, shapes):
     """The step's begin and end events, and the pairs in touch at its end (rules.touch).
 
