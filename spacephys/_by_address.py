@@ -111,6 +111,11 @@ def defer(disp, args, restype):
     _LATER.append((disp, args, restype))
 
 
+def pending():
+    """Whether kernels were typed and not yet compiled (complete() compiles them)."""
+    return bool(_LATER)
+
+
 def typed_key(disp, args):
     """The key a call to disp for args is lowered by while disp is typed but not compiled,
     or None."""

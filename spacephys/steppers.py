@@ -340,7 +340,8 @@ def _compile(kernel, sig):
             return
         with _by_address.deferring():
             kernel.compile(sig)
-        _by_address.complete(_helpers())
+        if _by_address.pending():            # (a kernel loaded from the cache defers none)
+            _by_address.complete(_helpers())
 
 
 def _helpers():
