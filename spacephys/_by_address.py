@@ -25,7 +25,7 @@ to `helpers` other Python processes (numba compiles on one core per process) tha
 them into the cache and report the kernels they put on their own lists, and finally loads
 every one (filling its slot) before the step runs. numba compiles a callee when the
 caller's typing reaches the call, one after another; typed from declarations, the collision
-pass's parts are compiled side by side (arena's cold first step 38.8 -> 28.8 s on 2 cores).
+pass's parts are compiled side by side (arena's cold first step 44.6 -> 30.5 s on 2 cores).
 The machine code is the same either way; a helper that fails leaves its kernel to this
 process, and a declaration that is not what the kernel returns is an error (TypeError).
 """
@@ -54,6 +54,7 @@ _SYMBOL = re.compile(rb"spacephys\.by_address\.[0-9a-f]{32}")
 _LATER = []      # (dispatcher, argument types, declared return type): typed, not compiled
 _TYPED = set()   # (dispatcher, argument types) whose calls are lowered through the slot
 _LOCAL = threading.local()     # .deferring: this thread is in deferring()
+WAIT = 1800.0    # seconds: the longest a helper may take before its kernel is compiled here
 
 # a helper: compile one kernel into the cache (its own calls to declared kernels deferred),
 # print the kernels it deferred
@@ -164,6 +165,7 @@ def _start_helper(job):
                                    stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
         process.stdin.write(payload)
         process.stdin.close()
+        process.stdin = None                 # (communicate() would flush it)
         return process
     except Exception:                    # no interpreter to start, a type that does not pickle
         return None
@@ -172,8 +174,12 @@ def _start_helper(job):
 def _finish_helper(process):
     """Wait for a helper; the kernels it deferred go on this process's list (what it compiled
     is in the cache; a helper that failed leaves its kernel to be compiled when loaded)."""
-    out = process.stdout.read()
-    process.wait()
+    try:
+        out, _ = process.communicate(timeout=WAIT)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.communicate()
+        return
     if process.returncode != 0:
         return
     for module, qualname, args, restype in pickle.loads(out):

@@ -10,6 +10,7 @@ that says why. Adding an integrator family: its table and integration registered
 kernels/step.py (a kernel file of its own) and a Stepper subclass registered in STEPPERS (a
 method of an existing family is only a table in integrators.py).
 """
+import os
 import sys
 from dataclasses import dataclass
 
@@ -348,7 +349,6 @@ def _helpers():
     """How many helper processes a step's compile may start: SPACEPHYS_COMPILE_HELPERS when
     set, else one fewer than the cores no other program is using (Linux's count of runnable
     threads; elsewhere, none)."""
-    import os
     told = os.environ.get("SPACEPHYS_COMPILE_HELPERS")
     if told is not None:
         try:

@@ -205,3 +205,16 @@ def test_the_helpers_are_those_asked_for_or_the_free_cores(monkeypatch):
         steppers._helpers()
     monkeypatch.delenv("SPACEPHYS_COMPILE_HELPERS")
     assert 0 <= steppers._helpers() < os.cpu_count()
+
+
+def test_a_helper_that_fails_leaves_its_kernel_to_this_process(tmp_path, monkeypatch):
+    (tmp_path / "later_mod3.py").write_text(LATER)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(_by_address, "_HELPER", "import sys; sys.exit(1)")
+    import later_mod3 as m
+    x = np.arange(5.0)
+    with _by_address.deferring():
+        m.both.compile((m.both.typeof_pyval(x),))
+    _by_address.complete(helpers=1)
+    assert m.both(x) == 10.0 + 10.0 * 30.0
+    assert sum(m.first.stats.cache_misses.values()) == 1      # compiled here after all
