@@ -126,8 +126,20 @@ def typed_key(disp, args):
 
 def complete(helpers=0):
     """Compile the kernels deferred so far (see the module), up to `helpers` of them at a
-    time in other processes, then load each, so that every slot is filled."""
-    done, running = [], {}
+    time in other processes, then load each, so that every slot is filled. When it fails,
+    every kernel it took goes back on the list: no slot is left empty behind a caller that
+    may run, and the next call completes them."""
+    done = []
+    try:
+        _compile_all(helpers, done)
+    except BaseException:
+        _LATER[:0] = done
+        raise
+
+
+def _compile_all(helpers, done):
+    """complete()'s work; the kernels taken from the list into `done`."""
+    running = {}
     while _LATER or running:
         if len(_LATER) > 1 and len(running) < helpers:        # one kept for this process
             job = _LATER.pop(0)
@@ -140,9 +152,9 @@ def complete(helpers=0):
             helpers = len(running)
         if _LATER:
             job = _LATER.pop(0)
+            done.append(job)
             with deferring():
                 job[0].compile(job[1])
-            done.append(job)
             continue
         process, job = next(iter(running.items()))
         del running[process]

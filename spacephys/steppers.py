@@ -335,12 +335,13 @@ def _compile(kernel, sig):
     address typed from their declarations and compiled side by side on the cores other
     programs leave free (spacephys/_by_address.py; SPACEPHYS_COMPILE_HELPERS: at most that
     many other processes, 0 for none). Under numba's lock: no other thread runs the kernel
-    before every part is in place."""
+    before every part is in place; what a call that failed left typed and not compiled is
+    completed before the kernel runs."""
+    _told()                              # a bad value refused before anything is compiled
     with global_compiler_lock:
-        if sig in kernel.overloads:
-            return
-        with _by_address.deferring():
-            kernel.compile(sig)
+        if sig not in kernel.overloads:
+            with _by_address.deferring():
+                kernel.compile(sig)
         if _by_address.pending():            # (a kernel loaded from the cache defers none)
             _by_address.complete(_helpers())
 
@@ -349,13 +350,24 @@ def _helpers():
     """How many helper processes a step's compile may start: SPACEPHYS_COMPILE_HELPERS when
     set, else one fewer than the cores no other program is using (Linux's count of runnable
     threads; elsewhere, none)."""
+    told = _told()
+    return _free_cores() if told is None else told
+
+
+def _told():
+    """SPACEPHYS_COMPILE_HELPERS as a count (None when not set)."""
     told = os.environ.get("SPACEPHYS_COMPILE_HELPERS")
-    if told is not None:
-        try:
-            return max(0, int(told))
-        except ValueError:
-            raise ValueError(f"SPACEPHYS_COMPILE_HELPERS = {told!r}: expected a whole number "
-                             f"of processes (0: none)") from None
+    if told is None:
+        return None
+    try:
+        return max(0, int(told))
+    except ValueError:
+        raise ValueError(f"SPACEPHYS_COMPILE_HELPERS = {told!r}: expected a whole number "
+                         f"of processes (0: none)") from None
+
+
+def _free_cores():
+    """One fewer than the cores no other program is using (see _helpers)."""
     if not _cache.ENABLED or getattr(sys, "frozen", False):
         return 0                     # helpers hand their machine code over through the cache
     try:

@@ -186,14 +186,28 @@ def test_kernels_that_declare_what_they_return_are_typed_first_and_compiled_afte
     assert sum(m.second.stats.cache_misses.values()) == 1
 
 
-def test_a_declared_return_type_that_is_not_the_kernels_is_refused(tmp_path, monkeypatch):
-    (tmp_path / "later_mod2.py").write_text(LATER)
-    monkeypatch.syspath_prepend(str(tmp_path))
+MISTAKEN = textwrap.dedent('''
+    import numpy as np
+    import pytest
+    from spacephys import _by_address
     import later_mod2 as m
     with _by_address.deferring():
         m.mistaken.compile((m.mistaken.typeof_pyval(np.arange(3.0)),))
-    with pytest.raises(TypeError, match=r"later_mod2\.wrong returns float64 .* declares int64"):
-        _by_address.complete()
+    for attempt in range(2):           # refused again: its caller must never run
+        with pytest.raises(TypeError, match=r"later_mod2\\.wrong returns float64 .* declares int64"):
+            _by_address.complete()
+    print("refused")
+''')
+
+
+def test_a_declared_return_type_that_is_not_the_kernels_is_refused(tmp_path):
+    # in a process of its own: the refused kernel stays on the list, so that nothing that
+    # calls it ever runs
+    (tmp_path / "later_mod2.py").write_text(LATER)
+    run = subprocess.run([sys.executable, "-c", MISTAKEN], capture_output=True, text=True,
+                         env=dict(os.environ, PYTHONPATH=str(tmp_path)), cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.split() == ["refused"]
 
 
 def test_the_helpers_are_those_asked_for_or_the_free_cores(monkeypatch):
@@ -218,3 +232,41 @@ def test_a_helper_that_fails_leaves_its_kernel_to_this_process(tmp_path, monkeyp
     _by_address.complete(helpers=1)
     assert m.both(x) == 10.0 + 10.0 * 30.0
     assert sum(m.first.stats.cache_misses.values()) == 1      # compiled here after all
+
+
+def test_a_bad_helper_count_is_refused_before_anything_is_compiled(tmp_path, monkeypatch):
+    from spacephys import steppers
+    (tmp_path / "later_mod4.py").write_text(LATER)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import later_mod4 as m
+    x = np.arange(5.0)
+    sig = (m.both.typeof_pyval(x),)
+    monkeypatch.setenv("SPACEPHYS_COMPILE_HELPERS", "two")
+    with pytest.raises(ValueError, match="SPACEPHYS_COMPILE_HELPERS = 'two'"):
+        steppers._compile(m.both, sig)
+    assert not m.both.overloads and not _by_address.pending()      # nothing half-done
+    monkeypatch.setenv("SPACEPHYS_COMPILE_HELPERS", "0")
+    steppers._compile(m.both, sig)
+    assert m.both(x) == 10.0 + 10.0 * 30.0
+
+
+def test_a_compile_that_fails_midway_leaves_its_kernels_for_the_next(tmp_path, monkeypatch):
+    # the caller is compiled with empty slots: until they are filled it must not run, and
+    # the next step's compile fills them
+    from spacephys import steppers
+    (tmp_path / "later_mod5.py").write_text(LATER)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv("SPACEPHYS_COMPILE_HELPERS", "0")
+    import later_mod5 as m
+    x = np.arange(5.0)
+    sig = (m.both.typeof_pyval(x),)
+
+    def interrupted(args):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(m.second, "compile", interrupted, raising=False)
+    with pytest.raises(KeyboardInterrupt):
+        steppers._compile(m.both, sig)
+    assert m.both.overloads and _by_address.pending()
+    monkeypatch.delattr(m.second, "compile")
+    steppers._compile(m.both, sig)
+    assert not _by_address.pending() and m.both(x) == 10.0 + 10.0 * 30.0
