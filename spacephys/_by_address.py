@@ -65,7 +65,7 @@ sys.path[:0] = path
 module, qualname, args = pickle.loads(job)
 from spacephys import _by_address
 with _by_address.deferring():
-    _by_address.kernel_named(module, qualname).compile(args)
+    _by_address.kernel_named(module, qualname).compile_for_kernels(args)
 later = [(d.py_func.__module__, d.py_func.__qualname__, a, r) for d, a, r in _by_address._LATER]
 sys.stdout.buffer.write(pickle.dumps(later))
 """
@@ -154,13 +154,13 @@ def _compile_all(helpers, done):
             job = _LATER.pop(0)
             done.append(job)
             with deferring():
-                job[0].compile(job[1])
+                job[0].compile_for_kernels(job[1])
             continue
         process, job = next(iter(running.items()))
         del running[process]
         _finish_helper(process)
     for disp, args, restype in reversed(done):
-        disp.compile(args)
+        disp.compile_for_kernels(args)
         got = disp.overloads[args].signature.return_type
         if got != restype:
             raise TypeError(f"{disp.py_func.__module__}.{disp.py_func.__qualname__} returns "
@@ -263,7 +263,7 @@ def _named_in(libdata):
 def load(need):
     """Compile or load the kernel a cached caller calls by address (which fills its slot)."""
     module, qualname, args = need
-    kernel_named(module, qualname).compile(args)
+    kernel_named(module, qualname).compile_for_kernels(args)
 
 
 class _CacheImpl(CompileResultCacheImpl):

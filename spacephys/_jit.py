@@ -29,7 +29,9 @@ import numpy as np  # noqa: E402
 from . import cache as _cache  # noqa: E402  (the cache folder, before any kernel is defined)
 from . import _by_address  # noqa: E402
 from numba import types
-from numba.core import cgutils, sigutils, typing, utils
+from numba.core import cgutils, compiler, sigutils, typed_passes, typing, utils
+from numba.core.compiler_lock import global_compiler_lock
+from numba.core.compiler_machinery import register_pass
 from numba.core.errors import NumbaPerformanceWarning, RequireLiteralValue
 from numba.core.registry import CPUDispatcher
 from numba.experimental.structref import _Utils
@@ -114,8 +116,42 @@ class _Dispatcher(CPUDispatcher):
     type of its own)."""
 
     def get_call_template(self, args, kws):
-        return super().get_call_template(tuple(types.unliteral(a) for a in args),
-                                         {k: types.unliteral(v) for k, v in kws.items()})
+        with _bare():
+            return super().get_call_template(tuple(types.unliteral(a) for a in args),
+                                             {k: types.unliteral(v) for k, v in kws.items()})
+
+    # numba builds every compiled function a wrapper that Python calls it through: 20-30 ms of
+    # LLVM work apiece, for most kernels never called from Python. A kernel is compiled
+    # without one for the kernels that call it (get_call_template, _bare: _Pipeline's
+    # lowering leaves it out); a call from Python to one compiled so compiles (or loads) it
+    # again with one. (Overriding compile() instead made the tree scenes' cold start 25 %
+    # slower: ring 21.5 -> 27 s, even with a compile() that only called numba's.)
+    def _compile_for_args(self, *args, **kws):
+        with _bare(False):
+            bare = self._bare_overloads
+            if bare:
+                called = None if kws else tuple(self.typeof_pyval(a) for a in args)
+                for sig in [called] if called in bare else list(bare):
+                    bare.discard(sig)
+                    del self.overloads[sig]
+            return super()._compile_for_args(*args, **kws)
+
+    def compile_for_kernels(self, sig):
+        """compile(sig) for other kernels to call, not Python."""
+        with _bare():
+            return self.compile(sig)
+
+    def add_overload(self, cres):
+        args = tuple(cres.signature.args)
+        if _wrapped(cres):
+            super().add_overload(cres)
+            return
+        self._bare_overloads.add(args)         # not callable from Python: not in its table
+        self.overloads[args] = cres
+
+    @property
+    def _bare_overloads(self):
+        return self.__dict__.setdefault("_bare_set", set())
 
     def enable_caching(self):
         self.__dict__["_cache"] = None          # made by the first compile or load (below)
@@ -127,12 +163,97 @@ class _Dispatcher(CPUDispatcher):
         20 ms of a warm start."""
         cache = self.__dict__["_cache"]
         if cache is None:
-            cache = self.__dict__["_cache"] = _by_address.Cache(self.py_func)
+            cache = self.__dict__["_cache"] = _Cache(self.py_func)
         return cache
 
     @_cache.setter
     def _cache(self, value):
         self.__dict__["_cache"] = value
+
+
+class _Bare(threading.local):
+    on = False
+
+
+_BARE = _Bare()      # this thread compiles for a caller kernel, not for Python (_bare)
+
+
+@contextlib.contextmanager
+def _bare(on=True):
+    """Within it, this thread's kernel compiles are for other kernels: without the wrapper
+    Python calls through."""
+    was, _BARE.on = _BARE.on, on
+    try:
+        yield
+    finally:
+        _BARE.on = was
+
+
+def _lowering(base):
+    """numba's lowering pass `base`, leaving out Python's wrapper while _BARE.on. Decided
+    here, not by the compile flags a kernel is compiled with: numba keys its typing of the
+    functions a kernel inlines by those flags, and two sets of them would type each twice."""
+    class Lowering(base):
+        _name = base._name
+
+        def run_pass(self, state):
+            if not _BARE.on:
+                return super().run_pass(state)
+            flags = state.flags
+            state.flags = flags.copy()
+            state.flags.no_cpython_wrapper = True
+            try:
+                return super().run_pass(state)
+            finally:
+                state.flags = flags
+    return register_pass(mutates_CFG=True, analysis_only=False)(Lowering)
+
+
+class _Pipeline(compiler.Compiler):
+    """numba's compiler, lowering with _lowering."""
+    _LOWERING = {base: _lowering(base) for base in (typed_passes.NativeLowering,
+                                                      typed_passes.NativeParforLowering)}
+
+    def define_pipelines(self):
+        pipelines = super().define_pipelines()
+        for pm in pipelines:
+            pm.passes = [(self._LOWERING.get(cls, cls), what) for cls, what in pm.passes]
+            pm.finalize()
+        return pipelines
+
+
+def _wrapped(cres):
+    """Whether Python can call the compiled cres (it has numba's wrapper)."""
+    return cres.objectmode or bool(cres.library.get_pointer_to_function(
+        cres.fndesc.llvm_cpython_wrapper_name))
+
+
+class _Cache(_by_address.Cache):
+    """The kernels' cache, which keeps a kernel compiled without Python's wrapper apart from
+    one with it; a kernel's callers take either."""
+    _bare_key = False
+
+    def _index_key(self, sig, codegen):
+        key = super()._index_key(sig, codegen)
+        return key + ("bare",) if self._bare_key else key
+
+    def _load_overload(self, sig, target_context):
+        if _BARE.on:
+            self._bare_key = True
+            try:
+                cres = super()._load_overload(sig, target_context)
+            finally:
+                self._bare_key = False
+            if cres is not None:
+                return cres
+        return super()._load_overload(sig, target_context)
+
+    def _save_overload(self, sig, data):
+        self._bare_key = not _wrapped(data)
+        try:
+            super()._save_overload(sig, data)
+        finally:
+            self._bare_key = False
 
 
 class _ByAddress(_Dispatcher):
@@ -162,7 +283,7 @@ class _ByAddress(_Dispatcher):
 def _compiled(fn, opts, cls):
     opts = dict(opts, nopython=True)
     cache = opts.pop("cache")
-    disp = cls(py_func=fn, locals={}, targetoptions=opts)
+    disp = cls(py_func=fn, locals={}, targetoptions=opts, pipeline_class=_Pipeline)
     if cache and _cache.ENABLED:
         disp.enable_caching()
     return disp

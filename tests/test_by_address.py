@@ -75,6 +75,10 @@ def test_a_cached_caller_loads_the_kernels_it_calls_by_address_first(probe):
     # what it calls, the load fails to resolve the slot and the process dies)
     assert probe("outer") == (_expected(True), 0)
     assert probe("outer") == (_expected(True), 1)
+    # caller was compiled for outer only, without the wrapper Python calls a kernel through
+    # (_jit._Dispatcher.compile): called from Python it is compiled once more with one (the
+    # cached code without it would be a call through a null pointer), then loaded
+    assert probe("caller") == (_expected(False), 0)
     assert probe("caller") == (_expected(False), 1)
 
 

@@ -115,3 +115,34 @@ def test_a_step_calls_no_function_of_its_own_per_step(tmp_path):
                              capture_output=True, text=True, check=True).stdout
         assert "kernels4step3run" in asm       # the step kernel's own code is there
         assert [name for name in called if name in asm] == []
+
+
+WRAPPER_MODULE = """
+from spacephys._jit import kernel
+
+@kernel
+def inner(x):
+    return x * 3.0
+
+@kernel
+def outer(x):
+    return inner(x) + 1.0
+"""
+
+
+def test_a_kernel_compiled_for_kernels_has_python_s_wrapper_only_once_python_calls_it(
+        tmp_path, monkeypatch):
+    """numba's wrapper that Python calls a compiled function through (20-30 ms of LLVM work
+    apiece) is left out of a kernel compiled for the kernels that call it; a call from
+    Python compiles it with one (the bare code has none to call: a null pointer)."""
+    from numba import types
+    (tmp_path / "wrapper_probe.py").write_text(WRAPPER_MODULE)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import wrapper_probe as m
+    assert m.outer(2.0) == 7.0
+    sig = (types.float64,)
+    assert not _jit._wrapped(m.inner.overloads[sig])           # compiled for outer only
+    assert _jit._wrapped(m.outer.overloads[sig])
+    assert m.inner(2.0) == 6.0                                 # from Python: with one
+    assert _jit._wrapped(m.inner.overloads[sig])
+    assert m.outer(5.0) == 16.0 and m.inner.signatures == [sig]
