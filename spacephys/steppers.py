@@ -19,7 +19,7 @@ from numba.core.compiler_lock import global_compiler_lock
 
 from . import _by_address
 from . import cache as _cache
-from ._jit import _cores_taken, announced
+from ._jit import _cores_taken, announced, compiling
 from .errors import InstabilityError
 from .integrators import get_integrator
 from .kernels import gauss_radau as kgr
@@ -338,7 +338,7 @@ def _compile(kernel, sig):
     before every part is in place; what a call that failed left typed and not compiled is
     completed before the kernel runs."""
     _told()                              # a bad value refused before anything is compiled
-    with global_compiler_lock:
+    with global_compiler_lock, compiling():
         if sig not in kernel.overloads:
             with _by_address.deferring():
                 kernel.compile(sig)

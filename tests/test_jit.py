@@ -146,3 +146,44 @@ def test_a_kernel_compiled_for_kernels_has_python_s_wrapper_only_once_python_cal
     assert m.inner(2.0) == 6.0                                 # from Python: with one
     assert _jit._wrapped(m.inner.overloads[sig])
     assert m.outer(5.0) == 16.0 and m.inner.signatures == [sig]
+
+
+GC_MODULE = """
+from spacephys._jit import kernel
+
+@kernel
+def tripled(x):
+    return x * 3.0
+"""
+
+
+def test_the_collector_runs_rarely_while_kernels_compile_and_as_before_after(
+        tmp_path, monkeypatch):
+    """numba's compile makes about a million objects, and each collection of the older
+    generations walks them all: while kernels compile the collector uses COMPILE_GC, and
+    the process's own thresholds come back after."""
+    import gc
+    from numba.core import event
+    (tmp_path / "gc_probe.py").write_text(GC_MODULE)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import gc_probe as m
+    seen = []
+
+    class During(event.Listener):
+        def on_start(self, ev):
+            seen.append(gc.get_threshold())
+
+        def on_end(self, ev):
+            pass
+    was = gc.get_threshold()
+    gc.set_threshold(555, 7, 9)
+    listener = During()
+    event.register("numba:compile", listener)
+    try:
+        assert m.tripled(2.0) == 6.0
+        after = gc.get_threshold()
+    finally:
+        event.unregister("numba:compile", listener)
+        gc.set_threshold(*was)
+    # a module new to this run: compiled, not loaded
+    assert seen and set(seen) == {_jit.COMPILE_GC} and after == (555, 7, 9)
