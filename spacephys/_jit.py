@@ -124,17 +124,19 @@ class _Dispatcher(CPUDispatcher):
     # numba builds every compiled function a wrapper that Python calls it through: 20-30 ms of
     # LLVM work apiece, for most kernels never called from Python. A kernel is compiled
     # without one for the kernels that call it (get_call_template, _bare: _Pipeline's
-    # lowering leaves it out); a call from Python to one compiled so compiles (or loads) it
-    # again with one. (Overriding compile() instead made the tree scenes' cold start 25 %
-    # slower: ring 21.5 -> 27 s, even with a compile() that only called numba's.)
+    # lowering leaves it out); numba's dispatch from Python misses such a kernel (it is not
+    # in the table, add_overload), which is then compiled (or loaded) again with one. Not
+    # decided in compile(): any override of it, even one that only called numba's, made the
+    # tree scenes' cold start 25 % slower (docs/history.md).
     def _compile_for_args(self, *args, **kws):
         with _bare(False), compiling():
             bare = self._bare_overloads
             if bare:
                 called = None if kws else tuple(self.typeof_pyval(a) for a in args)
-                for sig in [called] if called in bare else list(bare):
-                    bare.discard(sig)
-                    del self.overloads[sig]
+                with global_compiler_lock:
+                    for sig in [called] if called in bare else list(bare):
+                        bare.discard(sig)
+                        del self.overloads[sig]
             return super()._compile_for_args(*args, **kws)
 
     def compile_for_kernels(self, sig):
@@ -223,7 +225,7 @@ def _lowering(base):
     here, not by the compile flags a kernel is compiled with: numba keys its typing of the
     functions a kernel inlines by those flags, and two sets of them would type each twice."""
     class Lowering(base):
-        _name = base._name
+        _name = base.name()
 
         def run_pass(self, state):
             if not _BARE.on:
