@@ -130,12 +130,11 @@ class _Dispatcher(CPUDispatcher):
     # tree scenes' cold start 25 % slower (docs/history.md).
     def _compile_for_args(self, *args, **kws):
         with _bare(False), compiling():
-            bare = self._bare_overloads
-            if bare:
-                called = None if kws else tuple(self.typeof_pyval(a) for a in args)
-                with global_compiler_lock:
-                    for sig in [called] if called in bare else list(bare):
-                        bare.discard(sig)
+            with global_compiler_lock:
+                bare = [sig for sig, cres in self.overloads.items() if not _wrapped(cres)]
+                if bare:
+                    called = None if kws else tuple(self.typeof_pyval(a) for a in args)
+                    for sig in [called] if called in bare else bare:
                         del self.overloads[sig]
             return super()._compile_for_args(*args, **kws)
 
@@ -145,16 +144,10 @@ class _Dispatcher(CPUDispatcher):
             return self.compile(sig)
 
     def add_overload(self, cres):
-        args = tuple(cres.signature.args)
         if _wrapped(cres):
             super().add_overload(cres)
-            return
-        self._bare_overloads.add(args)         # not callable from Python: not in its table
-        self.overloads[args] = cres
-
-    @property
-    def _bare_overloads(self):
-        return self.__dict__.setdefault("_bare_set", set())
+        else:                          # not callable from Python: not in numba's table
+            self.overloads[tuple(cres.signature.args)] = cres
 
     def enable_caching(self):
         self.__dict__["_cache"] = None          # made by the first compile or load (below)
@@ -269,20 +262,24 @@ class _Cache(_by_address.Cache):
         return key + ("bare",) if self._bare_key else key
 
     def _load_overload(self, sig, target_context):
-        if _BARE.on:
-            self._bare_key = True
-            try:
+        for bare in (True, False) if _BARE.on else (False,):
+            with self._keyed(bare):
                 cres = super()._load_overload(sig, target_context)
-            finally:
-                self._bare_key = False
             if cres is not None:
                 return cres
-        return super()._load_overload(sig, target_context)
+        return None
 
     def _save_overload(self, sig, data):
-        self._bare_key = not _wrapped(data)
-        try:
+        with self._keyed(not _wrapped(data)):
             super()._save_overload(sig, data)
+
+    @contextlib.contextmanager
+    def _keyed(self, bare):
+        """Within it, the index keys are those of code with (bare False) or without the
+        wrapper (under numba's compile lock, as every load and save)."""
+        self._bare_key = bare
+        try:
+            yield
         finally:
             self._bare_key = False
 
