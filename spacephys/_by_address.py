@@ -20,14 +20,19 @@ loads a caller from the cache the callees it needs are loaded first: `Cache` sto
 A kernel that declares its return type (`kernel(returns=...)`) can be typed without being
 compiled: while a scene's step is compiled (steppers.Plan.call, inside `deferring()`), a
 call to it is typed from the declaration and compiled as a call through its slot, and the
-kernel is put on a list. `complete(helpers)` then compiles the list, handing kernels to up
-to `helpers` other Python processes (numba compiles on one core per process) that compile
-them into the cache and report the kernels they put on their own lists, and finally loads
-every one (filling its slot) before the step runs. numba compiles a callee when the
-caller's typing reaches the call, one after another; typed from declarations, the collision
-pass's parts are compiled side by side (arena's cold first step 44.6 -> 30.5 s on 2 cores).
-The machine code is the same either way; a helper that fails leaves its kernel to this
-process, and a declaration that is not what the kernel returns is an error (TypeError).
+kernel is put on a list. Up to `helpers` other Python processes (numba compiles on one
+core per process) take kernels from the list as soon as they are put there, compile them
+into the cache and report each kernel they themselves put on a list (which goes on this
+process's); `complete(helpers)` compiles here what no helper took, waits for the helpers,
+and finally loads every kernel (filling its slot) before the step runs. numba compiles a
+callee when the caller's typing reaches the call, one after another; typed from
+declarations, the collision pass's parts are compiled side by side, and while this process
+still lowers the step kernel (arena's cold first step 44.6 -> 30.5 s on 2 cores with the
+parts handed out once the step kernel was compiled; moons_and_ships
+36.4 -> 25 s handed out as soon as they are typed). One kernel is kept for this process
+when it would otherwise wait. The machine code is the same either way; a helper that fails
+leaves its kernel to this process, and a declaration that is not what the kernel returns
+is an error (TypeError).
 """
 import contextlib
 import ctypes
@@ -38,6 +43,7 @@ import re
 import subprocess
 import sys
 import threading
+import time
 import types as pytypes
 import weakref
 
@@ -51,24 +57,37 @@ _SLOTS = {}      # symbol -> ctypes.c_void_p holding the callee's address (kept 
 _CALLEES = {}    # symbol -> (module, qualname, argument types): the kernel it holds
 _LOADED = weakref.WeakKeyDictionary()   # a library loaded from the cache -> what it calls
 _SYMBOL = re.compile(rb"spacephys\.by_address\.[0-9a-f]{32}")
-_LATER = []      # (dispatcher, argument types, declared return type): typed, not compiled
 _TYPED = set()   # (dispatcher, argument types) whose calls are lowered through the slot
 _LOCAL = threading.local()     # .deferring: this thread is in deferring()
 WAIT = 1800.0    # seconds: the longest a helper may take before its kernel is compiled here
 
-# a helper: compile one kernel into the cache (its own calls to declared kernels deferred),
-# print the kernels it deferred
+# a helper: compile one kernel into the cache, reporting the kernels it defers as it goes
 _HELPER = """
 import pickle, sys
-path, job = pickle.load(sys.stdin.buffer)
-sys.path[:0] = path
-module, qualname, args = pickle.loads(job)
+sys.path[:0] = pickle.load(sys.stdin.buffer)
 from spacephys import _by_address
-with _by_address.deferring():
-    _by_address.kernel_named(module, qualname).compile_for_kernels(args)
-later = [(d.py_func.__module__, d.py_func.__qualname__, a, r) for d, a, r in _by_address._LATER]
-sys.stdout.buffer.write(pickle.dumps(later))
+reports, sys.stdout = sys.stdout.buffer, sys.stderr       # nothing else written to the reports
+_by_address.serve(sys.stdin.buffer, reports)
 """
+
+
+class _Work:
+    """The kernels typed and not yet compiled, and the helpers compiling some of them:
+    shared by the compiling thread and a thread per helper reading its reports. A job is
+    (module, qualname, argument types, declared return type)."""
+
+    def __init__(self):
+        self.later = []       # jobs no one has taken
+        self.seen = set()     # (module, qualname, argument types) of every job listed
+        self.running = {}     # helper process -> (its job, time.monotonic() at its start)
+        self.ended = []       # jobs of helpers that ended, not yet collected by complete()
+        self.helpers = 0      # how many helpers may run now
+        self.waiting = False  # complete() is here, about to take a job or waiting for one
+        self.report = None    # in a helper: the stream each job it lists is written to
+        self.changed = threading.Condition()
+
+
+_WORK = _Work()
 
 
 def symbol(py_func, args):
@@ -79,15 +98,16 @@ def symbol(py_func, args):
 
 
 @contextlib.contextmanager
-def deferring():
+def deferring(helpers=0):
     """Within it, this thread's compiles type calls to kernels that declare their return type
-    without compiling them (see the module); complete() must follow before anything runs."""
-    was = getattr(_LOCAL, "deferring", False)
-    _LOCAL.deferring = True
+    without compiling them, up to `helpers` other processes compiling those meanwhile (see
+    the module); complete() must follow before anything runs."""
+    was = getattr(_LOCAL, "deferring", False), _WORK.helpers
+    _LOCAL.deferring, _WORK.helpers = True, helpers
     try:
         yield
     finally:
-        _LOCAL.deferring = was
+        _LOCAL.deferring, _WORK.helpers = was
 
 
 def defers():
@@ -109,12 +129,26 @@ def defer(disp, args, restype):
     _TYPED.add(key)
     impl = _call_through(name, pytypes.SimpleNamespace(restype=restype, argtypes=args))
     disp.targetctx.insert_func_defn([(impl, key, args)])
-    _LATER.append((disp, args, restype))
+    _list((disp.py_func.__module__, disp.py_func.__qualname__, args, restype))
+
+
+def _list(job):
+    """job on the list, once in this process (a helper: and reported), and handed out."""
+    with _WORK.changed:
+        if job[:3] in _WORK.seen:
+            return
+        _WORK.seen.add(job[:3])
+        _WORK.later.append(job)
+        if _WORK.report is not None:
+            pickle.dump(job, _WORK.report)
+            _WORK.report.flush()
+        _hand_out()
+        _WORK.changed.notify_all()
 
 
 def pending():
     """Whether kernels were typed and not yet compiled (complete() compiles them)."""
-    return bool(_LATER)
+    return bool(_WORK.later or _WORK.running or _WORK.ended)
 
 
 def typed_key(disp, args):
@@ -127,75 +161,111 @@ def typed_key(disp, args):
 def complete(helpers=0):
     """Compile the kernels deferred so far (see the module), up to `helpers` of them at a
     time in other processes, then load each, so that every slot is filled. When it fails,
-    every kernel it took goes back on the list: no slot is left empty behind a caller that
-    may run, and the next call completes them."""
+    every kernel it took goes back on the list (a helper still running is waited for by the
+    next call): no slot is left empty behind a caller that may run, and the next call
+    completes them."""
     done = []
     try:
-        _compile_all(helpers, done)
+        with deferring(helpers):
+            _compile_all(done)
+        _load(done)
     except BaseException:
-        _LATER[:0] = done
+        with _WORK.changed:
+            _WORK.later[:0] = done
         raise
+    finally:
+        _WORK.waiting = False
 
 
-def _compile_all(helpers, done):
-    """complete()'s work; the kernels taken from the list into `done`."""
-    running = {}
-    while _LATER or running:
-        if len(_LATER) > 1 and len(running) < helpers:        # one kept for this process
-            job = _LATER.pop(0)
-            process = _start_helper(job)
-            if process is not None:
-                running[process] = job
-                done.append(job)
-                continue
-            _LATER.insert(0, job)
-            helpers = len(running)
-        if _LATER:
-            job = _LATER.pop(0)
-            done.append(job)
-            with deferring():
-                job[0].compile_for_kernels(job[1])
-            continue
-        process, job = next(iter(running.items()))
-        del running[process]
-        _finish_helper(process)
-    for disp, args, restype in reversed(done):
+def _load(done):
+    """Every kernel of `done` loaded (compiled if a helper failed), its slot filled."""
+    for module, qualname, args, restype in reversed(done):
+        disp = kernel_named(module, qualname)
         disp.compile_for_kernels(args)
         got = disp.overloads[args].signature.return_type
         if got != restype:
-            raise TypeError(f"{disp.py_func.__module__}.{disp.py_func.__qualname__} returns "
-                            f"{got} for {args}, but declares {restype}")
+            raise TypeError(f"{module}.{qualname} returns {got} for {args}, but declares "
+                            f"{restype}")
+
+
+def _compile_all(done):
+    """complete()'s compiling: the jobs no helper takes compiled here, and the helpers waited
+    for; every job taken from the list put in `done`."""
+    work = _WORK
+    while True:
+        with work.changed:
+            work.waiting = True
+            _hand_out()
+            done.extend(work.ended)
+            work.ended.clear()
+            if not work.later:
+                if not work.running:
+                    return
+                work.changed.wait(1.0)
+                for process, (_, started) in work.running.items():
+                    if time.monotonic() - started > WAIT:
+                        process.kill()               # its reader then ends it
+                continue
+            job = work.later.pop(0)
+            done.append(job)
+            work.waiting = False
+        kernel_named(job[0], job[1]).compile_for_kernels(job[2])
+
+
+def _hand_out():
+    """Start helpers (up to _WORK.helpers running) on the oldest jobs of the list, keeping
+    one for this process when complete() would otherwise wait. Called holding the lock."""
+    work = _WORK
+    while len(work.later) > (1 if work.waiting else 0) and len(work.running) < work.helpers:
+        job = work.later.pop(0)
+        process = _start_helper(job)
+        if process is None:
+            work.later.insert(0, job)
+            work.helpers = len(work.running)
+            return
+        work.running[process] = (job, time.monotonic())
+        threading.Thread(target=_read, args=(process, job), daemon=True).start()
 
 
 def _start_helper(job):
     """A helper process compiling job's kernel, or None when it cannot be started."""
-    disp, args, _ = job
     try:
-        job = pickle.dumps((disp.py_func.__module__, disp.py_func.__qualname__, args))
-        payload = pickle.dumps(([p for p in sys.path if isinstance(p, str)], job))
+        payload = pickle.dumps([p for p in sys.path if isinstance(p, str)]) + pickle.dumps(
+            pickle.dumps(job))
         process = subprocess.Popen([sys.executable, "-c", _HELPER], stdin=subprocess.PIPE,
                                    stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
         process.stdin.write(payload)
         process.stdin.close()
-        process.stdin = None                 # (communicate() would flush it)
         return process
     except Exception:                    # no interpreter to start, a type that does not pickle
         return None
 
 
-def _finish_helper(process):
-    """Wait for a helper; the kernels it deferred go on this process's list (what it compiled
-    is in the cache; a helper that failed leaves its kernel to be compiled when loaded)."""
+def _read(process, job):
+    """A helper's reader: each job it reports listed here; when it ends, its own job done
+    (what it compiled is in the cache; a helper that failed leaves its kernel to be compiled
+    when loaded)."""
     try:
-        out, _ = process.communicate(timeout=WAIT)
-    except subprocess.TimeoutExpired:
-        process.kill()
-        process.communicate()
-        return
-    if process.returncode != 0:
-        return
-    for module, qualname, args, restype in pickle.loads(out):
-        defer(kernel_named(module, qualname), args, restype)
+        while True:
+            _list(pickle.load(process.stdout))
+    except Exception:                    # the end of its reports (EOFError), or a broken one
+        pass
+    process.stdout.close()
+    process.wait()
+    with _WORK.changed:
+        del _WORK.running[process]
+        _WORK.ended.append(job)
+        _hand_out()
+        _WORK.changed.notify_all()
+
+
+def serve(stdin, stdout):
+    """A helper process's work (_HELPER): compile the job read from stdin into the cache,
+    writing each job it defers to stdout as it is deferred."""
+    module, qualname, args, _ = pickle.loads(pickle.load(stdin))
+    _WORK.report = stdout
+    with deferring():
+        kernel_named(module, qualname).compile_for_kernels(args)
 
 
 def kernel_named(module, qualname):

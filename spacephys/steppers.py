@@ -337,13 +337,13 @@ def _compile(kernel, sig):
     many other processes, 0 for none). Under numba's lock: no other thread runs the kernel
     before every part is in place; what a call that failed left typed and not compiled is
     completed before the kernel runs."""
-    _told()                              # a bad value refused before anything is compiled
+    helpers = _helpers()                 # a bad value refused before anything is compiled
     with global_compiler_lock, compiling():
         if sig not in kernel.overloads:
-            with _by_address.deferring():
+            with _by_address.deferring(helpers):
                 kernel.compile(sig)
         if _by_address.pending():            # (a kernel loaded from the cache defers none)
-            _by_address.complete(_helpers())
+            _by_address.complete(helpers)
 
 
 def _helpers():

@@ -326,7 +326,7 @@ def next_stop(actors, burn, after):
     return best
 
 
-@kernel(lean=True, by_address=True)
+@kernel(lean=True, by_address=True, returns=types.none)
 def begin_step(ht, t0, dt, L):
     """Arm fuses (the collision table's owners), keep every actor's orientation (for
     undo_turns), turn every live actor over the step and set its burn in burn (see the
@@ -599,7 +599,7 @@ def flush(state, ht, m, t0):
                pending[r, 11])
 
 
-@kernel(lean=True, by_address=True)
+@kernel(lean=True, by_address=True, returns=types.Tuple((types.bool_, types.int64)))
 def after_step(ht, t0, dt, L):
     """Proximity fuses (the closest approach along both bodies' straight lines over the step)
     and lifetimes, their events into the pending rows. Returns (a body died (World must
