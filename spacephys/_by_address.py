@@ -61,7 +61,8 @@ _TYPED = set()   # (dispatcher, argument types) whose calls are lowered through 
 _LOCAL = threading.local()     # .deferring: this thread is in deferring()
 WAIT = 1800.0    # seconds: the longest a helper may take before its kernel is compiled here
 
-# a helper: compile one kernel into the cache, reporting the kernels it defers as it goes
+# a helper: compile each kernel it is sent into the cache, reporting the kernels it defers
+# as it goes and None when one is done
 _HELPER = """
 import pickle, sys
 sys.path[:0] = pickle.load(sys.stdin.buffer)
@@ -80,6 +81,7 @@ class _Work:
         self.later = []       # jobs no one has taken
         self.seen = set()     # (module, qualname, argument types) of every job listed
         self.running = {}     # helper process -> (its job, time.monotonic() at its start)
+        self.idle = []        # helper processes waiting for a job
         self.ended = []       # jobs of helpers that ended, not yet collected by complete()
         self.helpers = 0      # how many helpers may run now
         self.waiting = False  # complete() is here, about to take a job or waiting for one
@@ -174,7 +176,9 @@ def complete(helpers=0):
             _WORK.later[:0] = done
         raise
     finally:
-        _WORK.waiting = False
+        with _WORK.changed:
+            _WORK.waiting = False
+            _hand_out()                  # the idle helpers ended (none are allowed out here)
 
 
 def _load(done):
@@ -213,59 +217,99 @@ def _compile_all(done):
 
 
 def _hand_out():
-    """Start helpers (up to _WORK.helpers running) on the oldest jobs of the list, keeping
-    one for this process when complete() would otherwise wait. Called holding the lock."""
+    """Give the oldest jobs of the list to idle helpers, or to new ones up to _WORK.helpers,
+    keeping one for this process when complete() would otherwise wait; end the idle helpers
+    beyond _WORK.helpers. Called holding the lock."""
     work = _WORK
-    while len(work.later) > (1 if work.waiting else 0) and len(work.running) < work.helpers:
+    while len(work.later) > (1 if work.waiting else 0):
         job = work.later.pop(0)
-        process = _start_helper(job)
-        if process is None:
+        if work.idle:
+            process = work.idle.pop(0)
+            if not _send(process, job):
+                work.later.insert(0, job)
+                continue
+        elif len(work.running) < work.helpers:
+            process = _start_helper(job)
+            if process is None:
+                work.later.insert(0, job)
+                work.helpers = len(work.running)
+                break
+            threading.Thread(target=_read, args=(process,), daemon=True).start()
+        else:
             work.later.insert(0, job)
-            work.helpers = len(work.running)
-            return
+            break
         work.running[process] = (job, time.monotonic())
-        threading.Thread(target=_read, args=(process, job), daemon=True).start()
+    while work.idle and len(work.running) + len(work.idle) > work.helpers:
+        work.idle.pop().stdin.close()                # it ends
 
 
 def _start_helper(job):
     """A helper process compiling job's kernel, or None when it cannot be started."""
     try:
-        payload = pickle.dumps([p for p in sys.path if isinstance(p, str)]) + pickle.dumps(
-            pickle.dumps(job))
         process = subprocess.Popen([sys.executable, "-c", _HELPER], stdin=subprocess.PIPE,
                                    stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
-        process.stdin.write(payload)
-        process.stdin.close()
-        return process
-    except Exception:                    # no interpreter to start, a type that does not pickle
+        process.stdin.write(pickle.dumps([p for p in sys.path if isinstance(p, str)]))
+    except Exception:                    # no interpreter to start
         return None
+    return process if _send(process, job) else None
 
 
-def _read(process, job):
-    """A helper's reader: each job it reports listed here; when it ends, its own job done
-    (what it compiled is in the cache; a helper that failed leaves its kernel to be compiled
-    when loaded)."""
+def _send(process, job):
+    """Send job to a helper; False when it cannot take it (ended, or a type that does not
+    pickle)."""
+    try:
+        process.stdin.write(pickle.dumps(pickle.dumps(job)))
+        process.stdin.flush()
+        return True
+    except Exception:
+        return False
+
+
+def _read(process):
+    """A helper's reader: each job it reports listed here, and its job done when it says so
+    or ends (what it compiled is in the cache; a helper that failed leaves its kernel to be
+    compiled when loaded)."""
     try:
         while True:
-            _list(pickle.load(process.stdout))
+            report = pickle.load(process.stdout)
+            if report is None:
+                _done(process, idle=True)
+            else:
+                _list(report)
     except Exception:                    # the end of its reports (EOFError), or a broken one
         pass
     process.stdout.close()
     process.wait()
+    _done(process, idle=False)
+
+
+def _done(process, idle):
+    """process finished its job; idle: it waits for another (else it ended)."""
     with _WORK.changed:
-        del _WORK.running[process]
-        _WORK.ended.append(job)
+        job = _WORK.running.pop(process, None)
+        if job is not None:
+            _WORK.ended.append(job[0])
+        if idle:
+            _WORK.idle.append(process)
+        elif process in _WORK.idle:
+            _WORK.idle.remove(process)
         _hand_out()
         _WORK.changed.notify_all()
 
 
 def serve(stdin, stdout):
-    """A helper process's work (_HELPER): compile the job read from stdin into the cache,
-    writing each job it defers to stdout as it is deferred."""
-    module, qualname, args, _ = pickle.loads(pickle.load(stdin))
+    """A helper process's work (_HELPER): compile each job read from stdin into the cache,
+    writing each job it defers to stdout as it is deferred, and None after each job."""
     _WORK.report = stdout
-    with deferring():
-        kernel_named(module, qualname).compile_for_kernels(args)
+    while True:
+        try:
+            module, qualname, args, _ = pickle.loads(pickle.load(stdin))
+        except EOFError:
+            return
+        with deferring():
+            kernel_named(module, qualname).compile_for_kernels(args)
+        pickle.dump(None, stdout)
+        stdout.flush()
 
 
 def kernel_named(module, qualname):

@@ -26,6 +26,17 @@ from .morton import spread2, spread3
 from .rules import allowed, grouped, periods, wrap
 
 _SPARSE = 0.5        # a sparse scene's coarse cell: this times the span's length per body
+# the types the kernels called by address return (see _jit.kernel's returns): pairs (m, 2);
+# _lead_cells's table, its occupied cells, their rows; the grid (keys, bodies, origin,
+# inverse cell, ncell, low bits, the lead cells)
+_PAIRS = types.Array(types.int64, 2, "C")
+_ROWS = types.Array(types.int64, 1, "C")
+_REALS = types.Array(types.float64, 1, "C")
+_LEAD = types.Tuple((_PAIRS, types.Array(types.bool_, 3, "C"), _ROWS))
+_GRID = types.Tuple((_ROWS, _ROWS, _REALS, _REALS, _ROWS, types.int64, _LEAD))
+# _entries's: keys, bodies, single, origin, inverse cell, ncell, entries, low bits, lead cells
+_ENTRIES = types.Tuple((_ROWS, _ROWS, types.Array(types.bool_, 1, "C"), _REALS, _REALS, _ROWS,
+                        types.int64, types.int64, _LEAD))
 # a grid entry's body carries its kind in its low bits: a pair of kinds that never meet is
 # passed over without reading either body (debris among debris, in heaps after explosions)
 _KIND_BITS = 16
@@ -108,7 +119,7 @@ def _layout(size, low, high, rules, L):
     return origin, cell, ncell
 
 
-@kernel
+@kernel(by_address=True, returns=_ENTRIES)
 def _entries(lo, hi, alive, gridded, kind, size, low, high, rules, L):
     """The grid of cells `size` over the boxes' span low..high (3,), its entries (cell key,
     row << _KIND_BITS | kind) grouped by cell: (keys, bodies, single (n,) whether a body's box
@@ -416,16 +427,6 @@ def _scan(keys, bodies, total, low_bits, single, wraps, lo, hi, L, origin, cell,
     return m
 
 
-# the types grid_pairs and focused_pairs return (see _jit.kernel's returns): pairs (m, 2),
-# and the grid (keys, bodies, origin, inverse cell, ncell, low bits, (_lead_cells's table,
-# its occupied cells, their rows))
-_PAIRS = types.Array(types.int64, 2, "C")
-_ROWS = types.Array(types.int64, 1, "C")
-_GRID = types.Tuple((_ROWS, _ROWS, types.Array(types.float64, 1, "C"),
-                     types.Array(types.float64, 1, "C"), _ROWS, types.int64,
-                     types.Tuple((_PAIRS, types.Array(types.bool_, 3, "C"), _ROWS))))
-
-
 @kernel(by_address=True, returns=types.Tuple((_PAIRS, _GRID)))
 def grid_pairs(A, B, tb, alive, rules, lo, hi):
     """candidate_pairs, and the grid it built: (keys (E,), bodies (E,): the entries (cell
@@ -581,7 +582,7 @@ def _append(i, near, count, rules, kind, pairs, m):
     return m, pairs
 
 
-@kernel
+@kernel(by_address=True, returns=types.Tuple((types.int64, _PAIRS)))
 def _loose_pairs(loose, giants, alive, lo, hi, rules, L, near, work, pairs, m):
     """The pairs of the loose bodies (loose (n,) bool: outside the grid, or following in
     it, and of a kind a giant meets) with the giants their boxes meet, each body looked up in
