@@ -251,7 +251,11 @@ def _start_helper(job):
         process.stdin.write(pickle.dumps([p for p in sys.path if isinstance(p, str)]))
     except Exception:                    # no interpreter to start
         return None
-    return process if _send(process, job) else None
+    if _send(process, job):
+        return process
+    process.kill()
+    process.wait()
+    return None
 
 
 def _send(process, job):

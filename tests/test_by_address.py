@@ -5,6 +5,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import time
 
 import numpy as np
 import pytest
@@ -202,6 +203,57 @@ MISTAKEN = textwrap.dedent('''
             _by_address.complete()
     print("refused")
 ''')
+
+
+CHAIN = textwrap.dedent('''
+    from numba import types
+    from spacephys._jit import kernel
+
+    @kernel(by_address=True, returns=types.float64)
+    def leaf(x):
+        return (x * x).sum()
+
+    @kernel(by_address=True, returns=types.float64)
+    def mid(x):
+        return leaf(x) + 1.0
+
+    @kernel(by_address=True, returns=types.float64)
+    def other(x):
+        return x.sum()
+
+    @kernel
+    def top(x):
+        return mid(x) + other(x)
+''')
+
+
+def test_a_helper_takes_kernels_as_they_are_typed_and_one_after_another(tmp_path, monkeypatch):
+    # `mid` goes to a helper while `top` is still being compiled; the helper reports `leaf`,
+    # which it typed from its declaration while compiling `mid`, and then takes `other` and
+    # `leaf` in the same process: this process compiles none of the three
+    (tmp_path / "chain_mod.py").write_text(CHAIN)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    started = []
+    start = _by_address._start_helper
+    monkeypatch.setattr(_by_address, "_start_helper", lambda job: started.append(job[1]) or start(job))
+    import chain_mod as m
+    x = np.arange(5.0)
+    work = _by_address._WORK
+    with _by_address.deferring(helpers=1):
+        m.top.compile((m.top.typeof_pyval(x),))
+        assert started == ["mid"] and [job[1] for job in work.later] == ["other"]
+        until = time.monotonic() + 300
+        while (work.later or work.running) and time.monotonic() < until:
+            time.sleep(0.05)
+        assert not work.later and not work.running and len(work.idle) == 1
+    helper = work.idle[0]
+    _by_address.complete(helpers=1)
+    assert m.top(x) == 30.0 + 1.0 + 10.0
+    assert started == ["mid"]
+    for kernel in (m.mid, m.other, m.leaf):
+        assert sum(kernel.stats.cache_hits.values()) == 1, kernel      # loaded, not compiled
+        assert sum(kernel.stats.cache_misses.values()) == 0, kernel
+    assert not work.idle and helper.wait(timeout=60) == 0       # ended when no longer needed
 
 
 def test_a_declared_return_type_that_is_not_the_kernels_is_refused(tmp_path):
