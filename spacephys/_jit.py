@@ -129,7 +129,7 @@ class _Dispatcher(CPUDispatcher):
     # decided in compile(): any override of it, even one that only called numba's, made the
     # tree scenes' cold start 25 % slower (docs/history.md).
     def _compile_for_args(self, *args, **kws):
-        with _bare(False), compiling():
+        with _bare(False), compiling(), side_by_side():
             with global_compiler_lock:
                 bare = [sig for sig, cres in self.overloads.items() if not _wrapped(cres)]
                 if bare:
@@ -193,6 +193,41 @@ def compiling():
             _GC["depth"] -= 1
             if _GC["depth"] == 0:
                 gc.set_threshold(*_GC["was"])
+
+
+@contextlib.contextmanager
+def side_by_side():
+    """Within it, calls to kernels that declare what they return are typed from the
+    declaration, and the kernels are compiled when it ends, in up to helpers() other
+    processes as well as this one (spacephys/_by_address.py); under numba's lock, so that
+    no other thread runs a caller before its callees are in place."""
+    count = helpers()                    # a bad value refused before anything is compiled
+    with global_compiler_lock:
+        with _by_address.deferring(count):
+            yield
+        if _by_address.pending():        # (what a compile that failed left is done here too)
+            _by_address.complete(count)
+
+
+def helpers():
+    """How many helper processes a compile may start: SPACEPHYS_COMPILE_HELPERS when set,
+    else one fewer than the cores no other program is using (Linux's count of runnable
+    threads; elsewhere, none)."""
+    told = os.environ.get("SPACEPHYS_COMPILE_HELPERS")
+    if told is not None:
+        try:
+            return max(0, int(told))
+        except ValueError:
+            raise ValueError(f"SPACEPHYS_COMPILE_HELPERS = {told!r}: expected a whole "
+                             f"number of processes (0: none)") from None
+    if not _cache.ENABLED or getattr(sys, "frozen", False):
+        return 0                     # helpers hand their machine code over through the cache
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:
+        return 0
+    taken = _cores_taken()
+    return 0 if taken is None else max(0, cores - 1 - taken)
 
 
 class _Bare(threading.local):

@@ -10,16 +10,11 @@ that says why. Adding an integrator family: its table and integration registered
 kernels/step.py (a kernel file of its own) and a Stepper subclass registered in STEPPERS (a
 method of an existing family is only a table in integrators.py).
 """
-import os
-import sys
 from dataclasses import dataclass
 
 import numpy as np
-from numba.core.compiler_lock import global_compiler_lock
 
-from . import _by_address
-from . import cache as _cache
-from ._jit import _cores_taken, announced, compiling
+from ._jit import announced, compiling, side_by_side
 from .errors import InstabilityError
 from .integrators import get_integrator
 from .kernels import gauss_radau as kgr
@@ -332,50 +327,12 @@ class Plan:
 
 def _compile(kernel, sig):
     """Compile (or load) the step kernel for the argument types sig, the parts it calls by
-    address typed from their declarations and compiled side by side on the cores other
-    programs leave free (spacephys/_by_address.py; SPACEPHYS_COMPILE_HELPERS: at most that
-    many other processes, 0 for none). Under numba's lock: no other thread runs the kernel
-    before every part is in place; what a call that failed left typed and not compiled is
-    completed before the kernel runs."""
-    helpers = _helpers()                 # a bad value refused before anything is compiled
-    with global_compiler_lock, compiling():
+    address compiled side by side (_jit.side_by_side). Under numba's lock: no other thread
+    runs the kernel before every part is in place; what a call that failed left typed and
+    not compiled is completed before the kernel runs."""
+    with side_by_side(), compiling():
         if sig not in kernel.overloads:
-            with _by_address.deferring(helpers):
-                kernel.compile(sig)
-        if _by_address.pending():            # (a kernel loaded from the cache defers none)
-            _by_address.complete(helpers)
-
-
-def _helpers():
-    """How many helper processes a step's compile may start: SPACEPHYS_COMPILE_HELPERS when
-    set, else one fewer than the cores no other program is using (Linux's count of runnable
-    threads; elsewhere, none)."""
-    told = _told()
-    return _free_cores() if told is None else told
-
-
-def _told():
-    """SPACEPHYS_COMPILE_HELPERS as a count (None when not set)."""
-    told = os.environ.get("SPACEPHYS_COMPILE_HELPERS")
-    if told is None:
-        return None
-    try:
-        return max(0, int(told))
-    except ValueError:
-        raise ValueError(f"SPACEPHYS_COMPILE_HELPERS = {told!r}: expected a whole number "
-                         f"of processes (0: none)") from None
-
-
-def _free_cores():
-    """One fewer than the cores no other program is using (see _helpers)."""
-    if not _cache.ENABLED or getattr(sys, "frozen", False):
-        return 0                     # helpers hand their machine code over through the cache
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:
-        return 0
-    taken = _cores_taken()
-    return 0 if taken is None else max(0, cores - 1 - taken)
+            kernel.compile(sig)
 
 
 # (kernel, frames or not, the tables' types) -> the compiled entry point: plans rebuilt for

@@ -267,14 +267,14 @@ def test_a_declared_return_type_that_is_not_the_kernels_is_refused(tmp_path):
 
 
 def test_the_helpers_are_those_asked_for_or_the_free_cores(monkeypatch):
-    from spacephys import steppers
+    from spacephys import _jit
     monkeypatch.setenv("SPACEPHYS_COMPILE_HELPERS", "3")
-    assert steppers._helpers() == 3
+    assert _jit.helpers() == 3
     monkeypatch.setenv("SPACEPHYS_COMPILE_HELPERS", "two")
     with pytest.raises(ValueError, match="SPACEPHYS_COMPILE_HELPERS = 'two'"):
-        steppers._helpers()
+        _jit.helpers()
     monkeypatch.delenv("SPACEPHYS_COMPILE_HELPERS")
-    assert 0 <= steppers._helpers() < os.cpu_count()
+    assert 0 <= _jit.helpers() < os.cpu_count()
 
 
 def test_a_helper_that_fails_leaves_its_kernel_to_this_process(tmp_path, monkeypatch):

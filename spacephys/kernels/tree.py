@@ -43,6 +43,7 @@ from collections import namedtuple
 
 import numba
 import numpy as np
+from numba import types
 
 from .._jit import kernel, stack_rows
 from . import arrays, gravity, pairs
@@ -68,6 +69,13 @@ NF = 18
 NEXT, LO, HI, IS_LEAF = range(4)
 # list columns: accepted nodes (cells (11, cap)) and leaf sources (parts (4, cap))
 CELL_ROWS = 11
+# what build returns (build and walk are called by address, typed from their declarations,
+# so that a scene's first compile builds the tree and its walk side by side):
+# (sx, order, links, nodes, (lo, side, axes, bits))
+_TREE = types.Tuple((types.Array(types.float64, 2, "C"), types.Array(types.int64, 1, "C"),
+                     types.Array(types.int64, 2, "C"), types.Array(types.float64, 2, "C"),
+                     types.Tuple((types.Array(types.float64, 1, "C"), types.float64,
+                                  types.Array(types.bool_, 1, "C"), types.int64))))
 
 
 # ----------------------------------------------------------------------------- keys
@@ -360,7 +368,7 @@ def _moments(links, sx, theta, threaded):
     return nodes
 
 
-@kernel(parallel=True)
+@kernel(parallel=True, by_address=True, returns=_TREE)
 def build(s, theta):
     """The tree of the sources s (4, ns): x, y, z, m, for the opening angle theta:
     (sx (4, ns): the sources in tree order, order (ns,): their columns in s, links (K, 4),
@@ -641,7 +649,7 @@ def _lane(lane, nlanes, sx, links, nodes, heavy, torder, starts, boxes, pos, G, 
                                      + far[3 + c, t])
 
 
-@kernel(parallel=True)
+@kernel(parallel=True, by_address=True, returns=types.none)
 def walk(tree, heavy, pos, targets, same, G, eps2, quadrupole, out, phi, threaded):
     """out[k] = G * the pull of the tree and of the heavy sources (4, nh) on pos[k] for k in
     targets (or phi[k] = G * their potential, phi (n,) not empty); on threads when
