@@ -16,6 +16,7 @@ import math
 from collections import namedtuple
 
 import numpy as np
+from numba import types
 
 from .._jit import kernel
 from . import libm
@@ -314,7 +315,7 @@ def _needy_riders(riders, b, a0, h, dt_scale, mask, converged):
     return needy
 
 
-@kernel(parallel=True)
+@kernel(parallel=True, by_address=True, returns=types.none)
 def _substep_riders(needy, h, dt_scale, reject_above, control, fx, t, nodes, c_gb, d_bg, pos,
                     csx, vel, csv, a0, b, g, x, v, a, b7, stats, actors, burn, t_off,
                     needy_mask):
