@@ -144,10 +144,11 @@ def _pairs_first(sums, s, src, pos, out, targets, G, eps2, threads):
     return left
 
 
-@kernel(parallel=True)
+@kernel(parallel=True, by_address=True, returns=types.none)
 def _pull_threaded(targets, pos, s, G, eps2, out):
     """out[k] = G * the pull of the sources s on pos[k], the targets on threads, a chunk of
-    pairs.CHUNK each."""
+    pairs.CHUNK each. Called by address (compiled beside the step): it runs only where the
+    work is worth threads, and a call through the slot costs nanoseconds."""
     nc = (targets.size + pairs.CHUNK - 1) // pairs.CHUNK
     for c in numba.prange(nc):
         # (a prange index is unsigned: as int64, _pull_chunk is compiled once)

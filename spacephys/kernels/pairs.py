@@ -23,6 +23,7 @@ circle method of round-robin tournaments), so the tiles of a round run on thread
 sharing a body: the same bits on one thread or many.
 """
 import numba
+from numba import types
 import numpy as np
 
 from .._jit import kernel, stack_rows
@@ -198,9 +199,10 @@ def pull_pairs(s, sums, ns, eps2):
                 tile(s, sums, I, J, B, ns, eps2)
 
 
-@kernel(parallel=True)
+@kernel(parallel=True, by_address=True, returns=types.none)
 def pull_pairs_threaded(s, sums, ns, eps2):
-    """pull_pairs with the blocks' own tiles, then each round's tiles, on threads."""
+    """pull_pairs with the blocks' own tiles, then each round's tiles, on threads. Called by
+    address (compiled beside the step): it runs only where the work is worth threads."""
     _zero_sums(sums, ns)
     nb, B = blocks(ns)
     R, T = rounds(nb)
