@@ -256,6 +256,20 @@ def test_a_helper_takes_kernels_as_they_are_typed_and_one_after_another(tmp_path
     assert not work.idle and helper.wait(timeout=60) == 0       # ended when no longer needed
 
 
+def test_a_call_from_python_compiles_declared_callees_side_by_side(tmp_path, monkeypatch):
+    # a kernel's first call from Python types its declared callees from their declarations:
+    # the first is handed to a helper while the caller is still being compiled
+    (tmp_path / "later_mod6.py").write_text(LATER)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv("SPACEPHYS_COMPILE_HELPERS", "1")
+    import later_mod6 as m
+    x = np.arange(5.0)
+    assert m.both(x) == 10.0 + 10.0 * 30.0 and not _by_address.pending()
+    assert sum(m.first.stats.cache_hits.values()) == 1          # the helper compiled it
+    assert sum(m.first.stats.cache_misses.values()) == 0
+    assert sum(m.second.stats.cache_misses.values()) == 1       # this process, meanwhile
+
+
 def test_a_declared_return_type_that_is_not_the_kernels_is_refused(tmp_path):
     # in a process of its own: the refused kernel stays on the list, so that nothing that
     # calls it ever runs
