@@ -16,7 +16,7 @@ import numpy as np
 
 from . import _validate as check
 from .forces import MUTUAL
-from .kernels import libm
+from .kernels import conics, libm
 from . import portable
 
 
@@ -24,39 +24,15 @@ def solve_kepler(M, e):
     """Eccentric anomaly E with E - e sin E = M, for 0 <= e < 1; to full double precision.
 
     Newton's method from the start E = M + 0.85 e sign(sin M) (Danby 1988), which converges for
-    every M and e < 1; M is reduced to [-pi, pi] first.
+    every M and e < 1; M is reduced to [-pi, pi] first (kernels/conics.py, run by Python).
     """
-    if not -np.pi <= M <= np.pi:            # (M + pi) - pi would cost a small M its digits
-        M = float(np.remainder(M + np.pi, 2 * np.pi) - np.pi)
-    E = M + 0.85 * e * np.sign(libm.py.sin(M))
-    for _ in range(50):
-        f = mean_anomaly(E, e) - M
-        step = f / (1.0 - e * libm.py.cos(E))
-        E -= step
-        if abs(step) <= 4e-16 * max(1.0, abs(E)):
-            break
-    return E
+    return conics.py.solve_kepler(M, e)
 
 
 def mean_anomaly(E, e):
     """E - e sin E, as (1 - e) E + e (E - sin E): near e = 1 and E = 0 the plain form loses
-    the digits that (1 - e) E keeps (E - sin E by its series below |E| = 0.5)."""
-    if abs(E) < 0.5:
-        E2, term, rest = E * E, E, 0.0
-        for k in range(3, 26, 2):                # E^3/3! - E^5/5! + ...: 1e-19 at k = 25
-            term *= -E2 / ((k - 1) * k) if k > 3 else E2 / 6.0
-            rest += term
-        return (1.0 - e) * E + e * rest
-    return E - e * libm.py.sin(E)
-
-
-def _rotation(i, Omega, omega):
-    """Columns: the unit vectors toward pericentre (P) and 90 degrees ahead in the plane (Q)."""
-    cos, sin = libm.py.cos, libm.py.sin
-    cO, sO, co, so, ci, si = cos(Omega), sin(Omega), cos(omega), sin(omega), cos(i), sin(i)
-    P = np.array([cO * co - sO * so * ci, sO * co + cO * so * ci, so * si])
-    Q = np.array([-cO * so - sO * co * ci, -sO * so + cO * co * ci, co * si])
-    return P, Q
+    the digits that (1 - e) E keeps (kernels/conics.py, run by Python)."""
+    return conics.py.mean_anomaly(E, e)
 
 
 def elements_to_state(mu, a=None, e=0.0, i=0.0, Omega=0.0, omega=0.0, *, f=None, M=None,
@@ -87,15 +63,13 @@ def elements_to_state(mu, a=None, e=0.0, i=0.0, Omega=0.0, omega=0.0, *, f=None,
     f = check.scalar("f", f)
     # a (1 - e^2) as before q existed: the scenes built on it keep their bits
     p = q * (1.0 + e) if a is None else a * (1.0 - e * e)
-    cf, sf = libm.py.cos(f), libm.py.sin(f)
-    if e >= 1.0 and 1.0 + e * cf <= 0.0:
+    if e >= 1.0 and 1.0 + e * libm.py.cos(f) <= 0.0:
         limit = libm.py.acos(-1.0 / e)
         raise ValueError(f"f = {f}: an orbit of e = {e} has no point there (|f| < {limit:.6g})")
-    r = p / (1.0 + e * cf)
-    P, Q = _rotation(check.scalar("i", i), check.scalar("Omega", Omega), check.scalar("omega", omega))
-    pos = r * (cf * P + sf * Q)
-    vel = np.sqrt(mu / p) * (-sf * P + (e + cf) * Q)
-    return pos, vel
+    x, y, z, vx, vy, vz = conics.py.state(mu, p, e, check.scalar("i", i),
+                                          check.scalar("Omega", Omega),
+                                          check.scalar("omega", omega), f)
+    return np.array([x, y, z]), np.array([vx, vy, vz])
 
 
 state_from_elements = elements_to_state
@@ -104,9 +78,7 @@ state_from_elements = elements_to_state
 def true_anomaly(M, e):
     """f from the mean anomaly M for any e >= 0 (see the module for M's definitions)."""
     if e < 1.0:
-        E = solve_kepler(M, e)
-        return 2.0 * libm.py.atan2(math.sqrt(1 + e) * libm.py.sin(E / 2),
-                                   math.sqrt(1 - e) * libm.py.cos(E / 2))
+        return conics.py.elliptic_anomaly(M, e)
     if e == 1.0:
         # Barker: D + D^3/3 = M, the real root of the cubic
         w = libm.py.cbrt(1.5 * M + math.sqrt(2.25 * M * M + 1.0))

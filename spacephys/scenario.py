@@ -21,6 +21,8 @@ from .entities import ExplosionSpec, MissileSpec, ShipSpec
 from .integrators import INTEGRATORS
 from .forces import MUTUAL, THETA_MAX
 from .steppers import capabilities
+from . import _validate as check
+from .kernels import conics
 from .orbits import elements_to_state
 from .plans import Burn, hohmann
 from .units import UNITS
@@ -679,16 +681,13 @@ def _add_ring(w, t, ids):
     if pulls and w.gravity in MUTUAL:
         by_a = np.argsort(a, kind="stable")
         inside[by_a] = np.cumsum(mass[by_a]) - mass[by_a]
-    pos, vel = np.empty((k, w.dim)), np.empty((k, w.dim))
-    mu = w.G * (parent.mass + inside + mass)
-    # Python floats, not numpy's: elements_to_state's checks take them as they are (a numpy
-    # scalar goes through an array each check, half of a 2 000-body ring's build)
-    rows = zip(*(x.tolist() for x in (mu, a, e, inc, node, peri, M)))
-    for j, (mu_j, a_j, e_j, i_j, node_j, peri_j, M_j) in enumerate(rows):
-        p, v = elements_to_state(mu_j, a_j, e_j, i_j, node_j, peri_j, M=M_j)
-        pos[j], vel[j] = parent.pos + p[:w.dim], parent.vel + v[:w.dim]
+    # elements_to_state of each body, compiled (the same bits; a, e, i checked above)
+    mu = check.floats("mu", w.G * (parent.mass + inside + mass), (k,), positive=True)
+    pos, vel = np.empty((k, 3)), np.empty((k, 3))
+    conics.elliptic_states(mu, a, e, inc, node, peri, M, pos, vel)
     kw = {} if t["active"] is None else {"active": t["active"]}
-    return w.add_bodies(mass, pos, vel, radius=radius, kind=t["kind"], **kw)
+    return w.add_bodies(mass, parent.pos + pos[:, :w.dim], parent.vel + vel[:, :w.dim],
+                        radius=radius, kind=t["kind"], **kw)
 
 
 def _heading(value):
