@@ -18,22 +18,24 @@ loads a caller from the cache the callees it needs are loaded first: `Cache` sto
 (the slots its machine code names) beside the caller's machine code.
 
 A kernel that declares its return type (`kernel(returns=...)`) can be typed without being
-compiled: while a scene's step is compiled (steppers.Plan.call, inside `deferring()`), a
-call to it is typed from the declaration and compiled as a call through its slot, and the
-kernel is put on a list. Up to `helpers` other Python processes (numba compiles on one
-core per process) take kernels from the list as soon as they are put there, compile them
-into the cache and report each kernel they themselves put on a list (which goes on this
-process's); `complete(helpers)` compiles here what no helper took, waits for the helpers,
-and finally loads every kernel (filling its slot) before the step runs. numba compiles a
-callee when the caller's typing reaches the call, one after another; typed from
-declarations, the collision pass's parts are compiled side by side, and while this process
-still lowers the step kernel (arena's cold first step 44.6 -> 30.5 s on 2 cores with the
-parts handed out once the step kernel was compiled; moons_and_ships
-36.4 -> 25 s handed out as soon as they are typed). One kernel is kept for this process
-when it would otherwise wait. The machine code is the same either way; a helper that fails
-leaves its kernel to this process, and a declaration that is not what the kernel returns
-is an error (TypeError).
+compiled: while a kernel is compiled (inside `deferring()`: _jit.side_by_side, around a
+scene's step and any compile a call from Python starts), a call to it is typed from the
+declaration and compiled as a call through its slot, and the kernel is put on a list. Up to
+`helpers` other Python processes (numba compiles on one core per process) take kernels
+from the list as soon as they are put there, while this process goes on compiling the
+caller; each compiles its kernel into the cache, reports each kernel it puts on its own
+list as it meets it (it goes on this process's), and takes the next. `complete(helpers)`
+compiles here what no helper took (one is kept for this process when it would otherwise
+wait), waits for the helpers, and loads every kernel (filling its slot) before anything
+runs. numba compiles a callee when the caller's typing reaches the call, one after
+another; typed from declarations, the parts of a step are compiled on every core (arena's
+cold first step 44.6 s with none, 30.5 s with the parts handed out once the step kernel
+was compiled, 17-18 s handed out as soon as they are typed). The machine code is the same
+either way. A call through a slot still empty raises a RuntimeError (its kernel's compile
+failed, or has not ended); a helper that fails leaves its kernel to this process, and a
+declaration that is not what the kernel returns is an error (TypeError).
 """
+import atexit
 import contextlib
 import ctypes
 import hashlib
@@ -60,14 +62,17 @@ _SYMBOL = re.compile(rb"spacephys\.by_address\.[0-9a-f]{32}")
 _TYPED = set()   # (dispatcher, argument types) whose calls are lowered through the slot
 _LOCAL = threading.local()     # .deferring: this thread is in deferring()
 WAIT = 1800.0    # seconds: the longest a helper may take before its kernel is compiled here
+_EMPTY = ("a kernel called by address is not compiled: its compile failed or has not ended "
+          "(the next compile completes it)")
 
 # a helper: compile each kernel it is sent into the cache, reporting the kernels it defers
 # as it goes and None when one is done
 _HELPER = """
-import pickle, sys
+import os, pickle, sys
 sys.path[:0] = pickle.load(sys.stdin.buffer)
+reports = os.fdopen(os.dup(1), "wb")      # nothing else, Python's or C's, written to them
+os.dup2(2, 1)
 from spacephys import _by_address
-reports, sys.stdout = sys.stdout.buffer, sys.stderr       # nothing else written to the reports
 _by_address.serve(sys.stdin.buffer, reports)
 """
 
@@ -81,9 +86,12 @@ class _Work:
         self.later = []       # jobs no one has taken
         self.seen = set()     # (module, qualname, argument types) of every job listed
         self.running = {}     # helper process -> (its job, time.monotonic() at its start)
+        self.served = set()   # helper processes that finished a job
         self.idle = []        # helper processes waiting for a job
         self.ended = []       # jobs of helpers that ended, not yet collected by complete()
         self.helpers = 0      # how many helpers may run now
+        self.broken = False   # a helper ended before it finished any job: start no
+                              # more until this compile completes
         self.waiting = False  # complete() is here, about to take a job or waiting for one
         self.report = None    # in a helper: the stream each job it lists is written to
         self.changed = threading.Condition()
@@ -179,6 +187,7 @@ def complete(helpers=0):
         with _WORK.changed:
             _WORK.waiting = False
             _hand_out()                  # the idle helpers ended (none are allowed out here)
+            _WORK.broken = False         # the next compile may try helpers again
 
 
 def _load(done):
@@ -188,6 +197,7 @@ def _load(done):
         disp.compile_for_kernels(args)
         got = disp.overloads[args].signature.return_type
         if got != restype:
+            _SLOTS[symbol(disp.py_func, args)].value = 0     # no caller runs it mistyped
             raise TypeError(f"{module}.{qualname} returns {got} for {args}, but declares "
                             f"{restype}")
 
@@ -217,52 +227,55 @@ def _compile_all(done):
 
 
 def _hand_out():
-    """Give the oldest jobs of the list to idle helpers, or to new ones up to _WORK.helpers,
-    keeping one for this process when complete() would otherwise wait; end the idle helpers
-    beyond _WORK.helpers. Called holding the lock."""
+    """Give the oldest jobs of the list to helpers, idle ones first, new ones while fewer
+    than _WORK.helpers run, keeping one for this process when complete() would otherwise
+    wait; end the idle helpers beyond _WORK.helpers. Called holding the lock."""
     work = _WORK
-    while len(work.later) > (1 if work.waiting else 0):
-        job = work.later.pop(0)
+    while len(work.later) > (1 if work.waiting else 0) and len(work.running) < work.helpers:
+        try:
+            payload = pickle.dumps(pickle.dumps(work.later[0]))
+        except Exception:                # a type that does not pickle: this process takes it
+            break
         if work.idle:
             process = work.idle.pop(0)
-            if not _send(process, job):
-                work.later.insert(0, job)
+            if not _send(process, payload):
+                process.kill()
                 continue
-        elif len(work.running) < work.helpers:
-            process = _start_helper(job)
+        elif len(work.running) + len(work.idle) < work.helpers and not work.broken:
+            process = _start_helper(payload)
             if process is None:
-                work.later.insert(0, job)
-                work.helpers = len(work.running)
+                work.broken = True
                 break
-            threading.Thread(target=_read, args=(process,), daemon=True).start()
         else:
-            work.later.insert(0, job)
             break
-        work.running[process] = (job, time.monotonic())
+        work.running[process] = (work.later.pop(0), time.monotonic())
     while work.idle and len(work.running) + len(work.idle) > work.helpers:
         work.idle.pop().stdin.close()                # it ends
 
 
-def _start_helper(job):
-    """A helper process compiling job's kernel, or None when it cannot be started."""
+def _start_helper(payload):
+    """A helper process given its first job (a pickled job), its reader started; None when
+    it cannot be started."""
+    process = None
     try:
         process = subprocess.Popen([sys.executable, "-c", _HELPER], stdin=subprocess.PIPE,
                                    stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
         process.stdin.write(pickle.dumps([p for p in sys.path if isinstance(p, str)]))
-    except Exception:                    # no interpreter to start
-        return None
-    if _send(process, job):
-        return process
-    process.kill()
-    process.wait()
+        if _send(process, payload):
+            threading.Thread(target=_read, args=(process,), daemon=True).start()
+            return process
+    except Exception:                    # no interpreter to start, no thread
+        pass
+    if process is not None:
+        process.kill()
+        process.wait()
     return None
 
 
-def _send(process, job):
-    """Send job to a helper; False when it cannot take it (ended, or a type that does not
-    pickle)."""
+def _send(process, payload):
+    """Send a pickled job to a helper; False when it cannot take it (it ended)."""
     try:
-        process.stdin.write(pickle.dumps(pickle.dumps(job)))
+        process.stdin.write(payload)
         process.stdin.flush()
         return True
     except Exception:
@@ -271,8 +284,7 @@ def _send(process, job):
 
 def _read(process):
     """A helper's reader: each job it reports listed here, and its job done when it says so
-    or ends (what it compiled is in the cache; a helper that failed leaves its kernel to be
-    compiled when loaded)."""
+    or ends (what it compiled is in the cache)."""
     try:
         while True:
             report = pickle.load(process.stdout)
@@ -280,25 +292,46 @@ def _read(process):
                 _done(process, idle=True)
             else:
                 _list(report)
-    except Exception:                    # the end of its reports (EOFError), or a broken one
+    except EOFError:                     # the end of its reports: it ends
         pass
+    except Exception:                    # a broken report: it may still wait for a job
+        process.kill()
     process.stdout.close()
     process.wait()
     _done(process, idle=False)
 
 
 def _done(process, idle):
-    """process finished its job; idle: it waits for another (else it ended)."""
+    """process finished its job and waits for another (idle), or ended: a job it did not
+    finish goes back on the list, and a helper that ended before finishing any stops more
+    from being started (a Python that cannot import spacephys, say)."""
     with _WORK.changed:
         job = _WORK.running.pop(process, None)
-        if job is not None:
-            _WORK.ended.append(job[0])
         if idle:
+            _WORK.served.add(process)
             _WORK.idle.append(process)
-        elif process in _WORK.idle:
-            _WORK.idle.remove(process)
+            if job is not None:
+                _WORK.ended.append(job[0])
+        else:
+            if job is not None:
+                _WORK.later.insert(0, job[0])
+            if process not in _WORK.served:
+                _WORK.broken = True
+            _WORK.served.discard(process)
+            if process in _WORK.idle:
+                _WORK.idle.remove(process)
         _hand_out()
         _WORK.changed.notify_all()
+
+
+def _end_helpers():
+    """At exit: every helper ended (a running one would otherwise finish its kernel)."""
+    with _WORK.changed:
+        for process in list(_WORK.running) + _WORK.idle:
+            process.kill()
+
+
+atexit.register(_end_helpers)
 
 
 def serve(stdin, stdout):
@@ -350,7 +383,11 @@ def _call_through(name, fndesc):
         if slot is None:
             slot = ir.GlobalVariable(module, cgutils.voidptr_t, name)   # a declaration
         fnty = context.call_conv.get_function_type(fndesc.restype, fndesc.argtypes)
-        callee = builder.bitcast(builder.load(slot), fnty.as_pointer())
+        address = builder.load(slot)
+        # an empty slot (its kernel's compile failed, or has not ended) raises, never jumps
+        with cgutils.if_unlikely(builder, cgutils.is_null(builder, address)):
+            context.call_conv.return_user_exc(builder, RuntimeError, (_EMPTY,))
+        callee = builder.bitcast(address, fnty.as_pointer())
         status, retval = context.call_conv.call_function(
             builder, callee, fndesc.restype, fndesc.argtypes, args)
         with cgutils.if_unlikely(builder, status.is_error):

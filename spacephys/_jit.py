@@ -129,14 +129,21 @@ class _Dispatcher(CPUDispatcher):
     # decided in compile(): any override of it, even one that only called numba's, made the
     # tree scenes' cold start 25 % slower (docs/history.md).
     def _compile_for_args(self, *args, **kws):
-        with _bare(False), compiling(), side_by_side():
-            with global_compiler_lock:
-                bare = [sig for sig, cres in self.overloads.items() if not _wrapped(cres)]
-                if bare:
-                    called = None if kws else tuple(self.typeof_pyval(a) for a in args)
-                    for sig in [called] if called in bare else bare:
-                        del self.overloads[sig]
-            return super()._compile_for_args(*args, **kws)
+        with _bare(False), compiling(), global_compiler_lock:
+            bare = [sig for sig, cres in self.overloads.items() if not _wrapped(cres)]
+            if bare:
+                called = None if kws else tuple(self.typeof_pyval(a) for a in args)
+                for sig in [called] if called in bare else bare:
+                    del self.overloads[sig]
+            try:
+                with side_by_side():
+                    return super()._compile_for_args(*args, **kws)
+            except BaseException:
+                # numba put the kernel in its table as it compiled: taken out again, so that
+                # a call from Python does not run it while a kernel it calls has no code
+                # (the next call compiles, or loads, it again and completes the rest)
+                self._reset_overloads()
+                raise
 
     def compile_for_kernels(self, sig):
         """compile(sig) for other kernels to call, not Python."""
@@ -199,8 +206,8 @@ def compiling():
 def side_by_side():
     """Within it, calls to kernels that declare what they return are typed from the
     declaration, and the kernels are compiled when it ends, in up to helpers() other
-    processes as well as this one (spacephys/_by_address.py); under numba's lock, so that
-    no other thread runs a caller before its callees are in place."""
+    processes as well as this one (spacephys/_by_address.py); under numba's lock. A call
+    through a slot still empty raises (RuntimeError), it never jumps to nothing."""
     count = helpers()                    # a bad value refused before anything is compiled
     with global_compiler_lock:
         with _by_address.deferring(count):

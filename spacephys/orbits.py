@@ -26,7 +26,11 @@ def solve_kepler(M, e):
     Newton's method from the start E = M + 0.85 e sign(sin M) (Danby 1988), which converges for
     every M and e < 1; M is reduced to [-pi, pi] first (kernels/conics.py, run by Python).
     """
-    return conics.py.solve_kepler(M, e)
+    e = check.scalar("e", e, minimum=0.0)
+    if not e < 1.0:
+        raise ValueError(f"e = {e}: Kepler's equation E - e sin E = M is for 0 <= e < 1 "
+                         f"(true_anomaly takes any e)")
+    return conics.py.solve_kepler(check.scalar("M", M), e)
 
 
 def mean_anomaly(E, e):

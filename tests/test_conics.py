@@ -2,6 +2,7 @@
 import math
 
 import numpy as np
+import pytest
 
 from spacephys import orbits
 from spacephys.kernels import conics
@@ -31,5 +32,11 @@ def test_the_python_twins_are_the_kernels():
         assert conics.solve_kepler(M, e).hex() == conics.py.solve_kepler(M, e).hex()
         assert conics.elliptic_anomaly(M, e).hex() == conics.py.elliptic_anomaly(M, e).hex()
     for x in (0.0, -0.0, 2.0, -3.0):
-        assert conics.sign(x) == conics.py.sign(x) == np.sign(x)
+        assert conics.sign(x).hex() == conics.py.sign(x).hex() == float(np.sign(x)).hex()
     assert math.isnan(conics.sign(math.nan)) and math.isnan(conics.py.sign(math.nan))
+
+
+def test_keplers_equation_refuses_what_it_cannot_solve():
+    for M, e, field in [(0.3, 1.0, "e = 1.0"), (0.3, -0.1, "e = -0.1"), (math.nan, 0.5, "M")]:
+        with pytest.raises(ValueError, match=field):
+            orbits.solve_kepler(M, e)
