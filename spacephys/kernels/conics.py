@@ -5,7 +5,6 @@ kernel `elliptic_states`, compiled (2 001 bodies placed in Python took 0.1 s of 
 start). Conventions as in orbits.py; the trigonometry is kernels/libm.py's.
 """
 import math
-import types
 
 from .._jit import kernel
 from . import libm
@@ -91,13 +90,5 @@ def elliptic_states(mu, a, e, i, Omega, omega, M, pos, vel):
         vel[j, 0], vel[j, 1], vel[j, 2] = vx, vy, vz
 
 
-def _twins(names):
-    """The kernels `names` as plain Python, calling each other and libm's Python twins."""
-    space = dict(globals(), libm=libm.py)
-    for name in names:
-        fn = globals()[name].py_func
-        space[name] = types.FunctionType(fn.__code__, space, name, fn.__defaults__)
-    return types.SimpleNamespace(**{name: space[name] for name in names})
-
-
-py = _twins(["sign", "mean_anomaly", "solve_kepler", "elliptic_anomaly", "state"])
+py = libm.twins(globals(), ["sign", "mean_anomaly", "solve_kepler", "elliptic_anomaly",
+                            "state"], libm=libm.py)

@@ -471,15 +471,17 @@ def each(name, x):
     return out
 
 
-def _twins(names):
-    """The functions `names` as plain Python, calling each other (the kernels' source)."""
-    space = dict(globals())
+def twins(module_globals, names, **bound):
+    """The kernels `names` of a module (its globals()) as plain Python, the kernels' source
+    calling each other's twins, and `bound` in place of those globals (kernels/conics.py:
+    libm=libm.py)."""
+    space = dict(module_globals, **bound)
     for name in names:
-        fn = globals()[name].py_func
+        fn = module_globals[name].py_func
         space[name] = types.FunctionType(fn.__code__, space, name, fn.__defaults__)
     return types.SimpleNamespace(**{name: space[name] for name in names})
 
 
-py = _twins(["_horner", "_sin_poly", "_cos_poly", "_floor", "_reduce", "sin", "cos", "tan", "exp", "_scale", "_pow2",
+py = twins(globals(), ["_horner", "_sin_poly", "_cos_poly", "_floor", "_reduce", "sin", "cos", "tan", "exp", "_scale", "_pow2",
              "_log1p_reduced", "log", "log1p", "_atan_small", "atan", "atan2", "asin", "acos",
              "sinh", "cosh", "atanh", "asinh", "cbrt", "_split", "two_product", "pow"])
