@@ -21,9 +21,31 @@ def test_a_cold_scenario_reports_its_start_and_the_kernels_it_compiled():
 
 def test_the_warm_start_compiles_nothing():
     r = compilebench.warm_start(repeats=1)
-    assert r["kernels_compiled"] == 0
-    assert 0.0 < r["import_s"] < r["first_step_s"]
-    assert r["floor_s"] > 0.0
+    for w in (r, r["installed"]):
+        assert w["kernels_compiled"] == 0
+        assert 0.0 < w["import_s"] < w["first_step_s"]
+        assert w["floor_s"] > 0.0
+
+
+# numba's first call, then spacephys imported and a kernel called: the scipy modules loaded
+_SCIPY_LOADED = """
+import json, sys
+import numba, numpy as np
+import spacephys as sp
+sp.solve_kepler(0.5, 0.1)
+@numba.njit
+def total(a):
+    return a.sum()
+total(np.ones(3))
+print(json.dumps(sorted(m for m in sys.modules if m.split(".")[0] == "scipy")))
+"""
+
+
+def test_the_installed_warm_start_runs_without_scipy(tmp_path):
+    """The "installed" probe hides scipy (which numba imports on its first call when it is
+    there: the test extra brings it), and spacephys runs without it."""
+    assert compilebench._probe(_SCIPY_LOADED, tmp_path)          # the test extra's scipy
+    assert compilebench._probe(_SCIPY_LOADED, tmp_path, scipy=False) == []
 
 
 def test_every_shipped_scenario_is_benchmarked_and_the_table_names_them():
@@ -33,7 +55,10 @@ def test_every_shipped_scenario_is_benchmarked_and_the_table_names_them():
            "compile_s": 3.5, "kernels": [{"kernel": "k", "compilations": 1, "seconds": 3.5}]}
     text = compilebench.format_compile({
         "machine": "m", "versions": {}, "scenarios": [row],
-        "warm": {"import_s": 0.3, "first_step_s": 0.5, "kernels_compiled": 0, "floor_s": 0.4},
+        "warm": {"import_s": 0.3, "first_step_s": 0.5, "kernels_compiled": 0, "floor_s": 0.4,
+                 "installed": {"import_s": 0.2, "first_step_s": 0.35, "kernels_compiled": 0,
+                               "floor_s": 0.25}},
         "every_kernel": {"gravity_s": 10.0, "all_s": 30.0, "kernels": row["kernels"]}})
     assert "| x | 0.30 s | 4.0 s | 3.5 s | 1 | k 3.5 |" in text
     assert "every kernel, cold" in text
+    assert "(no scipy): import 0.20 s, import + first step 0.35 s" in text
