@@ -10,6 +10,10 @@ and one long call (step(n), as a run or a warp). The figure is the whole time ov
 taken, trials included, the median of five runs with the modes in turn (beside two busy
 processes one thread gets two thirds of a core, and one run of a mode can take twice
 another). The goal: "auto" never more than 10 % slower than one thread.
+
+Only force loops run on threads, and the dense field has no gravity: there "auto" runs one
+thread's code (ThreadChoice.begin has no loop to choose for), so its auto/one is the spread
+between two runs of the same code under that load, reported apart from the goal's ratio.
 """
 import time
 
@@ -65,7 +69,7 @@ def threads(quick=False):
             time.sleep(0.3)
             for name, (build, long_steps) in _scenes(quick).items():
                 steps = long_steps // 4 if quick else long_steps * 3
-                row = {"scene": name, "busy": busy}
+                row = {"scene": name, "busy": busy, "force_loop": _force_loop(build)}
                 runs = {}
                 for _ in range(repeats):           # the modes in turn: a disturbance hits all
                     for mode in MODES:
@@ -81,8 +85,17 @@ def threads(quick=False):
             for s in spinners:
                 s.kill()
                 s.wait()
-    worst = max(max(r["frames_auto_over_one"], r["long_auto_over_one"]) for r in rows)
-    return {**header("threads", quick), "rows": rows, "worst_auto_over_one": worst}
+    def worst(loop):
+        return max(max(r["frames_auto_over_one"], r["long_auto_over_one"])
+                   for r in rows if r["force_loop"] == loop)
+    return {**header("threads", quick), "rows": rows, "worst_auto_over_one": worst(True),
+            "worst_same_code": worst(False)}
+
+
+def _force_loop(build):
+    """Whether the scene has a force loop, the only code that may run on threads (these
+    three scenes' loops, where they have one, are over the size at which they may)."""
+    return build().gravity != "none"
 
 
 def format_threads(results):
@@ -97,5 +110,6 @@ def format_threads(results):
             [us(r[f"frames_{m}_s"]) for m in MODES] + [f"{r['frames_auto_over_one']:.2f}"] +
             [us(r[f"long_{m}_s"]) for m in MODES] + [f"{r['long_auto_over_one']:.2f}"]) + " |")
     lines += ["", f"worst auto / one thread: {results['worst_auto_over_one']:.2f} "
-                  f"(goal <= 1.10)"]
+                  f"(goal <= 1.10); where auto runs one thread's code (no force loop), "
+                  f"the same code's spread: {results['worst_same_code']:.2f}"]
     return "\n".join(lines)
