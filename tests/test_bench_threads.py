@@ -20,4 +20,3 @@ def test_every_scene_load_way_and_mode_is_timed(capsys):
     table = threadbench.format_threads(results)
     assert table.count("| star_system |") == 3 and "(goal <= 1.10)" in table
     assert "the same code's spread" in table
-

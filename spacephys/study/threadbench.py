@@ -63,13 +63,14 @@ def threads(quick=False):
     5 runs each (quick: 1)."""
     seconds, repeats = (0.3, 1) if quick else (1.5, 5)
     rows = []
+    loops = {name: _force_loop(build) for name, (build, _) in _scenes(quick).items()}
     for busy in (0, 1, 2):
         spinners = [busy_core() for _ in range(busy)]
         try:
             time.sleep(0.3)
             for name, (build, long_steps) in _scenes(quick).items():
                 steps = long_steps // 4 if quick else long_steps * 3
-                row = {"scene": name, "busy": busy, "force_loop": _force_loop(build)}
+                row = {"scene": name, "busy": busy, "force_loop": loops[name]}
                 runs = {}
                 for _ in range(repeats):           # the modes in turn: a disturbance hits all
                     for mode in MODES:
