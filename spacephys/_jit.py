@@ -6,7 +6,7 @@ many partial sums as the CPU's vectors hold, contraction would fuse multiply-add
 CPU has them, and either makes results differ between x86-64 CPUs. Without them every
 operation rounds as written (IEEE 754, as the source orders it), so a result depends on
 the inputs and the numba/LLVM version only; the force sums are laid out to vectorise
-without reordering (kernels/pairs.py)."""
+without reordering (kernels/pairs.py), and a kernel that fuses a multiply-add says so (fma)."""
 import contextlib
 import gc
 import os
@@ -37,6 +37,7 @@ from numba.core.errors import NumbaPerformanceWarning, RequireLiteralValue
 from numba.core.registry import CPUDispatcher
 from numba.experimental.structref import _Utils
 from numba.extending import intrinsic, overload
+from llvmlite import ir
 
 # With prange-only parallelism (PRANGE_ONLY) numba's check for "a parallel transformation"
 # misses the prange loops of inlined helpers and warns on kernels that do run threaded (the
@@ -446,6 +447,22 @@ def stack_rows(typingctx, like, rows, cols):
             value = builder.insert_value(value, field, model.get_field_position(name))
         return value
     return aryty(like, rows, cols), codegen
+
+
+@intrinsic
+def fma(typingctx, a, b, c):
+    """a * b + c rounded once (IEEE 754's fusedMultiplyAdd), floats of one type: one FMA
+    instruction where the CPU has them, else the C library's fma, which rounds the same
+    (correctly) in software. The one way a kernel fuses a multiply-add: numba's `contract`
+    flag would fuse only where the target has FMA, so the bits would depend on the CPU."""
+    if not (isinstance(a, types.Float) and a == b == c):
+        return None
+
+    def codegen(context, builder, sig, args):
+        t = args[0].type
+        fn = builder.module.declare_intrinsic("llvm.fma", [t], ir.FunctionType(t, [t, t, t]))
+        return builder.call(fn, args)
+    return a(a, b, c), codegen
 
 
 def field_type(t, name):

@@ -106,18 +106,38 @@ def test_the_rounds_of_block_pairs_take_each_pair_once(nb):
     assert sorted(seen) == [(i, j) for i in range(nb) for j in range(i + 1, nb)]
 
 
+def _fma(a, b, c):
+    """a * b + c rounded once, in Python (math.fma is 3.13's): the exact value as a ratio of
+    integers, divided once (Python rounds an integer division correctly)."""
+    (na, da), (nb, db), (nc, dc) = (v.as_integer_ratio() for v in (a, b, c))
+    num = na * nb * dc + nc * da * db
+    return num / (da * db * dc) if num else a * b + c
+
+
 def _pairs_as_written(s, ns, eps2):
     """pairs.pull_pairs in plain Python floats, operation by operation in the order its
     source fixes: the blocks' own tiles, then the rounds; in a tile, sweep r pairs lane l
-    with body (l + r) mod q of the other block (see kernels/pairs.py)."""
+    with body (l + r) mod q of the other block (within a block, sweeps r < q / 2 and half of
+    sweep q / 2), the lanes in groups and each group's sweeps in strides of pairs.GROUP (see
+    kernels/pairs.py)."""
     nb, B = pairs.blocks(ns)
     sums = [[0.0] * ns for _ in range(3)]
     x = [[float(v) for v in s[c, :ns]] for c in range(4)]
 
     def inverse_cube(d):
-        r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + eps2
+        r2 = _fma(d[2], d[2], _fma(d[1], d[1], d[0] * d[0])) + eps2
         d3 = r2 * math.sqrt(r2)
         return 1.0 / d3 if d3 > 0.0 else 0.0
+
+    def both_ways(lane, row, i0, j0, q, l, k):
+        j = j0 + k % q
+        d = [x[c][j] - x[c][i0 + l] for c in range(3)]
+        inv = inverse_cube(d)
+        wj, wi = x[3][j] * inv, x[3][i0 + l] * inv
+        for c in range(3):
+            lane[c][l] = _fma(wj, d[c], lane[c][l])
+        for c in range(3):
+            row[c][k] = _fma(-wi, d[c], row[c][k])
 
     def tile(I, J):
         if min(B, ns - I * B) > min(B, ns - J * B):
@@ -126,23 +146,24 @@ def _pairs_as_written(s, ns, eps2):
         p, q = min(B, ns - i0), min(B, ns - j0)
         lane = [[0.0] * p for _ in range(3)]
         row = [[0.0] * (2 * q) for _ in range(3)]
-        for r in range(1 if I == J else 0, q):
-            for l in range(p):
-                k = l + r
-                j = j0 + k % q
-                d = [x[c][j] - x[c][i0 + l] for c in range(3)]
-                inv = inverse_cube(d)
-                wj = x[3][j] * inv
-                for c in range(3):
-                    lane[c][l] += wj * d[c]
-                if I != J:
-                    wi = x[3][i0 + l] * inv
-                    for c in range(3):
-                        row[c][k] -= wi * d[c]
-        if I != J:
-            for k in range(q):
-                for c in range(3):
-                    sums[c][j0 + k] += row[c][k] + row[c][k + q]
+        first, last = (1, (q + 1) // 2) if I == J else (0, q)
+        G = pairs.GROUP
+        groups = p // G
+        for g in range(groups):
+            for c in range(G):
+                for r in range(first + c, last, G):
+                    for t in range(G):
+                        both_ways(lane, row, i0, j0, q, g * G + t, g * G + t + r)
+        for c in range(G):
+            for r in range(first + c, last, G):
+                for l in range(groups * G, p):
+                    both_ways(lane, row, i0, j0, q, l, l + r)
+        if I == J and q % 2 == 0:
+            for l in range(q // 2):
+                both_ways(lane, row, i0, j0, q, l, l + q // 2)
+        for k in range(q):
+            for c in range(3):
+                sums[c][j0 + k] += row[c][k] + row[c][k + q]
         for l in range(p):
             for c in range(3):
                 sums[c][i0 + l] += lane[c][l]
@@ -161,8 +182,8 @@ def _pairs_as_written(s, ns, eps2):
 @pytest.mark.parametrize("ns", [2, 3, 130, 300, 517])
 def test_the_pairs_once_run_in_the_order_their_source_fixes(rng, ns):
     """pairs.pull_pairs, each pair once in tiles: bit for bit the plain-Python sums in the
-    order kernels/pairs.py writes them (no partial sums by the vector width, no fused
-    multiply-add), on one thread or on threads; to rounding the one-sided sums; a coincident
+    order kernels/pairs.py writes them (no partial sums by the vector width, multiply-adds
+    fused exactly where the source fuses them), on one thread or on threads; to rounding the one-sided sums; a coincident
     pair pulls nothing. 300 and 517 bodies make blocks of unequal size (a short last one)."""
     s = np.zeros((4, ns))
     s[:3] = rng.normal(size=(3, ns))

@@ -13,20 +13,23 @@ multiply-add: no kernel is compiled with a value-changing fastmath flag.
 
 From PAIRS_FROM pulling bodies on, their pulls on each other take each pair once
 (pull_pairs): half the square roots and divisions. The bodies are cut into blocks; a tile is
-the pairs between two blocks. Its lanes hold bodies of one block, and each sweep pairs lane
-l with body l + r (mod the block's size) of the other, r = 0, 1, ...: both bodies of a lane's
-pair gain a term in that sweep, one lane each, so no sum runs across lanes and each body's
-sum runs in an order fixed by the number of bodies alone (the other block is held twice in a
-row, so that a sweep reads and adds into unit-stride rows; a body's sum there is its two
-halves added at the end). The tiles between blocks run in rounds of disjoint block pairs (the
-circle method of round-robin tournaments), so the tiles of a round run on threads without
-sharing a body: the same bits on one thread or many.
+the pairs between two blocks, or within one. Its lanes hold bodies of one block, and each
+sweep pairs lane l with body l + r (mod the block's size) of the other, r = 0, 1, ... (within
+a block, r < size / 2 and half of r = size / 2: sweeps r and size - r pair the same bodies):
+both bodies of a lane's pair gain a term in that sweep, one lane each, so no sum runs across
+lanes and each body's sum runs in an order fixed by the number of bodies alone (the other
+block is held twice in a row, so that a sweep reads and adds into unit-stride rows; a body's
+sum there is its two halves added at the end). The tiles run in rounds of disjoint block
+pairs (the circle method of round-robin tournaments), so the tiles of a round run on threads
+without sharing a body: the same bits on one thread or many. The tiles fuse the
+multiply-adds of their distances and sums (_jit.fma: one rounding on every CPU, in the C
+library where the CPU has no FMA).
 """
 import numba
 from numba import types
 import numpy as np
 
-from .._jit import kernel, stack_rows
+from .._jit import fma, kernel, stack_rows
 
 
 # points summed side by side: a chunk's coordinates and sums are rows of this length
@@ -37,6 +40,9 @@ CHUNK = 64
 # 256 bodies took 0.039 ms on two threads against 0.031 for pull_points)
 TILE = 128
 ROWS = 2 * TILE
+# lanes whose sums a tile keeps in registers at once: 8, an AVX-512 vector of float64 (two
+# AVX2 vectors, four SSE2)
+GROUP = 8
 PAIRS_FROM = 384
 
 
@@ -117,17 +123,35 @@ def round_pair(r, k, nb):
 
 @kernel(inline=True)
 def _inverse_cube(dx, dy, dz, eps2):
-    """1 / (|d|^2 + eps2)^(3/2), 0 for coincident points (see the module)."""
-    r2 = dx * dx + dy * dy + dz * dz + eps2
+    """1 / (|d|^2 + eps2)^(3/2), 0 for coincident points (see the module), |d|^2 with fused
+    multiply-adds."""
+    r2 = fma(dz, dz, fma(dy, dy, dx * dx)) + eps2
     d3 = r2 * np.sqrt(r2)
     return 1.0 / d3 if d3 > 0.0 else 0.0
 
 
+@kernel(inline=True)
+def _both_ways(row, lane, k, l, eps2):
+    """The pull / G of row k and lane l on each other added to their sums."""
+    dx = row[0, k] - lane[0, l]
+    dy = row[1, k] - lane[1, l]
+    dz = row[2, k] - lane[2, l]
+    inv = _inverse_cube(dx, dy, dz, eps2)
+    wj = row[3, k] * inv
+    wi = lane[3, l] * inv
+    lane[4, l] = fma(wj, dx, lane[4, l])
+    lane[5, l] = fma(wj, dy, lane[5, l])
+    lane[6, l] = fma(wj, dz, lane[6, l])
+    row[4, k] = fma(-wi, dx, row[4, k])
+    row[5, k] = fma(-wi, dy, row[5, k])
+    row[6, k] = fma(-wi, dz, row[6, k])
+
+
 @kernel(lean=True)
 def tile(s, sums, I, J, B, ns, eps2):
-    """The pairs between blocks I and J of the sources s (4, >= ns), each once (within block
-    I when I == J: each ordered pair, one-sided), their pulls / G added into sums (3, >= ns):
-    the lanes hold the smaller block, the other is held twice in a row (see the module)."""
+    """The pairs between blocks I and J of the sources s (4, >= ns), or within block I when
+    I == J, each once, their pulls / G added into sums (3, >= ns): the lanes hold the smaller
+    block, the other is held twice in a row (see the module)."""
     if min(B, ns - I * B) > min(B, ns - J * B):
         I, J = J, I
     i0, j0 = I * B, J * B
@@ -136,51 +160,47 @@ def tile(s, sums, I, J, B, ns, eps2):
     # module), on the stack: unit-stride rows, near each other in the cache
     lane = stack_rows(eps2, 7, TILE)
     row = stack_rows(eps2, 7, ROWS)
-    for l in range(p):
-        for c in range(4):
-            lane[c, l] = s[c, i0 + l]
-        for c in range(4, 7):
+    # (unsigned indices, here and below: no wrap-around test, so the loops vectorise with
+    # unit-stride loads)
+    u0, v0, up, uq = np.uint64(i0), np.uint64(j0), np.uint64(p), np.uint64(q)
+    for c in range(4):
+        for l in range(up):
+            lane[c, l] = s[c, u0 + l]
+        for k in range(uq):
+            row[c, k] = s[c, v0 + k]
+            row[c, uq + k] = s[c, v0 + k]
+    for c in range(4, 7):
+        for l in range(up):
             lane[c, l] = 0.0
-    for k in range(2 * q):
-        j = j0 + (k if k < q else k - q)
-        for c in range(4):
-            row[c, k] = s[c, j]
-        for c in range(4, 7):
+        for k in range(uq + uq):
             row[c, k] = 0.0
-    lanes = np.uint64(p)                # unsigned indices: no wrap-around test, so the loops
-    if I == J:                          # vectorise with unit-stride loads
-        for r in range(1, q):
-            for l in range(lanes):
-                k = l + np.uint64(r)
-                dx = row[0, k] - lane[0, l]
-                dy = row[1, k] - lane[1, l]
-                dz = row[2, k] - lane[2, l]
-                w = row[3, k] * _inverse_cube(dx, dy, dz, eps2)
-                lane[4, l] += w * dx
-                lane[5, l] += w * dy
-                lane[6, l] += w * dz
-    else:
-        for r in range(q):
-            for l in range(lanes):
-                k = l + np.uint64(r)
-                dx = row[0, k] - lane[0, l]
-                dy = row[1, k] - lane[1, l]
-                dz = row[2, k] - lane[2, l]
-                inv = _inverse_cube(dx, dy, dz, eps2)
-                wj = row[3, k] * inv
-                wi = lane[3, l] * inv
-                lane[4, l] += wj * dx
-                lane[5, l] += wj * dy
-                lane[6, l] += wj * dz
-                row[4, k] -= wi * dx
-                row[5, k] -= wi * dy
-                row[6, k] -= wi * dz
-        for k in range(q):
-            for c in range(3):
-                sums[c, j0 + k] += row[4 + c, k] + row[4 + c, k + q]
-    for l in range(p):
-        for c in range(3):
-            sums[c, i0 + l] += lane[4 + c, l]
+    # sweeps first .. last-1: within a block, sweep r and q - r pair the same bodies, so it
+    # sweeps r < q / 2, and r = q / 2 (even q) for the first half of the lanes only
+    first, last = (1, (q + 1) // 2) if I == J else (0, q)
+    # the lanes in groups of GROUP, whose sums stay in registers over the group's sweeps; its
+    # sweeps in strides of GROUP (r = c, c + GROUP, ...): sweep r + 1 would add into the rows
+    # sweep r has just written, and wait for those stores to reach the cache
+    groups = p // GROUP
+    for g in range(groups):
+        for c in range(GROUP):
+            for r in range(first + c, last, GROUP):
+                for t in range(GROUP):
+                    l = np.uint64(g * GROUP + t)
+                    _both_ways(row, lane, l + np.uint64(r), l, eps2)
+    for c in range(GROUP):
+        for r in range(first + c, last, GROUP):
+            for l in range(groups * GROUP, p):
+                _both_ways(row, lane, np.uint64(l + r), np.uint64(l), eps2)
+    if I == J and q % 2 == 0:
+        half = np.uint64(q // 2)
+        for l in range(half):
+            _both_ways(row, lane, l + half, l, eps2)
+    for c in range(3):
+        for k in range(uq):
+            sums[c, v0 + k] += row[4 + c, k] + row[4 + c, k + uq]
+    for c in range(3):
+        for l in range(up):
+            sums[c, u0 + l] += lane[4 + c, l]
 
 
 @kernel(lean=True)
