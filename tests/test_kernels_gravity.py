@@ -179,16 +179,19 @@ def _pairs_as_written(s, ns, eps2):
     return np.array(sums)
 
 
-@pytest.mark.parametrize("ns", [2, 3, 130, 300, 517])
+@pytest.mark.parametrize("ns", [2, 3, 6, 130, 300, 517])
 def test_the_pairs_once_run_in_the_order_their_source_fixes(rng, ns):
     """pairs.pull_pairs, each pair once in tiles: bit for bit the plain-Python sums in the
     order kernels/pairs.py writes them (no partial sums by the vector width, multiply-adds
-    fused exactly where the source fuses them), on one thread or on threads; to rounding the one-sided sums; a coincident
-    pair pulls nothing. 300 and 517 bodies make blocks of unequal size (a short last one)."""
+    fused exactly where the source fuses them), on one thread or on threads; to rounding
+    the one-sided sums; a coincident pair pulls nothing. Blocks of even and odd size, fewer
+    bodies than a group of lanes (2, 3, 6), and 300 and 517 bodies in blocks of unequal size
+    (a short last one)."""
     s = np.zeros((4, ns))
     s[:3] = rng.normal(size=(3, ns))
     s[3] = rng.uniform(0.1, 2.0, ns)
-    s[:3, -1] = s[:3, 0]
+    if ns > 2:
+        s[:3, -1] = s[:3, 0]
     eps2 = 0.0 if ns != 300 else 1e-4
     sums, threaded = np.zeros((3, ns)), np.zeros((3, ns))
     pairs.pull_pairs(s, sums, ns, eps2)

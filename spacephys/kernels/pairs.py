@@ -34,8 +34,8 @@ from .._jit import fma, kernel, stack_rows
 
 # points summed side by side: a chunk's coordinates and sums are rows of this length
 CHUNK = 64
-# bodies per block at most (a tile's rows then sit in the first-level cache: 128 took 1.28 ns
-# a pair at 4 096 bodies on one thread here, 512 1.7), and from how many pulling bodies the
+# bodies per block at most (a tile's rows then sit in the first-level cache: 128 took 1.05 ns
+# a pair at 4 096 bodies on one thread here, 256 1.69), and from how many pulling bodies the
 # pairs are taken once (below it, with two blocks, a round's one tile leaves a thread idle:
 # 256 bodies took 0.039 ms on two threads against 0.031 for pull_points)
 TILE = 128
