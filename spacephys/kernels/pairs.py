@@ -35,15 +35,18 @@ from .._jit import fma, kernel, stack_rows
 # points summed side by side: a chunk's coordinates and sums are rows of this length
 CHUNK = 64
 # bodies per block at most (a tile's rows then sit in the first-level cache: 128 took 1.05 ns
-# a pair at 4 096 bodies on one thread here, 256 1.69), and from how many pulling bodies the
-# pairs are taken once (below it, with two blocks, a round's one tile leaves a thread idle:
-# 256 bodies took 0.039 ms on two threads against 0.031 for pull_points)
+# a pair at 4 096 bodies on one thread here, 256 1.69)
 TILE = 128
 ROWS = 2 * TILE
 # lanes whose sums a tile keeps in registers at once: 8, an AVX-512 vector of float64 (two
 # AVX2 vectors, four SSE2)
 GROUP = 8
-PAIRS_FROM = 384
+# from how many pulling bodies the pairs are taken once. The tiles are faster from 16 bodies
+# on (one thread: 32 bodies 1.2 against 1.55 us, 128 9.5 against 15.2), but a scene below
+# PAIRS_FROM compiles none of them (the force table's sums are None), which keeps the cold
+# start of the few-body scenes; from 128 a World's step took 0.70-0.75x its time with the
+# one-sided sums (128 to 256 pulling bodies, two threads where they pay)
+PAIRS_FROM = 128
 
 
 @kernel(lean=True, forceinline=True)
@@ -148,6 +151,17 @@ def _both_ways(row, lane, k, l, eps2):
 
 
 @kernel(lean=True)
+def _strip(row, lane, l0, l1, first, last, eps2):
+    """Lanes l0 .. l1-1 (fewer than a group) over sweeps first .. last-1, in the order of a
+    group's: the tile's last lanes, and the half sweep within a block. Compiled once, not
+    into the tile twice."""
+    for c in range(GROUP):
+        for r in range(first + c, last, GROUP):
+            for l in range(l0, l1):
+                _both_ways(row, lane, np.uint64(l + r), np.uint64(l), eps2)
+
+
+@kernel(lean=True)
 def tile(s, sums, I, J, B, ns, eps2):
     """The pairs between blocks I and J of the sources s (4, >= ns), or within block I when
     I == J, each once, their pulls / G added into sums (3, >= ns): the lanes hold the smaller
@@ -187,14 +201,9 @@ def tile(s, sums, I, J, B, ns, eps2):
                 for t in range(GROUP):
                     l = np.uint64(g * GROUP + t)
                     _both_ways(row, lane, l + np.uint64(r), l, eps2)
-    for c in range(GROUP):
-        for r in range(first + c, last, GROUP):
-            for l in range(groups * GROUP, p):
-                _both_ways(row, lane, np.uint64(l + r), np.uint64(l), eps2)
+    _strip(row, lane, groups * GROUP, p, first, last, eps2)
     if I == J and q % 2 == 0:
-        half = np.uint64(q // 2)
-        for l in range(half):
-            _both_ways(row, lane, l + half, l, eps2)
+        _strip(row, lane, 0, q // 2, q // 2, q // 2 + 1, eps2)
     for c in range(3):
         for k in range(uq):
             sums[c, v0 + k] += row[4 + c, k] + row[4 + c, k + uq]
