@@ -146,21 +146,20 @@ def _pairs_as_written(s, ns, eps2):
         p, q = min(B, ns - i0), min(B, ns - j0)
         lane = [[0.0] * p for _ in range(3)]
         row = [[0.0] * (2 * q) for _ in range(3)]
+        def strip(l0, l1, first, last):         # lanes l0..l1-1, as pairs._strip
+            for c in range(G):
+                for r in range(first + c, last, G):
+                    for l in range(l0, l1):
+                        both_ways(lane, row, i0, j0, q, l, l + r)
+
         first, last = (1, (q + 1) // 2) if I == J else (0, q)
         G = pairs.GROUP
         groups = p // G
-        for g in range(groups):
-            for c in range(G):
-                for r in range(first + c, last, G):
-                    for t in range(G):
-                        both_ways(lane, row, i0, j0, q, g * G + t, g * G + t + r)
-        for c in range(G):
-            for r in range(first + c, last, G):
-                for l in range(groups * G, p):
-                    both_ways(lane, row, i0, j0, q, l, l + r)
+        for g in range(groups):                   # a group's lanes: the same order
+            strip(g * G, (g + 1) * G, first, last)
+        strip(groups * G, p, first, last)
         if I == J and q % 2 == 0:
-            for l in range(q // 2):
-                both_ways(lane, row, i0, j0, q, l, l + q // 2)
+            strip(0, q // 2, q // 2, q // 2 + 1)
         for k in range(q):
             for c in range(3):
                 sums[c][j0 + k] += row[c][k] + row[c][k + q]
