@@ -305,15 +305,20 @@ class _Cache(_by_address.Cache):
         return key + ("bare",) if self._bare_key else key
 
     def _load_overload(self, sig, target_context):
+        args = tuple(sigutils.normalize_signature(sig)[0])
         for bare in (True, False) if _BARE.on else (False,):
             with self._keyed(bare):
                 cres = super()._load_overload(sig, target_context)
-            if cres is not None:
+            # an entry whose file holds another entry's code (two processes that saved at
+            # once without cache.saving's lock: an older cache) is compiled again, and saved
+            # over it
+            if cres is not None and tuple(cres.signature.args) == args and (
+                    bare or _wrapped(cres)):
                 return cres
         return None
 
     def _save_overload(self, sig, data):
-        with self._keyed(not _wrapped(data)):
+        with self._keyed(not _wrapped(data)), _cache.saving():
             super()._save_overload(sig, data)
 
     @contextlib.contextmanager

@@ -14,6 +14,7 @@ environment, so that worker processes cache in the same place). `spacephys cache
 which folder and how much is in it; `spacephys cache clear` deletes this install's machine
 code (run it before `pip uninstall`: pip removes only the files it installed).
 """
+import contextlib
 import getpass
 import hashlib
 import os
@@ -189,6 +190,21 @@ def purge_stale():
             tmp.replace(stamp)
     except OSError:
         pass    # another process is at it; sources cannot change under a read-only install
+
+
+def saving():
+    """Within it, no other process saves machine code into this install's cache or purges it.
+    numba reads a kernel's index, numbers a new entry's file after the entries it read and
+    writes the index back: two processes saving two entries at once (test workers, compile
+    helpers) could take one number, and one entry's file would then hold the other's code."""
+    if WHERE == "off":
+        return contextlib.nullcontext()
+    lock = folders()[0] / _STAMP
+    try:
+        lock.parent.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return contextlib.nullcontext()    # numba's save fails on its own, and says so
+    return _locked(lock.with_suffix(".lock"))
 
 
 class _locked:

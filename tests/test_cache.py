@@ -8,6 +8,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import pytest
@@ -205,3 +206,74 @@ def test_compile_a_world_a_scenario_file_and_what_all_names(tmp_path):
     res = subprocess.run([str(exe), "compile", "--scene", "two_body", "--jobs", "0"],
                          cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert res.returncode == 2 and "jobs = 0" in res.stderr and "Traceback" not in res.stderr
+
+
+# a kernel of one's own, cached in NUMBA_CACHE_DIR, called with the types on the command line
+KERNEL = """
+from spacephys._jit import kernel
+
+@kernel
+def plus_one(x):
+    return x + 1
+"""
+CALL = """
+import json, sys, time
+import plus_mod
+print("calling", flush=True)
+t0 = time.perf_counter()
+got = [plus_mod.plus_one(eval(a)) for a in sys.argv[1:]]
+print(json.dumps({"got": got, "took": time.perf_counter() - t0,
+                  "hits": sum(plus_mod.plus_one.stats.cache_hits.values()),
+                  "types": sorted(str(s[0]) for s in plus_mod.plus_one.overloads)}))
+"""
+
+
+def _own_kernel(tmp_path):
+    (tmp_path / "plus_mod.py").write_text(KERNEL)
+    (tmp_path / "call.py").write_text(CALL)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=str(tmp_path))
+    return [sys.executable, str(tmp_path / "call.py")], env
+
+
+def test_an_entry_whose_file_holds_another_entrys_code_is_compiled_again(tmp_path):
+    """numba numbers a new entry's file after reading the index: two processes saving at once
+    (test workers, compile helpers) could leave one entry's file holding the other's code,
+    which numba would load as the code asked for."""
+    call, env = _own_kernel(tmp_path)
+    run = lambda *a: json.loads(subprocess.run(call + list(a), env=env, check=True,  # noqa: E731
+                                               capture_output=True, text=True).stdout.split("\n")[1])
+    assert run("1", "1.5")["got"] == [2, 2.5]
+    codes = sorted((tmp_path / "cache").rglob("plus_mod.plus_one-*.nbc"))
+    assert len(codes) == 2
+    first, second = (c.read_bytes() for c in codes)
+    codes[0].write_bytes(second)                 # the two entries' files swapped
+    codes[1].write_bytes(first)
+    healed = run("1", "1.5")
+    assert healed["got"] == [2, 2.5] and healed["types"] == ["float64", "int64"]
+    assert healed["hits"] == 0                   # both compiled again, and saved over
+    assert run("1", "1.5")["hits"] == 2
+
+
+def test_a_save_waits_for_anothers_to_end(tmp_path):
+    """cache.saving: a process that saves machine code waits while another holds the lock."""
+    call, env = _own_kernel(tmp_path)
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sys\nfrom spacephys import cache\nwith cache.saving():\n"
+         "    print('held', flush=True)\n    sys.stdin.read()"],
+        env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    saver = None
+    try:
+        assert holder.stdout.readline() == "held\n"
+        saver = subprocess.Popen(call + ["1"], env=env, stdout=subprocess.PIPE, text=True)
+        assert saver.stdout.readline() == "calling\n"
+        time.sleep(4.0)                       # the tiny kernel compiles in well under a second
+        assert not list((tmp_path / "cache").rglob("plus_mod.plus_one-*.nbi"))
+        holder.stdin.close()
+        done = json.loads(saver.stdout.readline())
+        assert done["got"] == [2] and done["took"] > 3.5
+        assert saver.wait(60) == 0 and holder.wait(60) == 0
+        assert len(list((tmp_path / "cache").rglob("plus_mod.plus_one-*.nbi"))) == 1
+    finally:
+        for p in (holder, saver):
+            if p is not None and p.poll() is None:
+                p.kill()
