@@ -16,7 +16,7 @@ import numpy as np
 
 from . import _validate as check
 from .forces import MUTUAL
-from .kernels import conics, libm
+from .kernels import conics, libm, markers
 from . import portable
 
 
@@ -199,12 +199,14 @@ def kepler_state(mu, a, e, t, *, i=0.0, Omega=0.0, omega=0.0, M0=0.0):
 
 
 def hardest_pulling(world, rows):
-    """(k,) int64: for each of the rows (k,), the row of the body pulling on it hardest
-    (G m_j / d^2, the body itself left out), -1 where no body pulls on it."""
-    d2 = np.sum((world.pos[None, :, :] - world.pos[rows][:, None, :]) ** 2, axis=2)
-    pull = np.where(world.pulls, world.mass, 0.0)[None, :] / np.where(d2 > 0.0, d2, np.inf)
-    pull[np.arange(len(rows)), rows] = 0.0
-    return np.where(np.any(pull > 0.0, axis=1), np.argmax(pull, axis=1), -1).astype(np.int64)
+    """(row (k,) int64, distance (k,), pulling): for each of the rows (k,), the row of the
+    body pulling on it hardest (G m_j / d^2, the body itself left out; -1 where none does)
+    and its distance (nan: none); how many bodies pull."""
+    rows = np.asarray(rows, np.int64)
+    pick, dist = np.empty(rows.size, np.int64), np.empty(rows.size)
+    pos, mass, active = world.driver.view("pos", "mass", "active")
+    pulling = markers.hardest(pos, mass, active, rows, pick, dist)
+    return pick, dist, pulling
 
 
 def _parent(world, body_id, about):
@@ -220,7 +222,7 @@ def _parent(world, body_id, about):
         raise ValueError(f"no orbit to report with gravity={world.gravity!r}: give gravity "
                          f"'direct', 'tree' or 'central'")
     if about is None:
-        j = int(hardest_pulling(world, np.array([i]))[0])
+        j = int(hardest_pulling(world, [i])[0][0])
         if j < 0:
             raise ValueError(f"id = {body_id}: no body pulls on it, so it has no orbit")
     else:

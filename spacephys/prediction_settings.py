@@ -28,14 +28,15 @@ def choose(world, ids, rows, duration, points, error, coast):
     """(integrator name, dt) for World.predict(ids, duration, points=points, error=error,
     coast=coast): see the module. rows: the ids' rows."""
     interval = duration / (points - 1)
-    scale, dominant = _scale(world, rows)
-    if scale is None:                  # nothing pulls: every method is exact, one step a sample
+    # (asked each frame by a HUD: a kernel, and the key in bytes, not numpy's calls)
+    dominant, scale, pulling = hardest_pulling(world, rows)
+    if np.any(dominant < 0):           # nothing pulls: every method is exact, one step a sample
         return "leapfrog", interval
-    pulling = int(np.count_nonzero(world.pulls & (world.mass > 0.0)))
-    key = (tuple(int(i) for i in ids), float(duration), int(points), float(error), bool(coast),
-           tuple(int(d) for d in dominant), pulling)
+    key = (ids.tobytes(), float(duration), int(points), float(error), bool(coast),
+           world.ids[dominant].tobytes(), pulling)
     kept = world.driver.choices.get(key)
-    if kept is not None and np.all(np.abs(np.log2(scale / kept[2])) < 1.0):
+    if kept is not None and all(abs(math.log2(a / b)) < 1.0
+                                for a, b in zip(scale.tolist(), kept[2].tolist())):
         return kept[0], kept[1]
     best, cost = None, math.inf        # cost: force evaluations a sample interval
     for name in METHODS:
@@ -54,15 +55,6 @@ def choose(world, ids, rows, duration, points, error, coast):
     name, m = best
     world.driver.choices[key] = (name, interval / m, scale)
     return name, interval / m
-
-
-def _scale(world, rows):
-    """(distance (k,) of each predicted body from the body pulling it hardest, that body's
-    id (k,)), or (None, None) when nothing pulls one of them."""
-    j = hardest_pulling(world, rows)
-    if np.any(j < 0):
-        return None, None
-    return np.linalg.norm(world.pos[rows] - world.pos[j], axis=1), world.ids[j]
 
 
 def _steps_needed(world, ids, duration, points, interval, name, order, scale, error, coast,

@@ -27,6 +27,33 @@ def paths(samples, rows, dest, out):
 
 
 @kernel
+def hardest(pos, mass, active, rows, pick, dist):
+    """For each of rows (k,): pick[k] the row of the body pulling on it hardest (largest
+    m / d^2 among the active bodies with mass, the body itself left out; the first of equals),
+    -1 where none does; dist[k] the distance to it (nan: none). pos (n, 3), mass (n,), active
+    (n,) bool. Returns how many bodies pull (active, with mass)."""
+    pulling = 0
+    for i in range(mass.size):
+        if active[i] and mass[i] > 0.0:
+            pulling += 1
+    for k in range(rows.size):
+        r = rows[k]
+        best, j, far = 0.0, -1, math.nan
+        for i in range(mass.size):
+            if i == r or not active[i] or not mass[i] > 0.0:
+                continue
+            d2 = 0.0
+            for x in range(3):
+                d = pos[i, x] - pos[r, x]
+                d2 += d * d
+            if d2 > 0.0 and mass[i] / d2 > best:
+                best, j, far = mass[i] / d2, i, d2
+        pick[k] = j
+        dist[k] = math.sqrt(far)
+    return pulling
+
+
+@kernel
 def dominant(pos, cpos, cmass, same, out):
     """out[k, j] = the candidate pulling hardest (largest m_c / d^2) on path k at sample j, -1
     where the path has ended (NaN); pos (K, P, 3), cpos (C, P, 3), cmass (C,), same (K,) the
