@@ -64,11 +64,12 @@ def test_direct_matches_numpy(rng, n, eps):
 
 
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
-@pytest.mark.parametrize("nt, ns", [(1, 1), (3, 200), (64, 17), (100, 257)])
+@pytest.mark.parametrize("nt, ns", [(1, 1), (1, 77), (3, 200), (64, 17), (100, 257)])
 def test_each_points_sum_runs_in_source_order(rng, dtype, nt, ns):
     """pairs.pull_points: each point's sum is the plain sum over the sources in their order,
     term by term as written, bit for bit (no partial sums by the vector width, no fused
-    multiply-add: the same bits on every x86-64 CPU); a coincident source pulls nothing."""
+    multiply-add: the same bits on every x86-64 CPU); a coincident source pulls nothing.
+    pairs.pull_point, one point's sum (its terms side by side in blocks), the same bits."""
     s = np.zeros((4, ns), dtype)
     s[:3] = rng.normal(size=(3, ns))
     s[3] = rng.uniform(0.1, 2.0, ns)
@@ -85,7 +86,10 @@ def test_each_points_sum_runs_in_source_order(rng, dtype, nt, ns):
             d3 = r2 * np.sqrt(r2)
             w = s[3, j] / d3 if d3 > 0 else dtype(0.0)
             want = [want[c] + w * d[c] for c in range(3)]
-        assert [a.tobytes() for a in acc[:, t]] == [dtype(v).tobytes() for v in want], t
+        want = [dtype(v).tobytes() for v in want]
+        assert [a.tobytes() for a in acc[:, t]] == want, t
+        one = pairs.pull_point(pts[0, t], pts[1, t], pts[2, t], s, ns, eps2)
+        assert [dtype(v).tobytes() for v in one] == want, t
 
 
 @pytest.mark.parametrize("nb", range(1, 13))

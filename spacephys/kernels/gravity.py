@@ -166,8 +166,15 @@ def _pull_each(targets, pos, s, G, eps2, out):
 def _pull_chunk(targets, a, pos, s, G, eps2, out):
     """out[k] = G * the pull of the sources s on pos[k] for k in targets[a : a + CHUNK],
     the chunk's points summed side by side (pairs.pull_points)."""
-    rows = stack_rows(G, 6, CHUNK)          # x, y, z, then the sums
     nt = min(pairs.CHUNK, targets.size - a)
+    if nt == 1:                             # a ship among planets: its sum alone
+        k = targets[a]
+        gx, gy, gz = pairs.pull_point(pos[k, 0], pos[k, 1], pos[k, 2], s, s.shape[1], eps2)
+        out[k, 0] = G * gx
+        out[k, 1] = G * gy
+        out[k, 2] = G * gz
+        return
+    rows = stack_rows(G, 6, CHUNK)          # x, y, z, then the sums
     for t in range(nt):
         k = targets[a + t]
         rows[0, t] = pos[k, 0]
