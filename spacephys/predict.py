@@ -602,29 +602,22 @@ def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, targ
     gone = t[None, :] > ended[:, None]
     pos[gone] = np.nan
     vel[gone] = np.nan
-    # the candidates' paths (the field's centre last, fixed)
-    cpos, cvel = sampler.paths(np.searchsorted(watched, cand))
-    cids = cand
-    if centre is not None:
-        cpos = np.concatenate([cpos, np.broadcast_to(centre, (1, t.size, 3))])
-        cvel = np.concatenate([cvel, np.zeros((1, t.size, 3))])
-        cmass = np.append(cmass, world.central_mass)
-        cids = np.append(cids, -1)
+    cs, cv, csel, cmass, cids = _candidates(world, sampler, watched, cand, cmass, centre, t.size)
     dom = np.full((ids.size, t.size), -1, np.int64)
     p = Prediction(ids, t, pos[:, :, :dim], vel[:, :, :dim], ended, None, impacts=impacts,
                    events=events)
     if cids.size:
         match = cids[None, :] == ids[:, None]
         same = np.where(match.any(axis=1), match.argmax(axis=1), -1).astype(np.int64)
-        cpos, cmass = np.ascontiguousarray(cpos), np.ascontiguousarray(cmass)
+        cmass = np.ascontiguousarray(cmass)
         mu = G * (cmass[None, :] + own[:, None])
 
         def marks(lo, hi):
             """Paths lo..hi's dominant bodies (into dom) and their changes and apsides (rows
             as markers.changes, markers.all_apsides give them, paths numbered from 0)."""
-            markers.dominant(pos[lo:hi], cpos, cmass, same[lo:hi], dom[lo:hi])
-            got = (markers.changes(t, pos[lo:hi], vel[lo:hi], cpos, cvel, cmass, dom[lo:hi]),
-                   markers.all_apsides(t, pos[lo:hi], vel[lo:hi], cpos, cvel, mu[lo:hi],
+            markers.dominant(pos[lo:hi], cs, csel, cmass, same[lo:hi], dom[lo:hi])
+            got = (markers.changes(t, pos[lo:hi], vel[lo:hi], cs, cv, csel, cmass, dom[lo:hi]),
+                   markers.all_apsides(t, pos[lo:hi], vel[lo:hi], cs, cv, csel, mu[lo:hi],
                                        dom[lo:hi]))
             for rows in got:
                 rows[:, 0] += lo
@@ -656,6 +649,24 @@ def _assemble(world, ids, watched, sampler, t, events, cand, cmass, centre, targ
                                              tvel[0], out))
     p.approaches = [a for a in p.approaches if a is not None]
     return p
+
+
+def _candidates(world, sampler, watched, cand, cmass, centre, P):
+    """The candidates' samples for the markers (markers.dominant): (cs, cv (P, m, 3), csel
+    (C,) their columns, cmass (C,), cids (C,)). A prediction's own samples where they are
+    all in one sampler (no copy); else gathered, the field's centre (id -1) last, fixed."""
+    if centre is None and isinstance(sampler, _Sampler):
+        return sampler.pos, sampler.vel, np.searchsorted(watched, cand), cmass, cand
+    cpos, cvel = sampler.paths(np.searchsorted(watched, cand))
+    cids = cand
+    if centre is not None:
+        cpos = np.concatenate([cpos, np.broadcast_to(centre, (1, P, 3))])
+        cvel = np.concatenate([cvel, np.zeros((1, P, 3))])
+        cmass = np.append(cmass, world.central_mass)
+        cids = np.append(cids, -1)
+    cs = np.ascontiguousarray(cpos.transpose(1, 0, 2))
+    cv = np.ascontiguousarray(cvel.transpose(1, 0, 2))
+    return cs, cv, np.arange(cids.size, dtype=np.int64), cmass, cids
 
 
 def _in_halves(fn, K, background):

@@ -54,9 +54,10 @@ def hardest(pos, mass, active, rows, pick, dist):
 
 
 @kernel
-def dominant(pos, cpos, cmass, same, out):
+def dominant(pos, cs, csel, cmass, same, out):
     """out[k, j] = the candidate pulling hardest (largest m_c / d^2) on path k at sample j, -1
-    where the path has ended (NaN); pos (K, P, 3), cpos (C, P, 3), cmass (C,), same (K,) the
+    where the path has ended (NaN); pos (K, P, 3); the candidates' positions cs[:, csel[c]]
+    (cs (P, m, 3): the samples as a prediction takes them), cmass (C,); same (K,) the
     candidate that is path k itself (-1: none)."""
     K, P = pos.shape[0], pos.shape[1]
     for k in range(K):
@@ -68,7 +69,7 @@ def dominant(pos, cpos, cmass, same, out):
                         continue
                     d2 = 0.0
                     for x in range(3):
-                        d = cpos[c, j, x] - pos[k, j, x]
+                        d = cs[j, csel[c], x] - pos[k, j, x]
                         d2 += d * d
                     if d2 > 0.0 and cmass[c] / d2 > best:
                         best, pick = cmass[c] / d2, c
@@ -292,10 +293,11 @@ def apsides(t, rp, rv, cpos, cvel, mu, rows, out):
 
 
 @kernel
-def changes(t, pos, vel, cpos, cvel, cmass, dom):
+def changes(t, pos, vel, cs, cv, csel, cmass, dom):
     """Every change of dominant body on paths pos, vel (K, P, 3) with dom (K, P) from
-    `dominant`: rows [path k, time, candidate before, candidate after] (M, 4), by path then
-    time; the time where the two pulls are equal (equal_pulls)."""
+    `dominant` (the candidates' samples cs, cv, csel as there): rows [path k, time, candidate
+    before, candidate after] (M, 4), by path then time; the time where the two pulls are
+    equal (equal_pulls)."""
     K, P = dom.shape[0], dom.shape[1]
     count = 0
     for k in range(K):
@@ -309,8 +311,8 @@ def changes(t, pos, vel, cpos, cvel, cmass, dom):
             a, b = dom[k, j], dom[k, j + 1]
             if a >= 0 and b >= 0 and a != b:
                 out[m, 0] = k
-                out[m, 1] = equal_pulls(t, pos[k], vel[k], cpos[a], cvel[a], cmass[a], cpos[b],
-                                        cvel[b], cmass[b], j)
+                out[m, 1] = equal_pulls(t, pos[k], vel[k], cs[:, csel[a]], cv[:, csel[a]],
+                                        cmass[a], cs[:, csel[b]], cv[:, csel[b]], cmass[b], j)
                 out[m, 2] = a
                 out[m, 3] = b
                 m += 1
@@ -318,13 +320,14 @@ def changes(t, pos, vel, cpos, cvel, cmass, dom):
 
 
 @kernel
-def all_apsides(t, pos, vel, cpos, cvel, mu, dom):
+def all_apsides(t, pos, vel, cs, cv, csel, mu, dom):
     """The apsides of paths pos, vel (K, P, 3) about their dominant bodies (dom (K, P) from
-    `dominant`), each taken over the intervals where one candidate dominates at both ends:
+    `dominant`, the candidates' samples cs, cv, csel as there), each taken over the intervals
+    where one candidate dominates at both ends:
     rows [path k, kind (-1 pericentre, +1 apocentre), time, distance, x, y, z, candidate]
     (M, 8), by path, candidate, time. mu (K, C): G (m_candidate + m_path) per pair."""
     K, P = dom.shape[0], dom.shape[1]
-    C = cpos.shape[0]
+    C = csel.size
     rp = np.empty((P, 3))
     rv = np.empty((P, 3))
     use = np.empty(max(P - 1, 0), np.bool_)
@@ -345,10 +348,10 @@ def all_apsides(t, pos, vel, cpos, cvel, mu, dom):
                 use[j] = dom[k, j] == c and dom[k, j + 1] == c
             for j in range(P):
                 for x in range(3):
-                    rp[j, x] = pos[k, j, x] - cpos[c, j, x]
-                    rv[j, x] = vel[k, j, x] - cvel[c, j, x]
+                    rp[j, x] = pos[k, j, x] - cs[j, csel[c], x]
+                    rv[j, x] = vel[k, j, x] - cv[j, csel[c], x]
             n = extrema(t, rp, rv, use, rows, 12)    # the nearer end is all apsides needs
-            apsides(t, rp, rv, cpos[c], cvel[c], mu[k, c], rows[:n], found[:n])
+            apsides(t, rp, rv, cs[:, csel[c]], cv[:, csel[c]], mu[k, c], rows[:n], found[:n])
             if m + n > out.shape[0]:
                 grown = np.empty((2 * (m + n), 8))
                 grown[:m] = out[:m]
