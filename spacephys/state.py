@@ -131,6 +131,9 @@ class Bodies:
     def lookup(self, ids):
         """Rows of the given ids: (k,) int64, or -1 where an id names no live body."""
         ids = np.asarray(ids, dtype=np.int64)
+        if ids.size <= 4:       # a ship or a few (a HUD's prediction): row(), not numpy's calls
+            return np.array([self.row(i) for i in ids.ravel().tolist()],
+                            np.int64).reshape(ids.shape)
         slots = ids & _SLOT_MASK
         rows = np.full(ids.shape, -1, dtype=np.int64)
         ok = (ids >= 0) & (slots < self.slots_used)
