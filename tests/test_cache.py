@@ -240,8 +240,10 @@ def test_an_entry_whose_file_holds_another_entrys_code_is_compiled_again(tmp_pat
     (test workers, compile helpers) could leave one entry's file holding the other's code,
     which numba would load as the code asked for."""
     call, env = _own_kernel(tmp_path)
-    run = lambda *a: json.loads(subprocess.run(call + list(a), env=env, check=True,  # noqa: E731
-                                               capture_output=True, text=True).stdout.split("\n")[1])
+    def run(*args):
+        out = subprocess.run(call + list(args), env=env, check=True, capture_output=True,
+                             text=True).stdout
+        return json.loads(out.split("\n")[1])
     assert run("1", "1.5")["got"] == [2, 2.5]
     codes = sorted((tmp_path / "cache").rglob("plus_mod.plus_one-*.nbc"))
     assert len(codes) == 2

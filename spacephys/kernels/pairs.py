@@ -81,7 +81,7 @@ def pull_points(xs, ys, zs, nt, s, n, eps2, ax, ay, az):
 @kernel(lean=True, forceinline=True)
 def pull_point(x, y, z, s, n, eps2):
     """pull_points for one point (x, y, z), its sums starting from 0: the acceleration / G
-    (3 numbers), the same bits. The sources' terms are computed side by side, a block of SOURCES at a
+    (3 numbers), the same bits. The sources' terms are computed side by side, SOURCES at a
     time (a vector's lanes hold different sources), then added in source order: one point's
     sum alone is a chain of dependent adds, each behind a square root and a division."""
     zero = eps2 - eps2
