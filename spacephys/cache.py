@@ -152,9 +152,8 @@ def clear():
     for f in found:
         f.unlink(missing_ok=True)
     if folders():
-        stamp = folders()[0] / _STAMP
-        stamp.unlink(missing_ok=True)
-        stamp.with_suffix(".lock").unlink(missing_ok=True)
+        _stamp().unlink(missing_ok=True)
+        _lock().unlink(missing_ok=True)
     if FOLDER is not None:
         for d in folders():
             shutil.rmtree(d, ignore_errors=True)
@@ -172,7 +171,7 @@ def purge_stale():
         return
     sources = [PACKAGE / "_jit.py"] + sorted((PACKAGE / "kernels").glob("*.py"))
     digest = hashlib.sha256(b"".join(p.read_bytes() for p in sources)).hexdigest()
-    stamp = folders()[0] / _STAMP
+    stamp = _stamp()
     try:
         if stamp.exists() and stamp.read_text() == digest:
             return
@@ -180,7 +179,7 @@ def purge_stale():
         # one process at a time: test workers import side by side, and one that purged after
         # another had stamped and begun to cache would delete half of that one's new files
         # (an index without its code, or code under another's index)
-        with _locked(stamp.with_suffix(".lock")):
+        with _locked(_lock()):
             if stamp.exists() and stamp.read_text() == digest:
                 return
             for f in files():
@@ -199,12 +198,22 @@ def saving():
     helpers) could take one number, and one entry's file would then hold the other's code."""
     if WHERE == "off":
         return contextlib.nullcontext()
-    lock = folders()[0] / _STAMP
+    lock = _lock()
     try:
         lock.parent.mkdir(parents=True, exist_ok=True)
     except OSError:
         return contextlib.nullcontext()    # numba's save fails on its own, and says so
-    return _locked(lock.with_suffix(".lock"))
+    return _locked(lock)
+
+
+def _stamp():
+    """The file holding the digest of the kernel sources the cache was compiled from."""
+    return folders()[0] / _STAMP
+
+
+def _lock():
+    """The file whose lock the purge and every save take."""
+    return _stamp().with_suffix(".lock")
 
 
 class _locked:

@@ -66,16 +66,21 @@ def pull_points(xs, ys, zs, nt, s, n, eps2, ax, ay, az):
         sz = s[2, j]
         sm = s[3, j]
         for t in range(nt):
-            dx = sx - xs[t]
-            dy = sy - ys[t]
-            dz = sz - zs[t]
-            r2 = dx * dx + dy * dy + dz * dz + eps2
-            d3 = r2 * np.sqrt(r2)
-            # a select, not a branch, so the loop still vectorises; d3 == 0 is the coincident case
-            w = sm / d3 if d3 > zero else zero
-            ax[t] += w * dx
-            ay[t] += w * dy
-            az[t] += w * dz
+            tx, ty, tz = _term(sx - xs[t], sy - ys[t], sz - zs[t], sm, eps2, zero)
+            ax[t] += tx
+            ay[t] += ty
+            az[t] += tz
+
+
+@kernel(inline=True)
+def _term(dx, dy, dz, sm, eps2, zero):
+    """A source's term of a point's sum: w d, w = sm / (|d|^2 + eps2)^(3/2) for the source at
+    d from the point, zero (eps2's type) for a coincident one (a select, not a branch, so
+    the loops over it still vectorise)."""
+    r2 = dx * dx + dy * dy + dz * dz + eps2
+    d3 = r2 * np.sqrt(r2)
+    w = sm / d3 if d3 > zero else zero
+    return w * dx, w * dy, w * dz
 
 
 @kernel(lean=True, forceinline=True)
@@ -90,15 +95,11 @@ def pull_point(x, y, z, s, n, eps2):
     for j0 in range(0, n, SOURCES):
         m = min(SOURCES, n - j0)
         for j in range(m):
-            dx = s[0, j0 + j] - x
-            dy = s[1, j0 + j] - y
-            dz = s[2, j0 + j] - z
-            r2 = dx * dx + dy * dy + dz * dz + eps2
-            d3 = r2 * np.sqrt(r2)
-            w = s[3, j0 + j] / d3 if d3 > zero else zero
-            terms[0, j] = w * dx
-            terms[1, j] = w * dy
-            terms[2, j] = w * dz
+            tx, ty, tz = _term(s[0, j0 + j] - x, s[1, j0 + j] - y, s[2, j0 + j] - z,
+                               s[3, j0 + j], eps2, zero)
+            terms[0, j] = tx
+            terms[1, j] = ty
+            terms[2, j] = tz
         for j in range(m):
             gx += terms[0, j]
             gy += terms[1, j]
