@@ -10,6 +10,7 @@ entity kind with behaviour of its own touches this file, kernels/control.py and 
 """
 import dataclasses
 import math
+import operator
 
 import numpy as np
 
@@ -104,7 +105,7 @@ class Actors:
         self.w = world
         self.seed = seed
         self.specs = []                       # ExplosionSpecs, indexed by the explosion column
-        self._specs_hash = (None, 0, b"")     # (specs, their count, their repr): digest()
+        self._specs_hash = (None, 0, None, b"")  # (specs, count, curves, their bytes): digest()
         self.curves = np.zeros((0, 2))        # thrust curve rows (speed, factor)
         self.queued = []                      # launch events waiting for the next step
         self.plans = {}                       # ship id -> plan rows (k, plans.PLAN_WIDTH)
@@ -723,25 +724,28 @@ class Actors:
         return queued, plans_, list(self.specs), self.curves
 
     def digest(self, h):
-        """Feed what snapshot() keeps into hashlib's h (the explosion specs' hash is kept
-        while their list is the same)."""
+        """Feed what snapshot() keeps into hashlib's h (the bytes of the explosion specs and
+        thrust curves are kept while they are the same)."""
         if self.queued:
             h.update(np.array(self.queued, EVENT_DTYPE).tobytes())
         if self.plans:
             for ship in sorted(self.plans):
                 h.update(b"%d" % ship + self.plans[ship].tobytes())
-        specs, count, text = self._specs_hash
-        if specs is not self.specs or count != len(specs):       # the list only grows
-            text = repr(self.specs).encode()
-            self._specs_hash = (self.specs, len(self.specs), text)
+        specs, count, curves, text = self._specs_hash
+        # the list only grows; the curves are replaced, never changed in place
+        if specs is not self.specs or count != len(specs) or curves is not self.curves:
+            text = repr(self.specs).encode() + self.curves.tobytes()
+            self._specs_hash = (self.specs, len(self.specs), self.curves, text)
         h.update(text)
-        h.update(self.curves)
 
     def restore(self, snap):
         queued, plans_, specs, self.curves = snap
         self.queued = [] if queued is None else list(queued.copy())
         self.plans = {} if plans_ is None else {k: v.copy() for k, v in plans_.items()}
-        self.specs = list(specs)
+        # the same specs keep their list, and so digest()'s hash of it (a rollback restores
+        # and digests every frame)
+        if len(specs) != len(self.specs) or any(map(operator.is_not, specs, self.specs)):
+            self.specs = list(specs)
 
     def state(self):
         live = [rows for ship, rows in sorted(self.plans.items()) if ship in self.w]

@@ -61,15 +61,15 @@ class CollisionRules:
         """What moves with the tables kept (worldstate.Motion): the pairs in touch, and the
         launchers the tables' unarmed missiles still ignore (None without a collision
         table)."""
-        rules = None if plan is None else plan.rules
-        return self.touching(), None if rules is None else krules.owners_of(rules).copy()
+        owners = None if plan is None else plan.owners
+        return self.touching(), None if owners is None else owners.copy()
 
     def set_motion(self, motion, plan):
         """motion()'s into these rules and plan's table; False when the pairs in touch
         outgrew the table's array (the tables must be built again)."""
         touching, owners = motion
         if owners is not None:
-            krules.owners_of(plan.rules)[:] = owners
+            plan.owners[:] = owners
         return self.set_touching(touching)
 
     def caught_up(self, rules):

@@ -5,6 +5,8 @@ An id is (generation << 32) | slot. Removing a body bumps its slot's generation,
 turns stale and never names a later body; freed slots are reused first-in first-out, which keeps
 the slot table as large as the most bodies ever alive at once. First-generation ids are 0, 1, 2...
 """
+import hashlib
+
 import numpy as np
 
 from .kernels import digest as kdigest
@@ -266,10 +268,12 @@ class Bodies:
         order = sorted(layout[:-2], key=lambda f: f[0]) + list(layout[-2:])
         self._starts = np.array([f[3] for f in order], np.int64)
         self._row_bytes = np.array([f[4] // capacity for f in order], np.int64)
-        self._names = ",".join(f[0] for f in order).encode()
+        self._names = hashlib.blake2b(",".join(f[0] for f in order).encode(),
+                                      digest_size=8).digest()
 
     def digest(self, h):
-        """The finished 64-bit hash (kernels/digest.py) of hashlib's h with the columns' names,
+        """The finished 64-bit hash (kernels/digest.py) of hashlib's h with the columns' names
+        (hashed once per layout),
         then every live row of every column (in the names' order), the used id slots, the
         counters and the free slots mixed in: the rows past n are not part of it."""
         h.update(self._names)

@@ -290,7 +290,7 @@ class Plan:
     arguments. Rebuilt by World whenever the set of bodies or a setting the tables hold
     changes; arrays are shared with World, so values changed in place need no rebuild."""
     __slots__ = ("world", "state", "forces", "rules", "actors", "method", "alive", "work",
-                 "clocks", "until", "entries", "free", "rails", "special")
+                 "clocks", "until", "entries", "free", "rails", "special", "owners")
 
     def __init__(self, world, state, forces, rules, actors, method, alive, work, clocks=(),
                  until=None):
@@ -302,6 +302,7 @@ class Plan:
         self.free = np.zeros(0, np.int64)  # the rows integrated: neither fixed nor on rails
         self.rails = None                  # the bodies on rails' table (RailsArrays) or None
         self.special = False               # bodies on rails or coasting: driver._special
+        self.owners = None                 # (n,) int64: the rules table's owner array
 
     def call(self, kernel, frames, dt, nsteps, t0, label="the step"):
         args = (self.state, self.forces, self.rules, self.actors, frames, self.method,

@@ -1216,9 +1216,10 @@ class World:
         if rails is not None:          # a body on rails: no contact moves it
             immovable = immovable.copy()
             immovable[rails.rows] = True
+        owners = self._actors.owners()
         rules = self._collisions.table(b.kind[:n].astype(np.int64), b.radius[:n],
                                        b.category[:n], b.mask[:n], editing.optional(self, editing.GROUP),
-                                       immovable, self._actors.owners(), self._dim,
+                                       immovable, owners, self._dim,
                                        b.index, scratch, *self._shape_columns(n))
         kactors = self._actors.table(actors)
         clocks = ((self._actors.clock,) if kactors is not None else ()) + \
@@ -1231,6 +1232,7 @@ class World:
         plan.free = np.flatnonzero(moving)
         plan.rails = rails
         plan.special = rails is not None or self._forces.rails.active
+        plan.owners = None if rules is None else owners     # the table's own (shared)
         self._plan = plan
         measures.check_precision(self, b.pos[:n, :self._dim])
         return plan

@@ -28,7 +28,6 @@ from typing import Any, Callable
 import numpy as np
 
 from .collisions import CollisionRules
-from .kernels import rules as krules
 from .events import EVENT_DTYPE, upgrade
 from .forces import ForceField
 from .integrators import get_integrator
@@ -195,7 +194,8 @@ class Motion:
 
 # ---------------------------------------------------------------- snapshots
 MOVING = tuple(p for p in WORLD if p.moves)
-# the moving numbers and arrays as World's attributes, for digest
+# the moving numbers and arrays as World's attributes, read and set directly by snapshots and
+# digest (a duel's rollback takes, restores and digests one every frame)
 _NUMBERS = tuple(p.attr for p in MOVING if p.attr and not p.array)
 _NUMBERS_FORMAT = "<%dd" % len(_NUMBERS)
 _numbers = operator.attrgetter(*_NUMBERS)
@@ -293,8 +293,8 @@ class Snapshot:
     Opaque but for `t` (the World's time when taken) and `version` (spacephys's)."""
 
     __slots__ = ("owner", "version", "t", "setup", "plan", "events_buffer", "touch_buffer",
-                 "block", "bodies", "world", "events", "drag", "touch", "owners", "actors", "carried",
-                 "watch")
+                 "block", "bodies", "numbers", "arrays", "others", "events", "drag", "touch",
+                 "owners", "actors", "carried", "watch")
 
     def __reduce__(self):
         raise TypeError("a snapshot lives in memory, for the World it was taken of: "
@@ -309,13 +309,15 @@ class Snapshot:
         s.events_buffer, s.touch_buffer = w._events, w._collisions.touch
         s.block = w._b.block                 # the arrays the tables taken here point into
         s.bodies = w._b.snapshot()
-        s.world = [p.get(w) for p in MOVING]
+        # World's moving pieces: its numbers in one call, copies of its arrays
+        s.numbers = _numbers(w)
+        s.arrays = [getattr(w, a).copy() for a in _ARRAYS]
+        s.others = [p.get(w) for p in _OTHERS]
         # as bytes: numpy copies a structured array field by field (4 us for a few events)
-        s.events = w._events.view(np.uint8)[:w._event_count[0] * w._events.itemsize].copy()
+        s.events = w._events[:w._event_count[0]].tobytes()
         s.drag = w._forces.motion()
         s.touch = w._collisions.touching()
-        s.owners = None if plan is None or plan.rules is None else \
-            krules.owners_of(plan.rules).copy()
+        s.owners = None if plan is None or plan.owners is None else plan.owners.copy()
         s.actors = w._actors.snapshot()
         s.carried = w._stepper.state()
         s.watch = w._watch
@@ -338,14 +340,20 @@ class Snapshot:
         if not same_setup:
             self.setup.put(w)
         in_place = w._b.restore(self.bodies)
-        for p, value in zip(MOVING, self.world):
+        for name, value in zip(_NUMBERS, self.numbers):
+            setattr(w, name, value)          # taken from w: of the types its pieces set
+        for name, value in zip(_ARRAYS, self.arrays):
+            np.copyto(getattr(w, name), value)
+        for p, value in zip(_OTHERS, self.others):
             p.set(w, value)
-        k = self.events.size // w._events.itemsize
-        if k <= w._events.size:
-            w._events.view(np.uint8)[:self.events.size] = self.events
-            w._event_count[0] = k
+        size = len(self.events)
+        k = size // w._events.itemsize
+        if k > w._events.size:
+            WORLD[-1].set(w, np.frombuffer(self.events, w._events.dtype))
         else:
-            WORLD[-1].set(w, self.events.view(w._events.dtype))
+            if k:
+                w._events.view(np.uint8)[:size] = np.frombuffer(self.events, np.uint8)
+            w._event_count[0] = k
         held = w._forces.set_motion(self.drag)
         fits = w._collisions.set_touching(self.touch) and held
         w._actors.restore(self.actors)
@@ -360,7 +368,7 @@ class Snapshot:
                 w._collisions.touch is self.touch_buffer:
             plan.alive[:] = True
             if self.owners is not None:
-                krules.owners_of(plan.rules)[:] = self.owners
+                plan.owners[:] = self.owners
             w._plan = plan
         else:
             w._plan = None

@@ -207,6 +207,15 @@ def test_a_torpedo_that_armed_and_hit_after_the_snapshot_is_unarmed_again():
     assert _back_and_on(w, 30, 30).count(ev.DESTROY) == 2 and w.n == 0     # one each
 
 
+def test_an_explosion_spec_added_after_the_snapshot_is_gone_again():
+    w, ships = _duel()
+    _play(w, ships, 0, 4)
+    specs, snap, before = w.state()["actors"]["explosions"], w.snapshot(), w.digest()
+    w.set_body(ships[0], explosion=sp.ExplosionSpec(count=5))    # a spec not seen before
+    w.restore(snap)
+    assert w.state()["actors"]["explosions"] == specs and w.digest() == before
+
+
 def test_pairs_in_touch_come_back():
     # two sensors overlap at the snapshot and part after it: they part again, once
     w = sp.World(2, dt=0.01)
@@ -333,7 +342,7 @@ def test_a_digest_is_the_same_in_another_process():
 
 
 @pytest.mark.parametrize("where", ["pos", "vel", "mass", "kind", "fuel", "generation",
-                                   "t", "touch", "setting", "queued"])
+                                   "t", "touch", "setting", "queued", "curves", "specs"])
 def test_one_changed_bit_changes_the_digest(where):
     w, ships = _duel()
     _play(w, ships, 0, 8)
@@ -352,6 +361,10 @@ def test_one_changed_bit_changes_the_digest(where):
         w._collisions.set_touching(np.array([[int(ships[0]), int(ships[1]), 0]]))
     elif where == "setting":
         w.set_collision("debris", "debris", "merge")
+    elif where == "curves":                  # replaced after their bytes were kept
+        w._actors.curves = np.vstack([w._actors.curves, [[1.0, 0.5]]])
+    elif where == "specs":                   # grown after their bytes were kept
+        w._actors.specs.append(sp.ExplosionSpec(count=3))
     else:
         w.launch(ships[0], TORPEDO, target=ships[1])
         d = w.digest()                       # the launch event waits for the next step

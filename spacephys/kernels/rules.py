@@ -63,12 +63,6 @@ structref.define_proxy(Rules, RulesType, list(FIELDS))
 
 
 @kernel
-def owners_of(rules):
-    """The table's owner array (shared): a prediction's copy takes the World's."""
-    return rules.owner
-
-
-@kernel
 def _make(*fields):
     return Rules(*fields)
 
