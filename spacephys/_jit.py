@@ -399,6 +399,26 @@ def implements(stub, fn, when, **options):
     return choose
 
 
+def _borrowed_data(context, builder, utils, value):
+    """The data struct of structref `value` in a kernel compiled without the runtime (lean):
+    the meminfo's data pointer read as the runtime's own inline accessor reads it (the
+    fourth field, NRT_MemInfo_data_fast), so that a lean kernel can take a table whole, a
+    pointer through a call, and read it itself, borrowed from its caller."""
+    meminfo = builder.bitcast(utils.get_struct_ref(value).meminfo,
+                              _MEMINFO.as_pointer())
+    data = builder.load(cgutils.gep(builder, meminfo, 0, 3))
+    model = context.data_model_manager[utils.struct_type.get_data_type()]
+    data = builder.bitcast(data, model.get_value_type().as_pointer())
+    return cgutils.create_struct_proxy(utils.struct_type.get_data_type())(
+        context, builder, ref=data)
+
+
+# the runtime's MemInfo: refct, dtor, dtor_info, data, size (numba/core/runtime/nrtdynmod.py)
+_MEMINFO = ir.LiteralStructType([ir.IntType(64), ir.IntType(8).as_pointer(),
+                                 ir.IntType(8).as_pointer(), ir.IntType(8).as_pointer(),
+                                 ir.IntType(64)])
+
+
 @intrinsic
 def read(typingctx, table, arrays):
     """arrays(table.f for f in arrays' fields): the fields of the structref `table` that the
@@ -411,7 +431,11 @@ def read(typingctx, table, arrays):
     sig = out(table, arrays)
 
     def codegen(context, builder, sig, args):
-        data = _Utils(context, builder, sig.args[0]).get_data_struct(args[0])
+        utils = _Utils(context, builder, sig.args[0])
+        if context.enable_nrt:
+            data = utils.get_data_struct(args[0])
+        else:
+            data = _borrowed_data(context, builder, utils, args[0])
         values = []
         for name, ty in zip(cls._fields, tys):
             value = getattr(data, name)

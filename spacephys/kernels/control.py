@@ -35,7 +35,7 @@ from .codes import (BURN_ANTINORMAL, BURN_NORMAL, BURN_PROGRADE, BURN_RADIAL_IN,
                     BURN_RETROGRADE, BURN_VECTOR, EV_BURNOUT, EV_DETONATION, EV_EXPIRY,
                     EV_FUEL_EMPTY, NO_GUIDANCE, PURSUIT)
 from .rules import wrap
-from .state import record
+from .state import hoist as state_arrays, record
 from . import libm
 from .rotations import normalised, qexp, qmul, rotate
 
@@ -327,12 +327,13 @@ def next_stop(actors, burn, after):
 
 
 @kernel(lean=True, by_address=True, returns=types.none)
-def begin_step(ht, t0, dt, L):
+def begin_step(table, owner, actors, t0, dt, L):
     """Arm fuses (the collision table's owners), keep every actor's orientation (for
     undo_turns), turn every live actor over the step and set its burn in burn (see the
-    module). ht : step.hoist's tuple; L : 3-tuple, the periods of a wrapping boundary (zeros:
-    none)."""
-    state, owner, act = ht.state, ht.owner, ht.actors
+    module). table, actors : the State and Actors tables, whole (through the slot a table
+    is a pointer; its arrays, hoisted, would be hundreds of arguments: 50 ns a step);
+    owner : step.hoist's; L : 3-tuple, the periods of a wrapping boundary (zeros: none)."""
+    state, act = state_arrays(table), hoist(actors)
     actors = act.actors
     alive = state.alive
     pos, vel, mass, burn = state.pos, state.vel, state.mass, act.burn
@@ -600,11 +601,12 @@ def flush(state, ht, m, t0):
 
 
 @kernel(lean=True, by_address=True, returns=types.Tuple((types.bool_, types.int64)))
-def after_step(ht, t0, dt, L):
+def after_step(table, actors, t0, dt, L):
     """Proximity fuses (the closest approach along both bodies' straight lines over the step)
-    and lifetimes, their events into the pending rows. Returns (a body died (World must
-    remove it, and may spawn its explosion), pending rows written)."""
-    state, act = ht.state, ht.actors
+    and lifetimes, their events into the pending rows (table, actors: as begin_step's).
+    Returns (a body died (World must remove it, and may spawn its explosion), pending rows
+    written)."""
+    state, act = state_arrays(table), hoist(actors)
     pending = act.pending
     alive = state.alive
     pos0, pos = state.pos0, state.pos

@@ -155,7 +155,7 @@ def begin(state, rules, actors, ht, t0, dt, keep, last):
     _keep(ht, keep or ht.starts, last)       # the start state: for an undo, or ht.starts
     if actors is not None:
         _keep_orientations(rules)
-        begin_step(ht, t0, dt, periods(rules))
+        begin_step(state, ht.owner, actors, t0, dt, periods(rules))
 
 
 @kernel
@@ -189,7 +189,7 @@ def end(state, rules, actors, ht, t0, dt):
     if rules is not None:
         removed = collide_step(state, rules, dt, t0) == BODIES_GONE
     if actors is not None:
-        died, m = after_step(ht, t0, dt, periods(rules))
+        died, m = after_step(state, actors, t0, dt, periods(rules))
         if m:
             flush(state, ht, m, t0)
         removed = removed or died

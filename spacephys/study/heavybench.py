@@ -137,9 +137,9 @@ def split(w, repeats=3):
             p = w.copy().tables()
             ht = kstep.hoist(p.state, p.rules, p.actors)
             start = time.perf_counter()
-            control.begin_step(ht, w.t, w.dt, (0.0, 0.0, 0.0))
+            control.begin_step(p.state, ht.owner, p.actors, w.t, w.dt, (0.0, 0.0, 0.0))
             control.end_burn(ht, w.t, w.dt)
-            control.after_step(ht, w.t, w.dt, (0.0, 0.0, 0.0))
+            control.after_step(p.state, p.actors, w.t, w.dt, (0.0, 0.0, 0.0))
             return time.perf_counter() - start
         out["guidance_ms"] = best(guide)
     else:
