@@ -92,6 +92,33 @@ def test_each_points_sum_runs_in_source_order(rng, dtype, nt, ns):
         assert [dtype(v).tobytes() for v in one] == want, t
 
 
+@pytest.mark.parametrize("nt", [2, 4, 5, 6, 7, 13, 64, 70])
+def test_a_chunks_points_get_their_own_sums_whatever_their_number(rng, nt):
+    """gravity._pull_each: each target's pull is G times its plain sum in source order, bit
+    for bit, and no other row is written, however many targets the last chunk holds (a
+    last vector of 5-7 is filled up with points that are computed and dropped)."""
+    n, ns = nt + 3, 9
+    pos = rng.normal(size=(n, 3))
+    s = np.zeros((4, ns))
+    s[:3] = rng.normal(size=(3, ns))
+    s[3] = rng.uniform(0.1, 2.0, ns)
+    targets = np.arange(1, nt + 1, dtype=np.int64)      # rows 0, nt + 1.. are not targets
+    out = np.full((n, 3), 7.0)
+    G, eps2 = 1.3, 0.01
+    gravity._pull_each(targets, pos, s, G, eps2, out)
+    for k in range(n):
+        if k not in targets:
+            assert (out[k] == 7.0).all(), k
+            continue
+        want = [0.0] * 3
+        for j in range(ns):
+            d = [s[c, j] - pos[k, c] for c in range(3)]
+            r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + eps2
+            w = s[3, j] / (r2 * np.sqrt(r2))
+            want = [want[c] + w * d[c] for c in range(3)]
+        assert out[k].tobytes() == np.array([G * v for v in want]).tobytes(), k
+
+
 @pytest.mark.parametrize("nb", range(1, 13))
 def test_the_rounds_of_block_pairs_take_each_pair_once(nb):
     """pairs.round_pair: every pair of distinct blocks in exactly one round, and no block

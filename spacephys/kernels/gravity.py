@@ -183,8 +183,16 @@ def _pull_chunk(targets, a, pos, s, G, eps2, out):
         rows[3, t] = 0.0
         rows[4, t] = 0.0
         rows[5, t] = 0.0
-    pairs.pull_points(rows[0], rows[1], rows[2], nt, s, s.shape[1], eps2, rows[3], rows[4],
-                      rows[5])
+    # a last vector of 5-7 points filled up with points at the origin (their sums unread):
+    # the vectorised loop then takes it, where it would step them one at a time
+    full = nt
+    if nt % pairs.GROUP >= 5:
+        full = (nt + pairs.GROUP - 1) // pairs.GROUP * pairs.GROUP
+    for t in range(nt, full):
+        for c in range(6):
+            rows[c, t] = 0.0
+    pairs.pull_points(rows[0], rows[1], rows[2], full, s, s.shape[1], eps2, rows[3],
+                      rows[4], rows[5])
     for t in range(nt):
         k = targets[a + t]
         out[k, 0] = G * rows[3, t]
