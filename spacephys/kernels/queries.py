@@ -660,6 +660,28 @@ def _to(cur, reach, n, period):
     return n - 1 if reach >= n else min(cur + reach, n - 1)
 
 
+@kernel(inline=True)
+def _tight(o, d, ta, tb, rmax, origin, cell, cur, reach, n, period):
+    """The walk cells on one axis (first, last) of the neighbourhood cur +- reach (_from,
+    _to) whose cells, grown by rmax, the ray's stretch ta..tb meets: a body that touches the
+    stretch has its centre within rmax of it (with a margin for the roundings). Where the
+    largest radius is much smaller than a cell, a stretch away from a face needs its own
+    cell alone (in 3D 1 of 27)."""
+    first = _from(cur, reach, n, period)
+    last = _to(cur, reach, n, period)
+    xa = o + ta * d if d != 0.0 else o
+    xb = o + tb * d if d != 0.0 else o
+    lo, hi = min(xa, xb), max(xa, xb)
+    slack = 1e-9 * cell + 1e-12 * (abs(lo) + abs(hi) + abs(origin) + rmax)
+    a = (lo - rmax - slack - origin) / cell
+    b = (hi + rmax + slack - origin) / cell
+    if a > first:                 # (false for NaN: the whole neighbourhood)
+        first = int(math.floor(min(a, last + 1.0)))
+    if b < last:
+        last = int(math.floor(max(b, first - 1.0)))
+    return first, last
+
+
 @kernel(lean=True)
 def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch, mark,
          out_rows, out_t, cap, wanted):
@@ -736,6 +758,8 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
     s0, s1, s2 = step[0], step[1], step[2]
     u0, u1, u2 = tnext[0], tnext[1], tnext[2]
     e0, e1, e2 = tdelta[0], tdelta[1], tdelta[2]
+    g0, g1, g2 = origin[0], origin[1], origin[2]
+    w0, w1, w2 = cell[0], cell[1], cell[2]
     n = 0
     best = np.inf
     t_cell = t0
@@ -744,15 +768,20 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
         # of the cell that point is in: past the nearest meeting, nothing nearer is left
         if first and n and best < t_cell:
             break
-        for ax in range(_from(c0, r0, n0, p0), _to(c0, r0, n0, p0) + 1):
+        # the cells near enough to this cell's stretch of the ray, t_cell .. its exit
+        t_out = min(min(u0, u1), min(u2, t1))
+        a0, b0 = _tight(o0, d0, t_cell, t_out, rmax, g0, w0, c0, r0, n0, p0)
+        a1, b1 = _tight(o1, d1, t_cell, t_out, rmax, g1, w1, c1, r1, n1, p1)
+        a2, b2 = _tight(o2, d2, t_cell, t_out, rmax, g2, w2, c2, r2, n2, p2)
+        for ax in range(a0, b0 + 1):
             ix, sx = _axis_cell(ax, n0, p0)
             if ix < 0:
                 continue
-            for ay in range(_from(c1, r1, n1, p1), _to(c1, r1, n1, p1) + 1):
+            for ay in range(a1, b1 + 1):
                 iy, sy = _axis_cell(ay, n1, p1)
                 if iy < 0:
                     continue
-                for az in range(_from(c2, r2, n2, p2), _to(c2, r2, n2, p2) + 1):
+                for az in range(a2, b2 + 1):
                     iz, sz = _axis_cell(az, n2, p2)
                     if iz < 0:
                         continue
