@@ -672,7 +672,8 @@ def _tight(o, d, ta, tb, rmax, origin, cell, cur, reach, n, period):
     xa = o + ta * d if d != 0.0 else o
     xb = o + tb * d if d != 0.0 else o
     lo, hi = min(xa, xb), max(xa, xb)
-    slack = 1e-9 * cell + 1e-12 * (abs(lo) + abs(hi) + abs(origin) + rmax)
+    # (o + t d is rounded to about the size of o and t d, |t d| <= |x| + |o|)
+    slack = 1e-9 * cell + 1e-12 * (abs(lo) + abs(hi) + abs(o) + abs(origin) + rmax)
     a = (lo - rmax - slack - origin) / cell
     b = (hi + rmax + slack - origin) / cell
     if a > first:                 # (false for NaN: the whole neighbourhood)
