@@ -273,9 +273,9 @@ class Bodies:
 
     def digest(self, h):
         """The finished 64-bit hash (kernels/digest.py) of hashlib's h with the columns' names
-        (hashed once per layout),
-        then every live row of every column (in the names' order), the used id slots, the
-        counters and the free slots mixed in: the rows past n are not part of it."""
+        (hashed once per layout), then every live row of every column (in the names' order),
+        the used id slots, the counters and the free slots mixed in: the rows past n are not
+        part of it."""
         h.update(self._names)
         return _rows(int.from_bytes(h.digest(), "little"), self._words, self._starts,
                      self._row_bytes, self.n, 2, self.slots_used, self.added, self.free)

@@ -152,20 +152,22 @@ def _pull_threaded(targets, pos, s, G, eps2, out):
     nc = (targets.size + pairs.CHUNK - 1) // pairs.CHUNK
     for c in numba.prange(nc):
         # (a prange index is unsigned: as int64, _pull_chunk is compiled once)
-        _pull_chunk(targets, np.int64(c) * pairs.CHUNK, pos, s, G, eps2, out)
+        _pull_chunk(targets, np.int64(c) * pairs.CHUNK, pos, s, G, eps2, out, False)
 
 
 @kernel(lean=True, forceinline=True)
 def _pull_each(targets, pos, s, G, eps2, out):
     """_pull_threaded on the calling thread, bit for bit the same."""
     for a in range(0, targets.size, pairs.CHUNK):
-        _pull_chunk(targets, a, pos, s, G, eps2, out)
+        _pull_chunk(targets, a, pos, s, G, eps2, out, True)
 
 
 @kernel(lean=True, forceinline=True)
-def _pull_chunk(targets, a, pos, s, G, eps2, out):
+def _pull_chunk(targets, a, pos, s, G, eps2, out, pad):
     """out[k] = G * the pull of the sources s on pos[k] for k in targets[a : a + CHUNK],
-    the chunk's points summed side by side (pairs.pull_points)."""
+    the chunk's points summed side by side (pairs.pull_points). pad: a last vector of 5-7
+    points filled up (below; the same bits): on one thread, for scenes of a few bodies; the
+    threaded sums, whose chunks are full but the last, compile without it."""
     nt = min(pairs.CHUNK, targets.size - a)
     if nt == 1:                             # a ship among planets: its sum alone
         k = targets[a]
@@ -186,7 +188,7 @@ def _pull_chunk(targets, a, pos, s, G, eps2, out):
     # a last vector of 5-7 points filled up with points at the origin (their sums unread):
     # the vectorised loop then takes it, where it would step them one at a time
     full = nt
-    if nt % pairs.GROUP >= 5:
+    if pad and nt % pairs.GROUP >= 5:
         full = (nt + pairs.GROUP - 1) // pairs.GROUP * pairs.GROUP
     for t in range(nt, full):
         for c in range(6):
