@@ -160,7 +160,7 @@ class _Memory:
     held (a copy starts with none)."""
 
     def __init__(self):
-        self.basis = (np.empty((0, 3)), np.empty(0), np.empty(0, np.int64))
+        self.basis = (np.empty((0, 3)), np.empty(0))
         self.all_rows = np.empty(0, np.int64)
         self.lent = []           # the memory of the grids in driver.grids
         self.spare = []          # memory no grid uses
@@ -170,15 +170,12 @@ class _Memory:
         self.spare += self.lent
         self.lent = []
 
-    def copies(self, pos, radius, ids):
-        """(pos, radius, ids) copied into the basis buffers (grown when short)."""
-        n = pos.shape[0]
+    def bases(self, n):
+        """The basis buffers' first n rows ((n, 3), (n,); grown when short), for kq.grid to
+        copy pos and radius into."""
         if self.basis[0].shape[0] < n:
-            self.basis = (np.empty((n, 3)), np.empty(n), np.empty(n, np.int64))
-        out = tuple(b[:n] for b in self.basis)
-        for b, col in zip(out, (pos, radius, ids)):
-            np.copyto(b, col)
-        return out
+            self.basis = (np.empty((n, 3)), np.empty(n))
+        return self.basis[0][:n], self.basis[1][:n]
 
     def rows(self, n):
         """(n,) int64: 0 .. n - 1."""
@@ -186,43 +183,48 @@ class _Memory:
             self.all_rows = np.arange(n, dtype=np.int64)
         return self.all_rows[:n]
 
-    def grid(self, pos, radius, rows, lo, period, hint):
+    def grid(self, pos, radius, rows, lo, period, hint, bpos, bradius):
         """kq.grid in spare memory, the memory then lent to it."""
         g, held = kq.grid(pos, radius, rows, lo, period, hint,
-                          self.spare.pop() if self.spare else kq.NO_MEMORY)
+                          self.spare.pop() if self.spare else kq.NO_MEMORY, bpos, bradius)
         self.lent.append(held)
         return g
 
 
-def _grid(world, hint, pos, radius, ids, lo, period):
+def _grid(world, hint, pos, radius, lo, period):
     """The grid of every live body (kernels/queries.grid) for queries that reach about
     `hint` (its cells at least that wide; 0: about a body a cell): built when a query first
-    needs it, kept by the World's driver while the positions, radii, ids and box it was built
-    from hold, one per factor of 2 in hint; built in the memory of the grids dropped before
-    (_Memory). pos, radius, ids: _state(world); lo, period: _box(world)."""
+    needs it, kept by the World's driver while the positions, radii and box it was built from
+    hold, one per factor of 2 in hint; built in the memory of the grids dropped before
+    (_Memory). pos, radius: _state(world); lo, period: _box(world). The ids are not part of
+    it: a grid holds rows, which each search names by the ids of the moment."""
     kept = world.driver.grids
     basis = kept.get("basis")
     box = lo.tobytes() + period.tobytes()
     if world.driver.grid_memory is None:
         world.driver.grid_memory = _Memory()
     memory = world.driver.grid_memory
-    if basis is None or not (basis[3] == box and kq.unchanged(pos, radius, ids, *basis[:3])):
+    fresh = basis is None or not (basis[2] == box and kq.unchanged(pos, radius, *basis[:2]))
+    if fresh:
         kept.clear()
         memory.drop()
-        kept["basis"] = memory.copies(pos, radius, ids) + (box,)
     # one grid per factor of 2 in hint (inf: a key too)
     key = None if not hint > 0.0 else math.inf if hint == math.inf else \
         math.floor(math.log2(hint))
     g = kept.get(key)
-    if g is None:
-        g = kept[key] = memory.grid(pos, radius, memory.rows(world.n), lo, period, float(hint))
+    if g is None:            # a fresh basis: this grid's build copies pos and radius into it
+        bases = memory.bases(world.n) if fresh else kq.NO_BASIS
+        g = kept[key] = memory.grid(pos, radius, memory.rows(world.n), lo, period,
+                                    float(hint), *bases)
+        if fresh:
+            kept["basis"] = bases + (box,)
     return g
 
 
 def _grid_once(pos, radius, rows, lo, period, hint):
     """kq.grid in new memory, for a grid one call uses and drops (a compound body's
     circles)."""
-    return kq.grid(pos, radius, rows, lo, period, hint, kq.NO_MEMORY)[0]
+    return kq.grid(pos, radius, rows, lo, period, hint, kq.NO_MEMORY, *kq.NO_BASIS)[0]
 
 
 def _box(world):
@@ -333,7 +335,7 @@ def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=N
         q, hits, dist = _bodies(x, offsets, hits, dist)
         return Hits(np.searchsorted(q, np.arange(c.shape[0] + 1)).astype(np.int64),
                     x.ident[hits], dist)
-    g = _grid(world, hint, pos, radius, ids, lo, period)
+    g = _grid(world, hint, pos, radius, lo, period)
     offsets, hits, dist = kq.overlaps(g, pos, radius, ids, _wanted(world, rows), period, c,
                                       reach, _NO_HALF, 0)
     return Hits(offsets, ids[hits], dist)
@@ -372,7 +374,7 @@ def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
             q, hits, dist = q[order], hits[order], dist[order]
         return Hits(np.searchsorted(q, np.arange(a.shape[0] + 1)).astype(np.int64),
                     x.ident[hits], dist)
-    g = _grid(world, _mean((b - a).sum(axis=1) / 2), pos, radius, ids, box_lo, period)
+    g = _grid(world, _mean((b - a).sum(axis=1) / 2), pos, radius, box_lo, period)
     offsets, hits, dist = kq.overlaps(g, pos, radius, ids, _wanted(world, rows), period,
                                       0.5 * (a + b), np.zeros(a.shape[0]), 0.5 * (b - a), 1)
     return Hits(offsets, ids[hits], dist)
@@ -389,7 +391,7 @@ def nearest(world, points, k=1, kinds=None, mask=None, ignore=None, filter=None)
     x = _circles(world, rows)
     if x is not None:
         return _nearest_bodies(x, lo, period, p, k)
-    g = _grid(world, 0.0, pos, radius, ids, lo, period)
+    g = _grid(world, 0.0, pos, radius, lo, period)
     hits, dist = kq.nearest(g, pos, radius, ids, _wanted(world, rows), period, p, k)
     out = np.where(hits >= 0, ids[np.maximum(hits, 0)], -1) if ids.size else hits
     return out, dist
@@ -593,7 +595,7 @@ def _cast(world, o, d, tmax, extra, skip, rows, first, walls):
         body = _cast_circles(x, lo, period, o, d, tmax, extra, skip, first)
     else:
         # cells about as wide as the moving circles: their neighbourhoods stay a few cells
-        g = _grid(world, _mean(extra), pos, radius, ids, lo, period)
+        g = _grid(world, _mean(extra), pos, radius, lo, period)
         offsets, hits, t = kq.raycasts(g, pos, radius, ids, _wanted(world, rows), period, o,
                                        d, tmax, extra, skip, first)
         ray, point, normal = kq.surfaces(pos, period, o, d, offsets, hits, t)

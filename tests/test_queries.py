@@ -626,8 +626,9 @@ def _answers(w, centres, dirs):
 
 def test_the_grid_queries_share_is_dropped_when_anything_changes():
     """Queries between two steps share one grid (queries._grid); after a step, an added,
-    removed, moved or resized body, or a new boundary, every answer is a fresh World's
-    (a copy, which builds its own grid)."""
+    removed, moved or resized body, a body replaced by another in its row and place (the grid
+    kept: it holds rows, named by the ids of the moment), or a new boundary, every answer is a
+    fresh World's (a copy, which builds its own grid)."""
     rng = np.random.default_rng(4)
     w = sp.World(2, gravity="none", dt=0.5)
     for _ in range(300):
@@ -635,10 +636,19 @@ def test_the_grid_queries_share_is_dropped_when_anything_changes():
                    kind="asteroid" if rng.random() < 0.5 else "debris")
     centres = rng.uniform(0, 40, (12, 2))
     dirs = rng.normal(size=(12, 2))
+    w.add_body(1.0, centres[2] + 0.1, radius=0.3)        # the last row, found from centres[2]
     first = _answers(w, centres, dirs)
+    kept = dict(w.driver.grids)
     assert _answers(w, centres, dirs) == first           # the same grid, the same answers
+    assert all(w.driver.grids[key] is grid for key, grid in kept.items())   # not rebuilt
     assert "basis" in w.driver.grids
-    changes = [lambda: w.step(1),
+    def replace_last():          # another body in the same row, with the same bits of pos
+        pos, radius = w.pos[-1].copy(), float(w.radius[-1])
+        w.remove(w.ids[-1])
+        w.add_body(1.0, pos, radius=radius)
+        assert np.array_equal(w.pos[-1], pos)
+
+    changes = [lambda: w.step(1), replace_last,
                lambda: w.add_body(1.0, centres[0] + 0.5, radius=0.3),
                lambda: w.remove(w.ids[:3]),
                lambda: w.set_body(int(w.ids[10]), pos=centres[1] + 0.2),
