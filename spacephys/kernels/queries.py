@@ -329,8 +329,9 @@ def _range(x, reach, origin, cell, ncell, period):
 @kernel(lean=True)
 def _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query, ids_out, dist_out,
            base, wanted):
-    """Count (ids_out empty) or write the hits of query q: the gridded bodies within reach of
-    its cells, then the giants. Lean (no reference counts: it allocates nothing): called
+    """Count (ids_out empty) or write the hits of query q at base in ids_out, dist_out (which
+    hold room for them only, or free room past them: _test): the gridded bodies within reach
+    of its cells, then the giants. Lean (no reference counts: it allocates nothing): called
     twice per query, its arrays' counts cost more than its work (11.3 -> 7.5 ms for 10^4
     queries). kind_of_query 0: within radius reach[q]; 1: overlapping the
     box centres[q] +- half[q]. Returns the hit count."""
@@ -344,34 +345,39 @@ def _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query, ids_o
                     period[1])
     z0, z1 = _range(z, (half[q, 2] if box else r) + rmax, origin[2], cell[2], ncell[2],
                     period[2])
+    # the box's period and the mask's emptiness in scalars, read once (10^4 queries: a
+    # thread's visits 2.75 -> 2.48 ms)
+    p0, p1, p2 = period[0], period[1], period[2]
+    every = wanted.size == 0
     n = 0
     for cx in range(x0, x1 + 1):
-        ix = cx % ncell[0] if period[0] > 0.0 else cx
+        ix = cx % ncell[0] if p0 > 0.0 else cx
         if ncell[2] == 1:            # the cells (ix, y0..y1) lie side by side: one run
-            n = _run(gpos, grad, start, items, ix * ncell[1], y0, y1, ncell[1], period[1],
-                     q, centres, r, half, period, kind_of_query, ids_out, dist_out, base, n,
-                     wanted)
+            n = _run(gpos, grad, start, items, ix * ncell[1], y0, y1, ncell[1], p1, x, y, z,
+                     r, p0, p1, p2, q, centres, half, period, kind_of_query, ids_out,
+                     dist_out, base, n, every, wanted)
             continue
         for cy in range(y0, y1 + 1):
-            iy = cy % ncell[1] if period[1] > 0.0 else cy
+            iy = cy % ncell[1] if p1 > 0.0 else cy
             n = _run(gpos, grad, start, items, (ix * ncell[1] + iy) * ncell[2], z0, z1,
-                     ncell[2], period[2], q, centres, r, half, period, kind_of_query, ids_out,
-                     dist_out, base, n, wanted)
+                     ncell[2], p2, x, y, z, r, p0, p1, p2, q, centres, half, period,
+                     kind_of_query, ids_out, dist_out, base, n, every, wanted)
     for e in range(giants.size):
-        if _unwanted(wanted, giants[e]):
-            continue
-        n = _test(pos, radius, giants[e], giants[e], q, centres, r, half, period,
-                  kind_of_query, ids_out, dist_out, base, n)
+        i = giants[e]
+        if every or wanted[i]:
+            n = _test(pos, radius, i, i, x, y, z, r, p0, p1, p2, q, centres, half, period,
+                      kind_of_query, ids_out, dist_out, base, n)
     return n
 
 
 @kernel(inline=True)
-def _run(gpos, grad, start, items, base, a, b, ncell, wrap, q, centres, r, half, period,
-         kind_of_query, ids_out, dist_out, first, n, wanted):
+def _run(gpos, grad, start, items, base, a, b, ncell, wrap, x, y, z, r, p0, p1, p2, q,
+         centres, half, period, kind_of_query, ids_out, dist_out, first, n, every, wanted):
     """_test of the bodies of cells base + a .. base + b, which lie side by side in the grid
     (the last axis's cells a..b, wrapped when the axis is periodic: then in two runs across
-    the seam, the second empty otherwise): one loop over their bodies, not one per cell, whose few bodies each made
-    the loop's end a branch mispredicted. Returns the hit count."""
+    the seam, the second empty otherwise): one loop over their bodies, not one per cell,
+    whose few bodies each made the loop's end a branch mispredicted. Returns the hit
+    count."""
     a1, b1, b2 = a, b, -1                   # the runs a1..b1 and 0..b2
     if wrap > 0.0 and (a < 0 or b >= ncell):
         a1 = a % ncell
@@ -382,28 +388,34 @@ def _run(gpos, grad, start, items, base, a, b, ncell, wrap, q, centres, r, half,
         lo_e = start[base + (a1 if part == 0 else 0)]
         hi_e = start[base + (b1 if part == 0 else b2) + 1]
         for e in range(lo_e, hi_e):
-            if _unwanted(wanted, items[e]):
-                continue
-            n = _test(gpos, grad, e, items[e], q, centres, r, half, period, kind_of_query,
-                      ids_out, dist_out, first, n)
+            if every or wanted[items[e]]:
+                n = _test(gpos, grad, e, items[e], x, y, z, r, p0, p1, p2, q, centres, half,
+                          period, kind_of_query, ids_out, dist_out, first, n)
     return n
 
 
 @kernel(inline=True)
-def _test(pos, radius, i, row, q, centres, r, half, period, kind_of_query, ids_out, dist_out,
-          base, n):
-    """Body i of pos, radius (row `row` of the World) against query q: written at base + n
-    when it is a hit and ids_out has room there; returns the hits so far."""
+def _test(pos, radius, i, row, x, y, z, r, p0, p1, p2, q, centres, half, period,
+          kind_of_query, ids_out, dist_out, base, n):
+    """Body i of pos, radius (row `row` of the World) against query q (at x, y, z; reach r;
+    p0, p1, p2 the box's period): written at base + n when it is a hit and ids_out has room
+    there; returns the hits so far. A radius query writes every body it tests there (the
+    next overwrites a miss: ids_out must hold only this query's hits and free room past
+    them) and counts it without a branch: a third of the bodies tested are hits, and the
+    branch mispredicted (10^4 queries: a thread's search 2.47 -> 1.63 ms)."""
     if kind_of_query == 0:
-        dx = _image(pos[i, 0] - centres[q, 0], period[0])
-        dy = _image(pos[i, 1] - centres[q, 1], period[1])
-        dz = _image(pos[i, 2] - centres[q, 2], period[2])
+        dx = _image(pos[i, 0] - x, p0)
+        dy = _image(pos[i, 1] - y, p1)
+        dz = _image(pos[i, 2] - z, p2)
         d2 = dx * dx + dy * dy + dz * dz
         s = r + radius[i]
-        if d2 > s * s * (1.0 + 1e-9):           # far: no square root (a margin for rounding)
-            return n
         d = max(math.sqrt(d2) - radius[i], 0.0)
-        hit = d <= r
+        # near within a margin for rounding, then within r (as the gap is written)
+        hit = (d2 <= s * s * (1.0 + 1e-9)) & (d <= r)
+        if base + n < ids_out.size:
+            ids_out[base + n] = row
+            dist_out[base + n] = d
+        return n + hit
     else:
         gap, d = _box_gap(pos, radius, i, centres, half, q, period)
         hit = gap <= 0.0
@@ -548,8 +560,8 @@ def _gather_lane(pos, radius, g, order, lane, lanes, nq, room, centres, reach, h
         q = order[a]
         o = offsets[q]
         if late[q]:
-            _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query, hits,
-                   dist, o, wanted)
+            _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query,
+                   hits[o:o + counts[q]], dist[o:o + counts[q]], 0, wanted)
             _sort_hits(hits, dist, o, o + counts[q], ident)
             continue
         for e in range(counts[q]):
