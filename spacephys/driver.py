@@ -29,6 +29,8 @@ from .kernels.codes import FAILED, NONFINITE, PERIODIC, REMOVED
 
 # bytes a frame holds per body: pos, vel (3 float64 each) and mass
 FRAME_BYTES_PER_BODY = 56
+# periodic_box() without a periodic boundary
+OPEN_BOX = (np.zeros(3), np.zeros(3))
 
 
 class Driver:
@@ -63,17 +65,16 @@ class Driver:
         """The live bodies' columns `names` (n rows; positions and velocities with 3
         components, z = 0 in 2D): the World's own arrays, not copies; one array for one
         name, else a tuple. For code that hands them to kernels; read, never write."""
-        b = self.w._b
-        n = b.n
-        got = tuple([getattr(b, name)[:n] for name in names])
+        got = self.w._b.live(names)
         return got[0] if len(got) == 1 else got
 
     def periodic_box(self):
         """(lo (3,), period (3,)): a periodic boundary's corner and sides, period 0 on open
-        axes (both 0 without one). New arrays."""
+        axes (both 0 without one: arrays shared by every call, never to be written; else
+        new arrays)."""
         c = self.w._collisions
         if c.boundary != PERIODIC:
-            return np.zeros(3), np.zeros(3)
+            return OPEN_BOX
         return c.box[0].copy(), c.box[1] - c.box[0]
 
     def has(self, column):

@@ -26,6 +26,7 @@ import numpy as np
 
 from . import _validate as check
 from . import editing
+from .driver import OPEN_BOX
 from .kernels import queries as kq
 
 _INT64 = np.iinfo(np.int64)
@@ -191,6 +192,29 @@ class _Memory:
         return g
 
 
+def _kept(world, hint, lo, period):
+    """(grid, bpos, bradius): the grid _grid keeps for `hint` and the basis it was built
+    from, when there is one for this box (kq.kept_overlaps checks the bodies), else None."""
+    kept = world.driver.grids
+    basis = kept.get("basis")
+    if basis is None or basis[2] != _box_key(lo, period):
+        return None
+    g = kept.get(_key(hint))
+    return None if g is None else (g, basis[0], basis[1])
+
+
+def _box_key(lo, period):
+    """What a kept grid's box is known by: its corner's and period's bytes (None without a
+    periodic boundary: the driver's shared zeros)."""
+    return None if lo is OPEN_BOX[0] else lo.tobytes() + period.tobytes()
+
+
+def _key(hint):
+    """The kept grids' key of a query's reach: one grid per factor of 2 (inf: a key too)."""
+    return None if not hint > 0.0 else math.inf if hint == math.inf else \
+        math.floor(math.log2(hint))
+
+
 def _grid(world, hint, pos, radius, lo, period):
     """The grid of every live body (kernels/queries.grid) for queries that reach about
     `hint` (its cells at least that wide; 0: about a body a cell): built when a query first
@@ -200,7 +224,7 @@ def _grid(world, hint, pos, radius, lo, period):
     it: a grid holds rows, which each search names by the ids of the moment."""
     kept = world.driver.grids
     basis = kept.get("basis")
-    box = lo.tobytes() + period.tobytes()
+    box = _box_key(lo, period)
     if world.driver.grid_memory is None:
         world.driver.grid_memory = _Memory()
     memory = world.driver.grid_memory
@@ -208,9 +232,7 @@ def _grid(world, hint, pos, radius, lo, period):
     if fresh:
         kept.clear()
         memory.drop()
-    # one grid per factor of 2 in hint (inf: a key too)
-    key = None if not hint > 0.0 else math.inf if hint == math.inf else \
-        math.floor(math.log2(hint))
+    key = _key(hint)
     g = kept.get(key)
     if g is None:            # a fresh basis: this grid's build copies pos and radius into it
         bases = memory.bases(world.n) if fresh else kq.NO_BASIS
@@ -321,13 +343,25 @@ def _image(d, period):
 def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=None):
     """Bodies within distance r of each center (their surface: a body of radius R counts
     from |d| <= r + R): a Hits. centers (dim,) or (Q, dim); r >= 0, a number or (Q,)."""
+    rows = _candidates(world, kinds, mask, ignore, filter)
+    x = _circles(world, rows)
+    lo, period = _box(world)
+    # a frame's next batch (points as floats, one r, no compound body, a kept grid): one
+    # kernel call, which checks the points and the bodies as it searches
+    kept = _kept(world, r, lo, period) if x is None and type(r) is float and \
+        isinstance(centers, np.ndarray) and centers.dtype == np.float64 and \
+        centers.ndim == 2 and centers.shape[1] == world.dim else None
+    if kept is not None:
+        pos, radius, ids = _state(world)
+        status, offsets, named, dist = kq.kept_overlaps(
+            *kept, pos, radius, ids, _wanted(world, rows), period, centers,
+            check.scalar("r", r, minimum=0.0))
+        if status == 0:
+            return Hits(offsets, named, dist)
     c = _points("centers", centers, world.dim)
     reach = check.per_body("r", r, c.shape[0], minimum=0.0)
     hint = r if type(r) is float else _mean(reach)      # (checked: a float is one r for all)
-    rows = _candidates(world, kinds, mask, ignore, filter)
     pos, radius, ids = _state(world)
-    lo, period = _box(world)
-    x = _circles(world, rows)
     if x is not None:            # a compound body: within r of one of its circles
         g = _grid_once(x.pos, x.radius, x.rows, lo, period, hint)
         offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period, c,

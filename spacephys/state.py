@@ -184,6 +184,16 @@ class Bodies:
             col[:n] = np.take(col, order, axis=0)     # (3x faster than col[order])
         self.index[self.ids[:n] & _SLOT_MASK] = np.arange(n)
 
+    def live(self, names):
+        """The columns `names` (a tuple) cut to the live rows: views, kept while the block
+        and n hold (a frame's queries ask for the same ones many times)."""
+        held = self._live.get(names)
+        if held is not None and held[0] == self.n:
+            return held[1]
+        got = tuple([getattr(self, name)[:self.n] for name in names])
+        self._live[names] = (self.n, got)
+        return got
+
     # ------------------------------------------------------------ state
     def motion(self, rows=None, copy=True):
         """The columns of the live rows (or of `rows`), for set_motion: copies, or with
@@ -262,6 +272,7 @@ class Bodies:
             setattr(self, name, block[start:start + nbytes].view(dtype).reshape(
                 (capacity,) + shape))
         self.block, self.layout = block, layout
+        self._live = {}                 # live()'s views, of the block before
         self._words = block.view(np.uint64)
         # the digest's order: the columns by name (a loaded World may list them in another
         # order), then the slots' two arrays

@@ -197,6 +197,9 @@ def test_a_large_scene_agrees_with_scipy():
 @pytest.mark.parametrize("call, message", [
     (lambda w: w.query_radius((0.0, 0.0), -1.0), "r"),
     (lambda w: w.query_radius((0.0, float("nan")), 1.0), "centers"),
+    (lambda w: w.query_radius(np.array([[0.0, 0.0], [0.0, np.nan]]), 1.0), "centers"),
+    (lambda w: w.query_radius(np.zeros((2, 2)), -1.0), "r"),
+    (lambda w: w.query_radius(np.zeros((2, 2)), float("nan")), "r"),
     (lambda w: w.query_radius((0.0, 0.0, 0.0), 1.0), "centers"),
     (lambda w: w.query_radius("x", 1.0), "centers = 'x'"),
     (lambda w: w.query_radius((True, False), 1.0), "centers"),
@@ -219,9 +222,16 @@ def test_a_large_scene_agrees_with_scipy():
     (lambda w: w.shapecast(12345, (1.0, 0.0)), "shape"),
     (lambda w: w.shapecast(((0.0, 0.0),), (1.0, 0.0)), "shape"),
 ])
-def test_bad_queries_are_refused_naming_the_field(call, message):
+@pytest.mark.parametrize("kept", [False, True])
+def test_bad_queries_are_refused_naming_the_field(call, message, kept):
+    """Whether or not the queries before kept a grid (kept: a frame's next batch, checked in
+    the search's own call)."""
     w = sp.World(dim=2, gravity="none")
     w.add_body(1.0, (0.0, 0.0))
+    if kept:
+        for r in (1.0, 0.5, 0.0):
+            w.query_radius(np.zeros((1, 2)), r)
+        w.nearest(np.zeros((1, 2)))
     with pytest.raises(ValueError, match=message):
         call(w)
 
