@@ -365,14 +365,13 @@ def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=N
     if x is not None:            # a compound body: within r of one of its circles
         g = _grid_once(x.pos, x.radius, x.rows, lo, period, hint)
         offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period, c,
-                                          reach, _NO_HALF, 0)
+                                          reach, _NO_HALF, 0, False)
         q, hits, dist = _bodies(x, offsets, hits, dist)
         return Hits(np.searchsorted(q, np.arange(c.shape[0] + 1)).astype(np.int64),
                     x.ident[hits], dist)
     g = _grid(world, hint, pos, radius, lo, period)
-    offsets, hits, dist = kq.overlaps(g, pos, radius, ids, _wanted(world, rows), period, c,
-                                      reach, _NO_HALF, 0)
-    return Hits(offsets, ids[hits], dist)
+    return Hits(*kq.overlaps(g, pos, radius, ids, _wanted(world, rows), period, c, reach,
+                             _NO_HALF, 0, True))
 
 
 def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
@@ -395,7 +394,7 @@ def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
         g = _grid_once(x.pos, x.radius, x.rows, box_lo, period,
                        _mean((b - a).sum(axis=1) / 2))
         offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period,
-                                          mid, np.zeros(a.shape[0]), 0.5 * (b - a), 1)
+                                          mid, np.zeros(a.shape[0]), 0.5 * (b - a), 1, False)
         q, hits, dist = _bodies(x, offsets, hits, dist)
         # its distance: of its own centre (not the circle's) from the box's centre
         body = x.body[hits]
@@ -409,9 +408,8 @@ def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
         return Hits(np.searchsorted(q, np.arange(a.shape[0] + 1)).astype(np.int64),
                     x.ident[hits], dist)
     g = _grid(world, _mean((b - a).sum(axis=1) / 2), pos, radius, box_lo, period)
-    offsets, hits, dist = kq.overlaps(g, pos, radius, ids, _wanted(world, rows), period,
-                                      0.5 * (a + b), np.zeros(a.shape[0]), 0.5 * (b - a), 1)
-    return Hits(offsets, ids[hits], dist)
+    return Hits(*kq.overlaps(g, pos, radius, ids, _wanted(world, rows), period, 0.5 * (a + b),
+                             np.zeros(a.shape[0]), 0.5 * (b - a), 1, True))
 
 
 def nearest(world, points, k=1, kinds=None, mask=None, ignore=None, filter=None):

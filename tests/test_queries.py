@@ -147,10 +147,14 @@ def test_query_box_is_brute_force(scene, hx, hy):
 @pytest.mark.parametrize("periodic", [False, True])
 def test_a_few_queries_with_many_hits_each_are_the_brute_force(periodic):
     """A batch too small to be sampled whose hits overflow the rooms it is given (a few
-    queries of hundreds of hits each, and one of none): every query's hits, in order."""
+    queries of hundreds of hits each, and one of none): every query's hits, in order, named
+    by their ids (not their rows: the first bodies removed, the last moved into their rows)."""
     rng = np.random.default_rng(5)
     w = sp.World(dim=2, gravity="none")
+    gone = w.add_bodies(1.0, np.zeros((100, 2)))
     w.add_bodies(1.0, rng.uniform(-BOX, BOX, (1500, 2)), radius=rng.uniform(0.0, 0.05, 1500))
+    w.remove(gone)
+    assert not np.array_equal(w.ids, np.arange(w.n))
     if periodic:
         w.set_boundary("periodic", lo=(-BOX, -BOX), hi=(BOX, BOX))
     centres = np.array([[0.0, 0.0], [4.0, -4.5], [-3.0, 2.0], [1e3, 1e3]])

@@ -483,9 +483,10 @@ def _lane_overlaps(pos, radius, g, order, a0, a1, centres, reach, half, period,
 
 
 @kernel(parallel=True)
-def overlaps(g, pos, radius, ident, wanted, period, centres, reach, half, kind_of_query):
+def overlaps(g, pos, radius, ident, wanted, period, centres, reach, half, kind_of_query,
+             named):
     """Every query's hits among the bodies of the grid g (of pos, radius) that are wanted
-    (see the module): (offsets (Q + 1,), hits (H,) rows, dist
+    (see the module): (offsets (Q + 1,), hits (H,) rows, or with named their ids, dist
     (H,)), hits[offsets[q]:offsets[q+1]] sorted by distance then id (ident (n,): the body
     ids). kind_of_query 0: bodies within reach[q] of centres[q] (half unread: may be
     empty); 1: bodies overlapping the box centres[q] +- half[q] (dist: from the box's
@@ -541,11 +542,11 @@ def overlaps(g, pos, radius, ident, wanted, period, centres, reach, half, kind_o
         for lane in numba.prange(lanes):
             _gather_lane(pos, radius, g, order, np.int64(lane), lanes, nq, room, centres,
                          reach, half, period, kind_of_query, counts, late, offsets, buf_i,
-                         buf_d, hits, dist, ident, wanted)
+                         buf_d, hits, dist, ident, wanted, named)
     else:
         _gather_lane(pos, radius, g, order, 0, 1, nq, room, centres, reach, half, period,
                      kind_of_query, counts, late, offsets, buf_i, buf_d, hits, dist, ident,
-                     wanted)
+                     wanted, named)
     return offsets, hits, dist
 
 
@@ -564,19 +565,17 @@ def kept_overlaps(g, bpos, bradius, pos, radius, ident, wanted, period, arr, r):
         return 1, np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0)
     reach = np.empty(c.shape[0])
     reach[:] = r
-    offsets, hits, dist = overlaps(g, pos, radius, ident, wanted, period, c, reach,
-                                   np.empty((0, 3)), 0)
-    for j in range(hits.size):
-        hits[j] = ident[hits[j]]
-    return 0, offsets, hits, dist
+    return (0,) + overlaps(g, pos, radius, ident, wanted, period, c, reach, np.empty((0, 3)),
+                           0, True)
 
 
 @kernel(lean=True)
 def _gather_lane(pos, radius, g, order, lane, lanes, nq, room, centres, reach, half, period,
                  kind_of_query, counts, late, offsets, buf_i, buf_d, hits, dist, ident,
-                 wanted):
+                 wanted, named):
     """overlaps' second pass for one lane: its queries' hits from its buffer into hits,
-    dist at their offsets; those that did not fit searched again in place."""
+    dist at their offsets (with named, the rows' ids); those that did not fit searched again
+    in place."""
     u = lane * room
     for a in range(lane * nq // lanes, (lane + 1) * nq // lanes):
         q = order[a]
@@ -585,9 +584,12 @@ def _gather_lane(pos, radius, g, order, lane, lanes, nq, room, centres, reach, h
             _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query,
                    hits[o:o + counts[q]], dist[o:o + counts[q]], 0, wanted)
             _sort_hits(hits, dist, o, o + counts[q], ident)
+            if named:
+                for e in range(o, o + counts[q]):
+                    hits[e] = ident[hits[e]]
             continue
         for e in range(counts[q]):
-            hits[o + e] = buf_i[u + e]
+            hits[o + e] = ident[buf_i[u + e]] if named else buf_i[u + e]
             dist[o + e] = buf_d[u + e]
         u += counts[q]
 
@@ -792,8 +794,8 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
     (the moving body's own), -1 for none; wanted: see the module. scratch (a lane's, reused
     by its rays: arrays of a ray's own cost more than its short walk): seen (SEEN, 3), the
     walk cells lately scanned (a cell's neighbourhood shares most of its cells with the last
-    one's: 3x fewer bodies tested in 2D, 9x in 3D); walk (3, 3) int64 and times (2, 3), the walk's cells and
-    crossing times."""
+    one's: 3x fewer bodies tested in 2D, 9x in 3D); walk (3, 3) int64 and times (2, 3), the
+    walk's cells and crossing times."""
     seen, walk, times = scratch
     origin, cell, ncell, start, items, giants, rmax, gpos, grad = g
     rmax = rmax + extra
