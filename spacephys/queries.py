@@ -194,7 +194,7 @@ class _Memory:
 
 def _kept(world, hint, lo, period):
     """(grid, bpos, bradius): the grid _grid keeps for `hint` and the basis it was built
-    from, when there is one for this box (kq.kept_overlaps checks the bodies), else None."""
+    from, when there is one for this box (kq.overlaps checks the bodies), else None."""
     kept = world.driver.grids
     basis = kept.get("basis")
     if basis is None or basis[2] != _box_key(lo, period):
@@ -352,10 +352,12 @@ def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=N
         isinstance(centers, np.ndarray) and centers.dtype == np.float64 and \
         centers.ndim == 2 and centers.shape[1] == world.dim else None
     if kept is not None:
+        g, bpos, bradius = kept
         pos, radius, ids = _state(world)
-        status, offsets, named, dist = kq.kept_overlaps(
-            *kept, pos, radius, ids, _wanted(world, rows), period, centers,
-            check.scalar("r", r, minimum=0.0))
+        status, offsets, named, dist = kq.overlaps(
+            g, pos, radius, ids, _wanted(world, rows), period, centers,
+            check.per_body("r", r, centers.shape[0], minimum=0.0), _NO_HALF, 0, True, bpos,
+            bradius)
         if status == 0:
             return Hits(offsets, named, dist)
     c = _points("centers", centers, world.dim)
@@ -364,14 +366,14 @@ def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=N
     pos, radius, ids = _state(world)
     if x is not None:            # a compound body: within r of one of its circles
         g = _grid_once(x.pos, x.radius, x.rows, lo, period, hint)
-        offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period, c,
-                                          reach, _NO_HALF, 0, False)
+        _, offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period, c,
+                                             reach, _NO_HALF, 0, False, *kq.NO_BASIS)
         q, hits, dist = _bodies(x, offsets, hits, dist)
         return Hits(np.searchsorted(q, np.arange(c.shape[0] + 1)).astype(np.int64),
                     x.ident[hits], dist)
     g = _grid(world, hint, pos, radius, lo, period)
     return Hits(*kq.overlaps(g, pos, radius, ids, _wanted(world, rows), period, c, reach,
-                             _NO_HALF, 0, True))
+                             _NO_HALF, 0, True, *kq.NO_BASIS)[1:])
 
 
 def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
@@ -393,8 +395,9 @@ def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
         mid = 0.5 * (a + b)
         g = _grid_once(x.pos, x.radius, x.rows, box_lo, period,
                        _mean((b - a).sum(axis=1) / 2))
-        offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period,
-                                          mid, np.zeros(a.shape[0]), 0.5 * (b - a), 1, False)
+        _, offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period, mid,
+                                             np.zeros(a.shape[0]), 0.5 * (b - a), 1, False,
+                                             *kq.NO_BASIS)
         q, hits, dist = _bodies(x, offsets, hits, dist)
         # its distance: of its own centre (not the circle's) from the box's centre
         body = x.body[hits]
@@ -409,7 +412,7 @@ def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
                     x.ident[hits], dist)
     g = _grid(world, _mean((b - a).sum(axis=1) / 2), pos, radius, box_lo, period)
     return Hits(*kq.overlaps(g, pos, radius, ids, _wanted(world, rows), period, 0.5 * (a + b),
-                             np.zeros(a.shape[0]), 0.5 * (b - a), 1, True))
+                             np.zeros(a.shape[0]), 0.5 * (b - a), 1, True, *kq.NO_BASIS)[1:])
 
 
 def nearest(world, points, k=1, kinds=None, mask=None, ignore=None, filter=None):

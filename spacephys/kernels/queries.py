@@ -241,7 +241,7 @@ def _bounds(pos, rows, out):
     out[0], out[1], out[2], out[3], out[4], out[5] = x0, y0, z0, x1, y1, z1
 
 
-@kernel(inline=True)
+@kernel(lean=True)
 def _keys(pos, radius, rows, a0, a1, side, lo, period, origin, cell, ncell, copy, bpos,
           bradius, key):
     """key[a] for a in a0..a1: the grid cell ((ix * n1 + iy) * n2 + iz) of body rows[a], or
@@ -350,18 +350,18 @@ def _visit(pos, radius, g, q, centres, reach, half, period, kind_of_query, ids_o
     p0, p1, p2 = period[0], period[1], period[2]
     every = wanted.size == 0
     n = 0
+    flat = ncell[2] == 1         # then the cells (ix, y0..y1) lie side by side: one run
     for cx in range(x0, x1 + 1):
         ix = cx % ncell[0] if p0 > 0.0 else cx
-        if ncell[2] == 1:            # the cells (ix, y0..y1) lie side by side: one run
-            n = _run(gpos, grad, start, items, ix * ncell[1], y0, y1, ncell[1], p1, x, y, z,
-                     r, p0, p1, p2, q, centres, half, period, kind_of_query, ids_out,
-                     dist_out, base, n, every, wanted)
-            continue
-        for cy in range(y0, y1 + 1):
-            iy = cy % ncell[1] if p1 > 0.0 else cy
-            n = _run(gpos, grad, start, items, (ix * ncell[1] + iy) * ncell[2], z0, z1,
-                     ncell[2], p2, x, y, z, r, p0, p1, p2, q, centres, half, period,
-                     kind_of_query, ids_out, dist_out, base, n, every, wanted)
+        for cy in range(y0, (y0 if flat else y1) + 1):
+            if flat:
+                row, a, b, nrun, wrap = ix * ncell[1], y0, y1, ncell[1], p1
+            else:
+                iy = cy % ncell[1] if p1 > 0.0 else cy
+                row, a, b, nrun, wrap = (ix * ncell[1] + iy) * ncell[2], z0, z1, ncell[2], p2
+            n = _run(gpos, grad, start, items, row, a, b, nrun, wrap, x, y, z, r, p0, p1, p2,
+                     q, centres, half, period, kind_of_query, ids_out, dist_out, base, n,
+                     every, wanted)
     for e in range(giants.size):
         i = giants[e]
         if every or wanted[i]:
@@ -483,17 +483,27 @@ def _lane_overlaps(pos, radius, g, order, a0, a1, centres, reach, half, period,
 
 
 @kernel(parallel=True)
-def overlaps(g, pos, radius, ident, wanted, period, centres, reach, half, kind_of_query,
-             named):
+def overlaps(g, pos, radius, ident, wanted, period, points_in, reach, half, kind_of_query,
+             named, bpos, bradius):
     """Every query's hits among the bodies of the grid g (of pos, radius) that are wanted
-    (see the module): (offsets (Q + 1,), hits (H,) rows, or with named their ids, dist
-    (H,)), hits[offsets[q]:offsets[q+1]] sorted by distance then id (ident (n,): the body
-    ids). kind_of_query 0: bodies within reach[q] of centres[q] (half unread: may be
+    (see the module): (status, offsets (Q + 1,), hits (H,) rows, or with named their ids,
+    dist (H,)), hits[offsets[q]:offsets[q+1]] sorted by distance then id (ident (n,): the
+    body ids). The queries' points: points_in (Q, dim), copied and checked as points()
+    does. With bpos, bradius given (not NO_BASIS: a kept grid's basis), the search runs
+    only while pos and radius hold their bits. status 0: searched; 1: the bodies changed (g
+    is stale: nothing searched); 2: a point is not finite. A frame's batch of 10 queries
+    made three calls (points, unchanged, overlaps), each 1-2 us of numba's arguments and
+    results. kind_of_query 0: bodies within reach[q] of centres[q] (half unread: may be
     empty); 1: bodies overlapping the box centres[q] +- half[q] (dist: from the box's
     centre). One pass: lanes of queries (in
     cell order) write into rooms sized from a sample of SAMPLED queries (fewer than that:
     ROOM hits each); the few that do not fit are counted, then written in place
     (10^4 queries: 6.3 -> 5.0 ms against two passes)."""
+    centres = points(points_in)
+    if centres.shape[0] != points_in.shape[0]:
+        return 2, np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0)
+    if bpos.shape[0] != 0 and not unchanged(pos, radius, bpos, bradius):
+        return 1, np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0)
     nq = centres.shape[0]
     order = _by_cell(g, centres, period)
     lanes = 8 if nq >= MIN_PARALLEL else 1
@@ -547,26 +557,7 @@ def overlaps(g, pos, radius, ident, wanted, period, centres, reach, half, kind_o
         _gather_lane(pos, radius, g, order, 0, 1, nq, room, centres, reach, half, period,
                      kind_of_query, counts, late, offsets, buf_i, buf_d, hits, dist, ident,
                      wanted, named)
-    return offsets, hits, dist
-
-
-@kernel(parallel=True)
-def kept_overlaps(g, bpos, bradius, pos, radius, ident, wanted, period, arr, r):
-    """overlaps within r of the points arr ((Q, dim) float64, copied and checked as points()
-    does) on the kept grid g, while pos and radius hold the bits of bpos and bradius (what g
-    was built from), in one call: (status, offsets, ids, dist), the hits named by their ids.
-    status 1: the bodies changed (nothing searched: g is stale); 2: a point is not finite.
-    A frame's batch of 10 queries made three calls, each 1-2 us of numba's arguments and
-    results."""
-    c = points(arr)
-    if c.shape[0] != arr.shape[0]:
-        return 2, np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0)
-    if not unchanged(pos, radius, bpos, bradius):
-        return 1, np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0)
-    reach = np.empty(c.shape[0])
-    reach[:] = r
-    return (0,) + overlaps(g, pos, radius, ident, wanted, period, c, reach, np.empty((0, 3)),
-                           0, True)
+    return 0, offsets, hits, dist
 
 
 @kernel(lean=True)
