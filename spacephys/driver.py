@@ -29,8 +29,6 @@ from .kernels.codes import FAILED, NONFINITE, PERIODIC, REMOVED
 
 # bytes a frame holds per body: pos, vel (3 float64 each) and mass
 FRAME_BYTES_PER_BODY = 56
-# periodic_box() without a periodic boundary
-OPEN_BOX = (np.zeros(3), np.zeros(3))
 
 
 class Driver:
@@ -68,13 +66,16 @@ class Driver:
         got = self.w._b.live(names)
         return got[0] if len(got) == 1 else got
 
+    def periodic(self):
+        """Whether the boundary is periodic."""
+        return self.w._collisions.boundary == PERIODIC
+
     def periodic_box(self):
         """(lo (3,), period (3,)): a periodic boundary's corner and sides, period 0 on open
-        axes (both 0 without one: arrays shared by every call, never to be written; else
-        new arrays)."""
+        axes (both 0 without one). New arrays."""
         c = self.w._collisions
         if c.boundary != PERIODIC:
-            return OPEN_BOX
+            return np.zeros(3), np.zeros(3)
         return c.box[0].copy(), c.box[1] - c.box[0]
 
     def has(self, column):

@@ -26,12 +26,12 @@ import numpy as np
 
 from . import _validate as check
 from . import editing
-from .driver import OPEN_BOX
 from .kernels import queries as kq
 
 _INT64 = np.iinfo(np.int64)
 _ALL = np.zeros(0, np.bool_)       # the searches' mask when every body of the grid is wanted
 _NO_HALF = np.zeros((0, 3))        # the searches' box sizes for radius queries (never read)
+_OPEN = (np.zeros(3), np.zeros(3))  # _box() without a periodic boundary
 
 
 def _mean(values):
@@ -205,8 +205,8 @@ def _kept(world, hint, lo, period):
 
 def _box_key(lo, period):
     """What a kept grid's box is known by: its corner's and period's bytes (None without a
-    periodic boundary: the driver's shared zeros)."""
-    return None if lo is OPEN_BOX[0] else lo.tobytes() + period.tobytes()
+    periodic boundary: _box's _OPEN)."""
+    return None if lo is _OPEN[0] else lo.tobytes() + period.tobytes()
 
 
 def _key(hint):
@@ -250,8 +250,9 @@ def _grid_once(pos, radius, rows, lo, period, hint):
 
 
 def _box(world):
-    """(lo (3,), period (3,)): the periodic box (period 0 on open axes)."""
-    return world.driver.periodic_box()
+    """(lo (3,), period (3,)): the periodic box (period 0 on open axes); without a periodic
+    boundary, _OPEN (this module's own: read by the kernels, never handed out)."""
+    return world.driver.periodic_box() if world.driver.periodic() else _OPEN
 
 
 def _state(world):
@@ -343,37 +344,40 @@ def _image(d, period):
 def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=None):
     """Bodies within distance r of each center (their surface: a body of radius R counts
     from |d| <= r + R): a Hits. centers (dim,) or (Q, dim); r >= 0, a number or (Q,)."""
-    rows = _candidates(world, kinds, mask, ignore, filter)
-    x = _circles(world, rows)
     lo, period = _box(world)
-    # a frame's next batch (points as floats, one r, no compound body, a kept grid): one
-    # kernel call, which checks the points and the bodies as it searches
-    kept = _kept(world, r, lo, period) if x is None and type(r) is float and \
-        isinstance(centers, np.ndarray) and centers.dtype == np.float64 and \
-        centers.ndim == 2 and centers.shape[1] == world.dim else None
-    if kept is not None:
-        g, bpos, bradius = kept
-        pos, radius, ids = _state(world)
-        status, offsets, named, dist = kq.overlaps(
-            g, pos, radius, ids, _wanted(world, rows), period, centers,
-            check.per_body("r", r, centers.shape[0], minimum=0.0), _NO_HALF, 0, True, bpos,
-            bradius)
-        if status == 0:
-            return Hits(offsets, named, dist)
+    # a frame's next batch (points as floats, one r, every body a candidate, no compound
+    # body, a kept grid): one kernel call, which checks the points and the bodies as it
+    # searches (any input it would refuse goes the way below, which names it)
+    if kinds is None and mask is None and ignore is None and filter is None and \
+            type(r) is float and math.isfinite(r) and r >= 0.0 and \
+            isinstance(centers, np.ndarray) and centers.dtype == np.float64 and \
+            centers.ndim == 2 and centers.shape[1] == world.dim and _compound(world) is None:
+        kept = _kept(world, r, lo, period)
+        if kept is not None:
+            pos, radius, ids = _state(world)
+            reach = np.empty(centers.shape[0])
+            reach.fill(r)
+            status, offsets, named, dist = kq.overlaps(
+                kept[0], pos, radius, ids, _ALL, period, centers, reach, _NO_HALF, 0, True,
+                True, kept[1], kept[2])
+            if status == 0:
+                return Hits(offsets, named, dist)
     c = _points("centers", centers, world.dim)
     reach = check.per_body("r", r, c.shape[0], minimum=0.0)
     hint = r if type(r) is float else _mean(reach)      # (checked: a float is one r for all)
+    rows = _candidates(world, kinds, mask, ignore, filter)
     pos, radius, ids = _state(world)
+    x = _circles(world, rows)
     if x is not None:            # a compound body: within r of one of its circles
         g = _grid_once(x.pos, x.radius, x.rows, lo, period, hint)
         _, offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period, c,
-                                             reach, _NO_HALF, 0, False, *kq.NO_BASIS)
+                                             reach, _NO_HALF, 0, False, False, *kq.NO_BASIS)
         q, hits, dist = _bodies(x, offsets, hits, dist)
         return Hits(np.searchsorted(q, np.arange(c.shape[0] + 1)).astype(np.int64),
                     x.ident[hits], dist)
     g = _grid(world, hint, pos, radius, lo, period)
     return Hits(*kq.overlaps(g, pos, radius, ids, _wanted(world, rows), period, c, reach,
-                             _NO_HALF, 0, True, *kq.NO_BASIS)[1:])
+                             _NO_HALF, 0, True, False, *kq.NO_BASIS)[1:])
 
 
 def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
@@ -397,7 +401,7 @@ def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
                        _mean((b - a).sum(axis=1) / 2))
         _, offsets, hits, dist = kq.overlaps(g, x.pos, x.radius, x.ident, _ALL, period, mid,
                                              np.zeros(a.shape[0]), 0.5 * (b - a), 1, False,
-                                             *kq.NO_BASIS)
+                                             False, *kq.NO_BASIS)
         q, hits, dist = _bodies(x, offsets, hits, dist)
         # its distance: of its own centre (not the circle's) from the box's centre
         body = x.body[hits]
@@ -412,7 +416,8 @@ def query_box(world, lo, hi, kinds=None, mask=None, ignore=None, filter=None):
                     x.ident[hits], dist)
     g = _grid(world, _mean((b - a).sum(axis=1) / 2), pos, radius, box_lo, period)
     return Hits(*kq.overlaps(g, pos, radius, ids, _wanted(world, rows), period, 0.5 * (a + b),
-                             np.zeros(a.shape[0]), 0.5 * (b - a), 1, True, *kq.NO_BASIS)[1:])
+                             np.zeros(a.shape[0]), 0.5 * (b - a), 1, True, False,
+                             *kq.NO_BASIS)[1:])
 
 
 def nearest(world, points, k=1, kinds=None, mask=None, ignore=None, filter=None):

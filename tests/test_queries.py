@@ -680,6 +680,24 @@ def test_the_grid_queries_share_is_dropped_when_anything_changes():
         assert after != before                           # the change changed the answers
 
 
+@pytest.mark.parametrize("start", ["empty", "emptied"])
+def test_a_grid_kept_while_the_world_was_empty_goes_with_the_first_body(start):
+    """A frame's queries on a World with no body (yet, or any more) keep a grid of none;
+    the bodies added after are found (the kept grid's check was once skipped for a basis of
+    no rows)."""
+    rng = np.random.default_rng(8)
+    w = sp.World(dim=2, gravity="none")
+    if start == "emptied":
+        w.add_bodies(1.0, rng.uniform(-1, 1, (5, 2)))
+        w.remove(w.ids)
+    centres = np.zeros((3, 2))
+    assert w.query_radius(centres, 1.0).counts().tolist() == [0, 0, 0]
+    w.add_bodies(1.0, rng.uniform(-1, 1, (20, 2)), radius=0.1)
+    got = w.query_radius(centres, 1.0)
+    assert got.counts().tolist() == w.copy().query_radius(centres, 1.0).counts().tolist()
+    assert got.counts().min() > 0
+
+
 def test_a_rebuilt_grid_reuses_memory_and_a_copy_builds_in_its_own():
     """A grid built after a step reuses the memory of the one the step dropped
     (queries._Memory), and answers as a fresh World does; a copy builds its grids in

@@ -484,13 +484,13 @@ def _lane_overlaps(pos, radius, g, order, a0, a1, centres, reach, half, period,
 
 @kernel(parallel=True)
 def overlaps(g, pos, radius, ident, wanted, period, points_in, reach, half, kind_of_query,
-             named, bpos, bradius):
+             named, kept, bpos, bradius):
     """Every query's hits among the bodies of the grid g (of pos, radius) that are wanted
     (see the module): (status, offsets (Q + 1,), hits (H,) rows, or with named their ids,
     dist (H,)), hits[offsets[q]:offsets[q+1]] sorted by distance then id (ident (n,): the
     body ids). The queries' points: points_in (Q, dim), copied and checked as points()
-    does. With bpos, bradius given (not NO_BASIS: a kept grid's basis), the search runs
-    only while pos and radius hold their bits. status 0: searched; 1: the bodies changed (g
+    does. With kept, g is a kept grid and bpos, bradius what it was built from: the search
+    runs only while pos and radius hold their bits. status 0: searched; 1: the bodies changed (g
     is stale: nothing searched); 2: a point is not finite. A frame's batch of 10 queries
     made three calls (points, unchanged, overlaps), each 1-2 us of numba's arguments and
     results. kind_of_query 0: bodies within reach[q] of centres[q] (half unread: may be
@@ -502,7 +502,7 @@ def overlaps(g, pos, radius, ident, wanted, period, points_in, reach, half, kind
     centres = points(points_in)
     if centres.shape[0] != points_in.shape[0]:
         return 2, np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0)
-    if bpos.shape[0] != 0 and not unchanged(pos, radius, bpos, bradius):
+    if kept and not unchanged(pos, radius, bpos, bradius):
         return 1, np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0)
     nq = centres.shape[0]
     order = _by_cell(g, centres, period)
