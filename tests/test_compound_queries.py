@@ -253,7 +253,9 @@ def _ray_t(o, d, c, r):
     w = c - o
     b = w @ d
     cc = w @ w - r * r
-    if cc <= 0:
+    # inside: by math.hypot, which scales (w @ w underflows to 0 for a centre 1e-309 from
+    # the origin, which put a body of radius 0 there on every ray)
+    if math.hypot(*w) <= r:
         return 0.0
     h = w - b * d
     disc = r * r - h @ h
@@ -389,3 +391,14 @@ def test_the_guides_compound_example_prints_what_the_page_says():
                          cwd=ROOT, timeout=600)
     assert res.returncode == 0, res.stderr
     assert res.stdout.splitlines() == printed
+
+
+def test_a_ray_passing_a_hair_from_a_body_of_no_radius_misses_it():
+    """A body of radius 0 at 1e-309 beside a ray's origin is not on the ray (the brute force
+    above once said it was: its square of the distance underflowed to 0)."""
+    w = sp.World(dim=2, gravity="none")
+    w.add_body(1.0, (0.0, 2.225073858507203e-309), radius=0.0)
+    hull = w.add_body(1.0, (0.0, 0.0), shape=sp.Circles(np.zeros((1, 2)), [0.5]))
+    assert w.raycast((0.0, 0.0), (1.0, 0.0), 12.0, first=False)[0].ids.tolist() == [hull]
+    up = w.raycast((0.0, 0.0), (0.0, 1.0), 12.0, first=False)[0].ids.tolist()
+    assert sorted(up) == [0, hull]
