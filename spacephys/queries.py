@@ -192,14 +192,18 @@ class _Memory:
         return g
 
 
+def _basis(world, lo, period):
+    """(bpos, bradius, box key): what the kept grids were built from, when it was this box,
+    else None (no grid kept, or one of another box)."""
+    basis = world.driver.grids.get("basis")
+    return basis if basis is not None and basis[2] == _box_key(lo, period) else None
+
+
 def _kept(world, hint, lo, period):
     """(grid, bpos, bradius): the grid _grid keeps for `hint` and the basis it was built
     from, when there is one for this box (kq.overlaps checks the bodies), else None."""
-    kept = world.driver.grids
-    basis = kept.get("basis")
-    if basis is None or basis[2] != _box_key(lo, period):
-        return None
-    g = kept.get(_key(hint))
+    basis = _basis(world, lo, period)
+    g = None if basis is None else world.driver.grids.get(_key(hint))
     return None if g is None else (g, basis[0], basis[1])
 
 
@@ -223,12 +227,11 @@ def _grid(world, hint, pos, radius, lo, period):
     (_Memory). pos, radius: _state(world); lo, period: _box(world). The ids are not part of
     it: a grid holds rows, which each search names by the ids of the moment."""
     kept = world.driver.grids
-    basis = kept.get("basis")
-    box = _box_key(lo, period)
+    basis = _basis(world, lo, period)
     if world.driver.grid_memory is None:
         world.driver.grid_memory = _Memory()
     memory = world.driver.grid_memory
-    fresh = basis is None or not (basis[2] == box and kq.unchanged(pos, radius, *basis[:2]))
+    fresh = basis is None or not kq.unchanged(pos, radius, *basis[:2])
     if fresh:
         kept.clear()
         memory.drop()
@@ -239,7 +242,7 @@ def _grid(world, hint, pos, radius, lo, period):
         g = kept[key] = memory.grid(pos, radius, memory.rows(world.n), lo, period,
                                     float(hint), *bases)
         if fresh:
-            kept["basis"] = bases + (box,)
+            kept["basis"] = bases + (_box_key(lo, period),)
     return g
 
 
@@ -352,14 +355,14 @@ def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=N
             type(r) is float and math.isfinite(r) and r >= 0.0 and \
             isinstance(centers, np.ndarray) and centers.dtype == np.float64 and \
             centers.ndim == 2 and centers.shape[1] == world.dim and _compound(world) is None:
-        kept = _kept(world, r, lo, period)
-        if kept is not None:
+        held = _kept(world, r, lo, period)
+        if held is not None:
+            g, bpos, bradius = held
             pos, radius, ids = _state(world)
-            reach = np.empty(centers.shape[0])
-            reach.fill(r)
             status, offsets, named, dist = kq.overlaps(
-                kept[0], pos, radius, ids, _ALL, period, centers, reach, _NO_HALF, 0, True,
-                True, kept[1], kept[2])
+                g, pos, radius, ids, _ALL, period, centers,
+                check.per_body("r", r, centers.shape[0], minimum=0.0), _NO_HALF, 0, True, True,
+                bpos, bradius)
             if status == 0:
                 return Hits(offsets, named, dist)
     c = _points("centers", centers, world.dim)
