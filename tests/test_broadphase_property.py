@@ -759,6 +759,28 @@ def test_the_grids_sort_is_stable_by_the_low_bits_below_and_above_its_small_size
     assert SMALL_SORT <= 70                   # both ways are drawn
 
 
+@pytest.mark.parametrize("bits", [16, 24, 32])
+def test_the_grids_sort_of_many_entries_takes_the_top_digit_first_to_the_same_order(bits):
+    """arrays.radix_sort from LARGE_SORT entries (the top digit first, then each group on
+    its own): numpy's stable order by the low `bits` bits, with groups of every kind: empty,
+    of one entry, fewer than SMALL_SORT (sorted by insertion), and large; their passes ending
+    in either pair of arrays (1, 2 and 3 passes below the top digit)."""
+    from spacephys.kernels.arrays import LARGE_SORT, SMALL_SORT, radix_sort
+    rng = np.random.default_rng(bits)
+    n = LARGE_SORT + 12_345
+    top = bits - 8
+    group = rng.choice([0, 1, 2, 3, 200, 201, 255], n, p=[0.7, 0.1, 0.1, 0.05, 0.03, 0.0, 0.02])
+    group[:SMALL_SORT - 5] = 201                    # a group sorted by insertion
+    group[-1] = 7                                   # a group of one entry
+    keys = ((group << top) | rng.integers(0, 1 << min(top, 12), n) |
+            (rng.integers(0, 1 << 20, n) << bits)).astype(np.int64)
+    values = rng.permutation(n).astype(np.int64)
+    want = np.argsort(keys & ((1 << bits) - 1), kind="stable")
+    got_k, got_v = radix_sort(keys.copy(), values.copy(), np.empty(n, np.int64),
+                              np.empty(n, np.int64), bits)
+    assert np.array_equal(got_v, values[want]) and np.array_equal(got_k, keys[want])
+
+
 @settings(max_examples=150, deadline=None)
 @given(st.integers(0, 70), st.sampled_from([3, 1 << 11, 1 << 40, 1 << 62]), st.integers(0, 2 ** 32))
 def test_the_order_of_keys_is_numpys_stable_argsort_below_and_above_its_small_size(n, top, seed):

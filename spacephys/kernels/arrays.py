@@ -191,42 +191,94 @@ def radix_order(keys):
     return order
 
 
+LARGE_SORT = 1 << 20    # from this many entries radix_sort takes its top digit first
+
+
 @kernel
 def radix_sort(keys, values, keys_out, values_out, bits):
     """Sort (keys, values) by the low `bits` (a multiple of 8) bits of keys, 8 at a time
     (LSD radix: linear; each pass streams the arrays once and scatters into 256 streams,
     which stay in cache: measured twice as fast as 11-bit digits at 3e5 entries). Entries of
     one cell end up adjacent (with cells whose keys share those bits, over spans wider than
-    _sort_bits covers: the scan compares full keys). Returns the sorted arrays. Fewer than
-    SMALL_SORT entries are sorted in place by insertion, stable by the same bits: the same
-    order, without each pass's 256 counts (a duel's grid holds two entries)."""
+    _sort_bits covers: the scan compares full keys). Returns the sorted arrays (keys and
+    values, or keys_out and values_out). Fewer than SMALL_SORT entries are sorted in place
+    by insertion, stable by the same bits: the same order, without each pass's 256 counts
+    (a duel's grid holds two entries). From LARGE_SORT entries (where they outgrow the
+    caches) the top digit goes first, into 256 groups, and each group is then sorted by the
+    digits below on its own, its later passes in cache: the same stable order (a dense
+    field's 3.3e6 entries: 22.4 -> 18.8 ns each)."""
     n = keys.size
     if n < SMALL_SORT and bits < 63:
-        mask = (np.int64(1) << bits) - 1
-        for e in range(1, n):
-            k, v = keys[e], values[e]
-            low = k & mask
-            p = e
-            while p > 0 and (keys[p - 1] & mask) > low:
-                keys[p] = keys[p - 1]
-                values[p] = values[p - 1]
-                p -= 1
-            keys[p] = k
-            values[p] = v
+        _insertion(keys, values, bits)
         return keys, values
-    count = np.zeros(257, np.int64)
-    src_k, src_v, dst_k, dst_v = keys, values, keys_out, values_out
-    for shift in range(0, bits, 8):
-        for d in range(257):
-            count[d] = 0
-        for e in range(n):
-            count[((src_k[e] >> shift) & 255) + 1] += 1
+    count = np.empty((8, 256), np.int64)
+    if n < LARGE_SORT or bits <= 8:
+        return _passes(keys, values, keys_out, values_out, 0, bits, count)
+    top = bits - 8
+    _passes(keys, values, keys_out, values_out, top, bits, count)
+    ends = count[0].copy()              # where each group (top digit) ends
+    odd = (top // 8) % 2 == 1           # (the groups' passes then end in keys, values)
+    start = 0
+    for d in range(256):
+        end = ends[d]
+        if end - start < SMALL_SORT:
+            _insertion(keys_out[start:end], values_out[start:end], top)
+            if odd:
+                for e in range(start, end):
+                    keys[e] = keys_out[e]
+                    values[e] = values_out[e]
+        else:
+            _passes(keys_out[start:end], values_out[start:end], keys[start:end],
+                    values[start:end], 0, top, count)
+        start = end
+    return (keys, values) if odd else (keys_out, values_out)
+
+
+@kernel
+def _passes(src_k, src_v, dst_k, dst_v, low, bits, count):
+    """radix_sort's LSD passes over the digits of bits low..bits, between the two pairs of
+    arrays: the pair they end in. Every digit's counts come from one read of the keys (a
+    dense field's 4e5 entries: 11.1 -> 8.1 ns each); count: (8, 256) scratch, left holding
+    where each digit's entries end in each pass."""
+    passes = (bits - low) // 8
+    for p in range(passes):
         for d in range(256):
-            count[d + 1] += count[d]
+            count[p, d] = 0
+    n = src_k.size
+    for e in range(n):
+        k = src_k[e] >> low
+        for p in range(passes):
+            count[p, k & 255] += 1
+            k >>= 8
+    for p in range(passes):
+        total = 0
+        for d in range(256):
+            c = count[p, d]
+            count[p, d] = total
+            total += c
+    for p in range(passes):
+        shift = low + 8 * p
         for e in range(n):
             d = (src_k[e] >> shift) & 255
-            dst_k[count[d]] = src_k[e]
-            dst_v[count[d]] = src_v[e]
-            count[d] += 1
+            q = count[p, d]
+            dst_k[q] = src_k[e]
+            dst_v[q] = src_v[e]
+            count[p, d] = q + 1
         src_k, src_v, dst_k, dst_v = dst_k, dst_v, src_k, src_v
     return src_k, src_v
+
+
+@kernel(inline=True)
+def _insertion(keys, values, bits):
+    """keys and values in place in a stable order of the keys' low `bits` bits (< 63)."""
+    mask = (np.int64(1) << bits) - 1
+    for e in range(1, keys.size):
+        k, v = keys[e], values[e]
+        low = k & mask
+        p = e
+        while p > 0 and (keys[p - 1] & mask) > low:
+            keys[p] = keys[p - 1]
+            values[p] = values[p - 1]
+            p -= 1
+        keys[p] = k
+        values[p] = v
