@@ -759,12 +759,13 @@ def test_the_grids_sort_is_stable_by_the_low_bits_below_and_above_its_small_size
     assert SMALL_SORT <= 70                   # both ways are drawn
 
 
-@pytest.mark.parametrize("bits", [16, 24, 32])
+@pytest.mark.parametrize("bits", [16, 24, 32, 64])
 def test_the_grids_sort_of_many_entries_takes_the_top_digit_first_to_the_same_order(bits):
     """arrays.radix_sort from LARGE_SORT entries (the top digit first, then each group on
-    its own): numpy's stable order by the low `bits` bits, with groups of every kind: empty,
+    its own): numpy's stable order by the low `bits` bits (all 64: as unsigned, the space
+    order's Morton codes' case, negative keys included), with groups of every kind: empty,
     of one entry, fewer than SMALL_SORT (sorted by insertion), and large; their passes ending
-    in either pair of arrays (1, 2 and 3 passes below the top digit)."""
+    in either pair of arrays (1, 2, 3 and 7 passes below the top digit), each digit drawn."""
     from spacephys.kernels.arrays import LARGE_SORT, SMALL_SORT, radix_sort
     rng = np.random.default_rng(bits)
     n = LARGE_SORT + 12_345
@@ -772,12 +773,20 @@ def test_the_grids_sort_of_many_entries_takes_the_top_digit_first_to_the_same_or
     group = rng.choice([0, 1, 2, 3, 200, 201, 255], n, p=[0.7, 0.1, 0.1, 0.05, 0.03, 0.0, 0.02])
     group[:SMALL_SORT - 5] = 201                    # a group sorted by insertion
     group[-1] = 7                                   # a group of one entry
-    keys = ((group << top) | rng.integers(0, 1 << min(top, 12), n) |
-            (rng.integers(0, 1 << 20, n) << bits)).astype(np.int64)
+    # every digit below the top one drawn from a few values: each digit decides some order
+    pool = np.zeros(4096, np.uint64)
+    for d in range(top // 8):
+        pool |= rng.choice(np.array([0, 1, 2, 255], np.uint64), 4096) << np.uint64(8 * d)
+    keys = (group.astype(np.uint64) << np.uint64(top)) | pool[rng.integers(0, 4096, n)]
+    if bits < 64:
+        keys |= rng.integers(0, 1 << 20, n).astype(np.uint64) << np.uint64(bits)
+    keys = keys.view(np.int64)
     values = rng.permutation(n).astype(np.int64)
-    want = np.argsort(keys & ((1 << bits) - 1), kind="stable")
+    low = keys.view(np.uint64) & np.uint64((1 << bits) - 1 if bits < 64 else 2 ** 64 - 1)
+    want = np.argsort(low, kind="stable")
     got_k, got_v = radix_sort(keys.copy(), values.copy(), np.empty(n, np.int64),
                               np.empty(n, np.int64), bits)
+    assert (keys < 0).any() == (bits == 64)
     assert np.array_equal(got_v, values[want]) and np.array_equal(got_k, keys[want])
 
 

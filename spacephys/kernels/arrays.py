@@ -191,55 +191,13 @@ def radix_order(keys):
     return order
 
 
-LARGE_SORT = 1 << 20    # from this many entries radix_sort takes its top digit first
-
-
-@kernel
-def radix_sort(keys, values, keys_out, values_out, bits):
-    """Sort (keys, values) by the low `bits` (a multiple of 8) bits of keys, 8 at a time
-    (LSD radix: linear; each pass streams the arrays once and scatters into 256 streams,
-    which stay in cache: measured twice as fast as 11-bit digits at 3e5 entries). Entries of
-    one cell end up adjacent (with cells whose keys share those bits, over spans wider than
-    _sort_bits covers: the scan compares full keys). Returns the sorted arrays (keys and
-    values, or keys_out and values_out). Fewer than SMALL_SORT entries are sorted in place
-    by insertion, stable by the same bits: the same order, without each pass's 256 counts
-    (a duel's grid holds two entries). From LARGE_SORT entries (where they outgrow the
-    caches) the top digit goes first, into 256 groups, and each group is then sorted by the
-    digits below on its own, its later passes in cache: the same stable order (the grid of
-    a dense field of 8e5 circles, 2.2e6 entries: 20.3 -> 17.6 ns each)."""
-    n = keys.size
-    if n < SMALL_SORT and bits < 63:
-        _insertion(keys, values, bits)
-        return keys, values
-    count = np.empty((8, 256), np.int64)
-    if n < LARGE_SORT or bits <= 8:
-        return _passes(keys, values, keys_out, values_out, 0, bits, count)
-    top = bits - 8
-    _passes(keys, values, keys_out, values_out, top, bits, count)
-    ends = count[0].copy()              # where each group (top digit) ends
-    odd = (top // 8) % 2 == 1           # (the groups' passes then end in keys, values)
-    start = 0
-    for d in range(256):
-        end = ends[d]
-        if end - start < SMALL_SORT:
-            _insertion(keys_out[start:end], values_out[start:end], top)
-            if odd:
-                for e in range(start, end):
-                    keys[e] = keys_out[e]
-                    values[e] = values_out[e]
-        else:
-            _passes(keys_out[start:end], values_out[start:end], keys[start:end],
-                    values[start:end], 0, top, count)
-        start = end
-    return (keys, values) if odd else (keys_out, values_out)
-
-
 @kernel
 def _passes(src_k, src_v, dst_k, dst_v, low, bits, count):
-    """radix_sort's LSD passes over the digits of bits low..bits, between the two pairs of
-    arrays: the pair they end in. Every digit's counts come from one read of the keys (the
-    grid of a dense field of 1e5 circles, 2.7e5 entries: 12.2 -> 8.7 ns each); count:
-    (8, 256) scratch, left holding where each digit's entries end in each pass."""
+    """radix_sort's LSD passes over the digits of bits low..bits (bits - low a multiple of
+    8), between the two pairs of arrays: the pair they end in. Every digit's counts come
+    from one read of the keys (the grid of a dense field of 1e5 circles, 2.7e5 entries:
+    12.2 -> 8.7 ns each); count: (8, 256) scratch, left holding where each digit's entries
+    end in each pass."""
     passes = (bits - low) // 8
     for p in range(passes):
         for d in range(256):
@@ -282,3 +240,48 @@ def _insertion(keys, values, bits):
             p -= 1
         keys[p] = k
         values[p] = v
+
+
+# from this many entries (16 MB of keys and values, past the caches) radix_sort takes its top
+# digit first: below it the plain passes were faster (measured on the dense field's grids)
+LARGE_SORT = 1 << 20
+
+
+@kernel
+def radix_sort(keys, values, keys_out, values_out, bits):
+    """Sort (keys, values) by the low `bits` (a multiple of 8) bits of keys, 8 at a time
+    (LSD radix: linear; each pass streams the arrays once and scatters into 256 streams,
+    which stay in cache: measured twice as fast as 11-bit digits at 3e5 entries). Entries of
+    one cell end up adjacent (with cells whose keys share those bits, over spans wider than
+    _sort_bits covers: the scan compares full keys). Returns the sorted arrays (keys and
+    values, or keys_out and values_out). Fewer than SMALL_SORT entries are sorted in place
+    by insertion, stable by the same bits: the same order, without each pass's 256 counts
+    (a duel's grid holds two entries). From LARGE_SORT entries (where they outgrow the
+    caches) the top digit goes first, into 256 groups, and each group is then sorted by the
+    digits below on its own, its later passes in cache: the same stable order (the grid of
+    a dense field of 8e5 circles, 2.2e6 entries: 20.3 -> 17.6 ns each)."""
+    n = keys.size
+    if n < SMALL_SORT and bits < 63:
+        _insertion(keys, values, bits)
+        return keys, values
+    count = np.empty((8, 256), np.int64)
+    if n < LARGE_SORT or bits <= 8:
+        return _passes(keys, values, keys_out, values_out, 0, bits, count)
+    top = bits - 8
+    _passes(keys, values, keys_out, values_out, top, bits, count)
+    ends = count[0].copy()              # where each group (top digit) ends
+    odd = (top // 8) % 2 == 1           # (the groups' passes then end in keys, values)
+    start = 0
+    for d in range(256):
+        end = ends[d]
+        if end - start < SMALL_SORT:
+            _insertion(keys_out[start:end], values_out[start:end], top)
+            if odd:
+                for e in range(start, end):
+                    keys[e] = keys_out[e]
+                    values[e] = values_out[e]
+        else:
+            _passes(keys_out[start:end], values_out[start:end], keys[start:end],
+                    values[start:end], 0, top, count)
+        start = end
+    return (keys, values) if odd else (keys_out, values_out)
