@@ -32,6 +32,8 @@ _INT64 = np.iinfo(np.int64)
 _ALL = np.zeros(0, np.bool_)       # the searches' mask when every body of the grid is wanted
 _NO_HALF = np.zeros((0, 3))        # the searches' box sizes for radius queries (never read)
 _OPEN = (np.zeros(3), np.zeros(3))  # _box() without a periodic boundary
+_NO_BATCH = {}                     # (never written: _batch's look-up with none kept)
+_BATCH_HANDLES = 16                # the most radii whose batches _batch keeps a handle for
 
 
 def _mean(values):
@@ -199,14 +201,6 @@ def _basis(world, lo, period):
     return basis if basis is not None and basis[2] == _box_key(lo, period) else None
 
 
-def _kept(world, hint, lo, period):
-    """(grid, bpos, bradius): the grid _grid keeps for `hint` and the basis it was built
-    from, when there is one for this box (kq.overlaps checks the bodies), else None."""
-    basis = _basis(world, lo, period)
-    g = None if basis is None else world.driver.grids.get(_key(hint))
-    return None if g is None else (g, basis[0], basis[1])
-
-
 def _box_key(lo, period):
     """What a kept grid's box is known by: its corner's and period's bytes (None without a
     periodic boundary: _box's _OPEN)."""
@@ -344,27 +338,40 @@ def _image(d, period):
     return np.where(wraps, d - size * np.floor(d / size + 0.5), d)
 
 
+def _batch(world, centers, r, lo, period):
+    """A frame's next batch of radius queries, in one kernel call: Hits, or None when it
+    must go the checked way (centers not a (Q, dim) float64 array, a compound body, no
+    grid kept for this r and box, the bodies changed since, or a point not finite: that way
+    names it). r: a Python float; lo, period: _box(world). kq.overlaps checks the points
+    and that the bodies hold the bits the grid was built from as it searches."""
+    held = world.driver.grids.get("batch", _NO_BATCH).get(r)
+    if held is None or type(centers) is not np.ndarray or centers.ndim != 2 or \
+            centers.dtype != np.float64 or centers.shape[1] != world.dim or \
+            held[3] != _box_key(lo, period) or _compound(world) is not None:
+        return None
+    g, bpos, bradius, _, reach = held
+    if reach.size != centers.shape[0]:
+        reach = check.per_body("r", r, centers.shape[0])
+        world.driver.grids["batch"][r] = held[:4] + (reach,)
+    pos, radius, ids = _state(world)
+    status, offsets, named, dist = kq.overlaps(g, pos, radius, ids, _ALL, period, centers,
+                                               reach, _NO_HALF, 0, True, True, bpos, bradius)
+    return Hits(offsets, named, dist) if status == 0 else None
+
+
 def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=None):
     """Bodies within distance r of each center (their surface: a body of radius R counts
     from |d| <= r + R): a Hits. centers (dim,) or (Q, dim); r >= 0, a number or (Q,)."""
     lo, period = _box(world)
-    # a frame's next batch (points as floats, one r, every body a candidate, no compound
-    # body, a kept grid): one kernel call, which checks the points and the bodies as it
-    # searches (any input it would refuse goes the way below, which names it)
-    if kinds is None and mask is None and ignore is None and filter is None and \
-            type(r) is float and math.isfinite(r) and r >= 0.0 and \
-            isinstance(centers, np.ndarray) and centers.dtype == np.float64 and \
-            centers.ndim == 2 and centers.shape[1] == world.dim and _compound(world) is None:
-        held = _kept(world, r, lo, period)
-        if held is not None:
-            g, bpos, bradius = held
-            pos, radius, ids = _state(world)
-            status, offsets, named, dist = kq.overlaps(
-                g, pos, radius, ids, _ALL, period, centers,
-                check.per_body("r", r, centers.shape[0], minimum=0.0), _NO_HALF, 0, True, True,
-                bpos, bradius)
-            if status == 0:
-                return Hits(offsets, named, dist)
+    # a frame's batches (one r for all, every body a candidate): after the first, which
+    # builds the grid, one look-up and one kernel call each (10 queries among 4 000
+    # bodies: 14.2 -> 12.6 us a call, against looking the grid and its basis up each time)
+    batch = kinds is None and mask is None and ignore is None and filter is None and \
+        type(r) is float
+    if batch:
+        hits = _batch(world, centers, r, lo, period)
+        if hits is not None:
+            return hits
     c = _points("centers", centers, world.dim)
     reach = check.per_body("r", r, c.shape[0], minimum=0.0)
     hint = r if type(r) is float else _mean(reach)      # (checked: a float is one r for all)
@@ -379,6 +386,12 @@ def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=N
         return Hits(np.searchsorted(q, np.arange(c.shape[0] + 1)).astype(np.int64),
                     x.ident[hits], dist)
     g = _grid(world, hint, pos, radius, lo, period)
+    if batch:                    # the next batches with this r: _batch
+        bpos, bradius, box = world.driver.grids["basis"]
+        handles = world.driver.grids.setdefault("batch", {})
+        if len(handles) >= _BATCH_HANDLES:             # (an r that changes every call)
+            handles.clear()
+        handles[r] = (g, bpos, bradius, box, reach)
     return Hits(*kq.overlaps(g, pos, radius, ids, _wanted(world, rows), period, c, reach,
                              _NO_HALF, 0, True, False, *kq.NO_BASIS)[1:])
 

@@ -680,6 +680,31 @@ def test_the_grid_queries_share_is_dropped_when_anything_changes():
         assert after != before                           # the change changed the answers
 
 
+def test_a_frames_batches_of_any_size_and_radius_answer_as_a_fresh_world():
+    """A frame's batches (queries._batch: after the first call with a radius, one kernel
+    call each) answer as a fresh World does whatever their sizes (the handle's radii per
+    query are remade for another size) and however many radii are asked between two steps
+    (the handles kept are bounded, not one more for every radius)."""
+    rng = np.random.default_rng(12)
+    w = sp.World(2, gravity="none")
+    w.add_bodies(1.0, rng.uniform(0, 50, (400, 2)), radius=0.2)
+    fresh = w.copy()
+    for q in (5, 12, 1, 12, 30):                            # one r, batches of every size
+        centres = rng.uniform(0, 50, (q, 2))
+        got, want = w.query_radius(centres, 4.0), fresh.query_radius(centres, 4.0)
+        assert got.offsets.tolist() == want.offsets.tolist()
+        assert got.ids.tolist() == want.ids.tolist()
+        fresh.driver.grids.clear()                          # (fresh: never a kept grid)
+    assert w.driver.grids["batch"][4.0][4].size == 30       # the last batch's radii
+    centres = rng.uniform(0, 50, (8, 2))
+    for r in np.linspace(0.5, 6.0, 40):                     # a radius that changes each call
+        for _ in range(2):                                  # the second from the handle
+            got, want = w.query_radius(centres, float(r)), fresh.query_radius(centres, float(r))
+            assert got.ids.tolist() == want.ids.tolist()
+            fresh.driver.grids.clear()
+        assert len(w.driver.grids["batch"]) <= 16
+
+
 @pytest.mark.parametrize("start", ["empty", "emptied"])
 def test_a_grid_kept_while_the_world_was_empty_goes_with_the_first_body(start):
     """A frame's queries on a World with no body (yet, or any more) keep a grid of none;
