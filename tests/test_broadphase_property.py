@@ -759,33 +759,40 @@ def test_the_grids_sort_is_stable_by_the_low_bits_below_and_above_its_small_size
     assert SMALL_SORT <= 70                   # both ways are drawn
 
 
+@pytest.mark.parametrize("size", ["WIDE_SORT", "LARGE_SORT"])
 @pytest.mark.parametrize("bits", [16, 24, 32, 64])
-def test_the_grids_sort_of_many_entries_takes_the_top_digit_first_to_the_same_order(bits):
-    """arrays.radix_sort from LARGE_SORT entries (the top digit first, then each group on
-    its own): numpy's stable order by the low `bits` bits (all 64: as unsigned, the space
-    order's Morton codes' case, negative keys included), with groups of every kind: empty,
-    of one entry, fewer than SMALL_SORT (sorted by insertion), and large; their passes ending
-    in either pair of arrays (1, 2, 3 and 7 passes below the top digit), each digit drawn."""
-    from spacephys.kernels.arrays import LARGE_SORT, SMALL_SORT, radix_sort
+def test_the_grids_sort_of_many_entries_is_numpys_stable_order_by_wide_digits(bits, size):
+    """arrays.radix_sort of many entries: from WIDE_SORT in digits up to WIDE_DIGIT bits
+    wide (the last one narrower when they do not divide `bits`), from LARGE_SORT the top
+    digit first, then each group on its own: numpy's stable order by the low `bits` bits
+    (all 64: as unsigned, the space order's Morton codes' case, negative keys included;
+    fewer: other bits set above them), with groups of every kind: empty, of one entry, fewer
+    than SMALL_SORT (sorted by insertion), and large; their passes ending in either pair of
+    arrays; every digit drawn from a few values, so each decides some order."""
+    from spacephys.kernels import arrays
     rng = np.random.default_rng(bits)
-    n = LARGE_SORT + 12_345
-    top = bits - 8
-    group = rng.choice([0, 1, 2, 3, 200, 201, 255], n, p=[0.7, 0.1, 0.1, 0.05, 0.03, 0.0, 0.02])
-    group[:SMALL_SORT - 5] = 201                    # a group sorted by insertion
-    group[-1] = 7                                   # a group of one entry
-    # every digit below the top one drawn from a few values: each digit decides some order
+    n = getattr(arrays, size) + 12_345
+    passes, width = arrays.digits(n, bits)
+    assert width > 8 and passes < (bits + 7) // 8 or bits <= 16     # wide digits drawn
     pool = np.zeros(4096, np.uint64)
-    for d in range(top // 8):
-        pool |= rng.choice(np.array([0, 1, 2, 255], np.uint64), 4096) << np.uint64(8 * d)
-    keys = (group.astype(np.uint64) << np.uint64(top)) | pool[rng.integers(0, 4096, n)]
+    for d in range(passes):
+        few = np.array([0, 1, 2, (1 << min(width, bits - width * d)) - 1], np.uint64)
+        pool |= rng.choice(few, 4096) << np.uint64(width * d)
+    keys = pool[rng.integers(0, 4096, n)]
+    # the top digit's groups
+    group = rng.choice([0, 1, 2, 3, 200, 201, (1 << width) - 1], n,
+                       p=[0.7, 0.1, 0.1, 0.05, 0.03, 0.0, 0.02]).astype(np.uint64)
+    group[:arrays.SMALL_SORT - 5] = 201             # a group sorted by insertion
+    group[-1] = 7                                   # a group of one entry
+    keys = (keys & np.uint64((1 << (bits - width)) - 1)) | (group << np.uint64(bits - width))
     if bits < 64:
         keys |= rng.integers(0, 1 << 20, n).astype(np.uint64) << np.uint64(bits)
     keys = keys.view(np.int64)
     values = rng.permutation(n).astype(np.int64)
     low = keys.view(np.uint64) & np.uint64((1 << bits) - 1 if bits < 64 else 2 ** 64 - 1)
     want = np.argsort(low, kind="stable")
-    got_k, got_v = radix_sort(keys.copy(), values.copy(), np.empty(n, np.int64),
-                              np.empty(n, np.int64), bits)
+    got_k, got_v = arrays.radix_sort(keys.copy(), values.copy(), np.empty(n, np.int64),
+                                     np.empty(n, np.int64), bits)
     assert (keys < 0).any() == (bits == 64)
     assert np.array_equal(got_v, values[want]) and np.array_equal(got_k, keys[want])
 
