@@ -759,21 +759,22 @@ def test_the_grids_sort_is_stable_by_the_low_bits_below_and_above_its_small_size
     assert SMALL_SORT <= 70                   # both ways are drawn
 
 
-@pytest.mark.parametrize("size", ["WIDE_SORT", "LARGE_SORT"])
-@pytest.mark.parametrize("bits", [16, 24, 32, 64])
+@pytest.mark.parametrize("size", [-1_000, 12_345, 3 << 16])
+@pytest.mark.parametrize("bits", [12, 16, 24, 32, 64])
 def test_the_grids_sort_of_many_entries_is_numpys_stable_order_by_wide_digits(bits, size):
-    """arrays.radix_sort of many entries: from WIDE_SORT in digits up to WIDE_DIGIT bits
-    wide (the last one narrower when they do not divide `bits`), from LARGE_SORT the top
-    digit first, then each group on its own: numpy's stable order by the low `bits` bits
+    """arrays.radix_sort of many entries (size: how many more than WIDE_SORT): below
+    WIDE_SORT by 8-bit digits from the lowest; from it in digits up to WIDE_DIGIT bits wide
+    (the last one narrower when they do not divide `bits`), the top digit first, then each
+    group on its own (one digit: one pass): numpy's stable order by the low `bits` bits
     (all 64: as unsigned, the space order's Morton codes' case, negative keys included;
     fewer: other bits set above them), with groups of every kind: empty, of one entry, fewer
     than SMALL_SORT (sorted by insertion), and large; their passes ending in either pair of
     arrays; every digit drawn from a few values, so each decides some order."""
     from spacephys.kernels import arrays
-    rng = np.random.default_rng(bits)
-    n = getattr(arrays, size) + 12_345
+    rng = np.random.default_rng([bits, size + 1_000])
+    n = arrays.WIDE_SORT + size
     passes, width = arrays.digits(n, bits)
-    assert width > 8 and passes < (bits + 7) // 8 or bits <= 16     # wide digits drawn
+    assert (width > 8) == (n >= arrays.WIDE_SORT and bits != 16)  # wide digits drawn
     pool = np.zeros(4096, np.uint64)
     for d in range(passes):
         few = np.array([0, 1, 2, (1 << min(width, bits - width * d)) - 1], np.uint64)

@@ -257,12 +257,10 @@ def _insertion(keys, values, bits):
         values[p] = v
 
 
-# from this many entries (16 MB of keys and values, past the caches) radix_sort takes its top
-# digit first: below it the plain passes were faster (measured on the dense field's grids)
-LARGE_SORT = 1 << 20
-# from this many entries radix_sort's digits are up to WIDE_DIGIT bits, fewer passes of more
-# counts (below it the counts cost more than a pass: 8 bits); measured on the dense field's
-# grids (24 bits: 2.7e5 entries 9.2 -> 7.6-8.1 ns each, 2.2e6 20.5 -> 13.8-14.0)
+# from this many entries radix_sort's digits are up to WIDE_DIGIT bits (fewer passes of more
+# counts; below it the counts cost more than a pass: 8 bits), and the top one goes first;
+# measured on the dense field's grids (24 bits, 2.7 entries a circle: 6.8e4 entries 7.2 ->
+# 6.3 ns each, 2.7e5 9.2 -> 7.0, 2.2e6 20.5 -> 11.6)
 WIDE_SORT = 1 << 16
 WIDE_DIGIT = 12
 
@@ -278,24 +276,23 @@ def digits(n, bits):
 
 @kernel
 def radix_sort(keys, values, keys_out, values_out, bits):
-    """Sort (keys, values) by the low `bits` bits of keys (LSD radix: linear; each pass
-    streams the arrays once and scatters them by one digit; digits of 8 bits, or of up to
+    """Sort (keys, values) by the low `bits` bits of keys (radix: linear; each pass streams
+    the arrays once and scatters them by one digit; digits of 8 bits, or of up to
     WIDE_DIGIT from WIDE_SORT entries: digits()). Entries of one cell end up adjacent (with
     cells whose keys share those bits, over spans wider than _sort_bits covers: the scan
     compares full keys). Returns the sorted arrays (keys and values, or keys_out and
     values_out). Fewer than SMALL_SORT entries are sorted in place by insertion, stable by
     the same bits: the same order, without each pass's counts (a duel's grid holds two
-    entries). From LARGE_SORT entries (where they outgrow the caches) the top digit goes
-    first, into groups, and each group is then sorted by the digits below on its own, its
-    later passes in cache: the same stable order (the grid of a dense field of 8e5 circles,
-    2.2e6 entries: 20.3 -> 17.6 ns each, with 8-bit digits)."""
+    entries). Below WIDE_SORT the passes go from the lowest digit up (LSD); from it the top
+    digit goes first, into groups, and each group is then sorted by the digits below on its
+    own, its passes in cache: the same stable order."""
     n = keys.size
     if n < SMALL_SORT and bits < 63:
         _insertion(keys, values, bits)
         return keys, values
     passes, width = digits(n, bits)
     count = np.empty((passes, 1 << width), np.int64)
-    if n < LARGE_SORT or passes == 1:
+    if n < WIDE_SORT or passes == 1:
         return _passes(keys, values, keys_out, values_out, 0, bits, width, count)
     top = bits - width
     _passes(keys, values, keys_out, values_out, top, bits, width, count)
