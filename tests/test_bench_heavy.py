@@ -57,6 +57,7 @@ def test_dense_scaling_times_both_orders_and_sorts_only_the_space_ordered(monkey
     out = hb.dense_scaling(quick=True)
     assert space_order.MIN_BODIES == least
     assert out["sizes"] == [12_500, 25_000, 50_000]
+    assert out["steps"] == {"12500": 40, "25000": 20, "50000": 10}    # more when smaller
     for case in ("space order", "creation order"):
         per = [out[case][str(n)] for n in out["sizes"]]
         assert all(0 < p < 1e5 for p in per)             # ns a body

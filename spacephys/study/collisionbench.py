@@ -137,7 +137,8 @@ def format_collisions(results):
         [(f"{n} circles, {k}", d["cases"][str(n)][k]) for n in d["sizes"]
          for k in ("quiet", "one core busy")]) + [""]
     sc = results["dense_scaling"]
-    lines.append(f"the dense field's step per body [ns] (median of {sc['steps']}; goal: within "
+    lines.append(f"the dense field's step per body [ns] (median of "
+                 f"{min(sc['steps'].values())}-{max(sc['steps'].values())} steps; goal: within "
                  f"1.3x from 12 500 to 800 000)")
     lines.append(f"{'circles':>9s} {'space order':>12s} {'creation order':>15s}")
     for n in sc["sizes"]:
