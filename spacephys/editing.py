@@ -172,12 +172,18 @@ def give_shapes(w, ids, shapes):
     if all(c is None for c in shapes) and SHAPE not in w._b.columns:
         return
     w._b.ensure_column(SHAPE, (), np.int64, -1)
+    known = len(w._collisions.shapes)
     for body, c in zip(ids, shapes):
         i = w.index_of(int(body))
         w._b.shape[i] = -1 if c is None else w._collisions.shape_code(c)
         if c is not None:
             w._b.radius[i] = c.bounding
             w._actors.orient(i)
+    if len(w._collisions.shapes) != known:
+        # the shape table is part of the setup snapshots share (worldstate.Setup): a new
+        # shape makes the next snapshot take it again, or a restore would put back a table
+        # without it under bodies whose shape column names it
+        w._set_up()
     w._invalidate()
 
 

@@ -389,7 +389,7 @@ def query_radius(world, centers, r, kinds=None, mask=None, ignore=None, filter=N
     if batch:                    # the next batches with this r: _batch
         bpos, bradius, box = world.driver.grids["basis"]
         handles = world.driver.grids.setdefault("batch", {})
-        if len(handles) >= _BATCH_HANDLES:             # (an r that changes every call)
+        if r not in handles and len(handles) >= _BATCH_HANDLES:   # (an r changing often)
             handles.clear()
         handles[r] = (g, bpos, bradius, box, reach)
     return Hits(*kq.overlaps(g, pos, radius, ids, _wanted(world, rows), period, c, reach,

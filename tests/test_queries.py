@@ -701,8 +701,19 @@ def test_a_frames_batches_of_any_size_and_radius_answer_as_a_fresh_world():
         for _ in range(2):                                  # the second from the handle
             got, want = w.query_radius(centres, float(r)), fresh.query_radius(centres, float(r))
             assert got.ids.tolist() == want.ids.tolist()
+            assert got.distances.tolist() == want.distances.tolist()
             fresh.driver.grids.clear()
         assert len(w.driver.grids["batch"]) <= 16
+    # a body given a shape whose bounding circle is its radius: the same bits of position
+    # and radius, but its circle now lies off its centre (the handle is not for it)
+    body = w.add_body(1.0, (25.0, 25.0), radius=0.2)
+    probe = np.array([[24.9, 25.0]])
+    assert w.query_radius(probe, 0.05).ids.tolist() == [body]
+    assert w.query_radius(probe, 0.05).ids.tolist() == [body]        # from the handle
+    w.set_body(body, shape=sp.Circles([[0.15, 0.0]], [0.05]))        # 0.15 + 0.05 = 0.2
+    assert float(w.radius[w.index_of(body)]) == 0.2
+    assert w.query_radius(probe, 0.05).ids.tolist() == []            # the circle is at 25.15
+    assert w.copy().query_radius(probe, 0.05).ids.tolist() == []
 
 
 @pytest.mark.parametrize("start", ["empty", "emptied"])

@@ -456,3 +456,30 @@ def test_a_snapshot_is_not_a_file_format():
     w, _ = _duel()
     with pytest.raises(TypeError, match="World.state"):
         pickle.dumps(w.snapshot())
+
+
+@pytest.mark.parametrize("first", [False, True])
+def test_a_restore_keeps_the_shapes_added_since_the_setup_was_taken(first):
+    """A snapshot taken after a compound body brought a new shape restores that shape's
+    entry in the shape table, even when a setting changed in between (the restore then puts
+    the snapshot's setup back: it once held the table as the first snapshot found it, and
+    the body's shape named an entry past its end)."""
+    two = sp.Circles([[0.5, 0.0], [-0.5, 0.0]], [0.4, 0.6])
+    other = sp.Circles([[0.3, 0.0], [-0.3, 0.0]], [0.2, 0.7])
+    w = sp.World(2, gravity="none", dt=0.1)
+    if first:
+        w.add_body(1.0, [0.0, 0.0], shape=two)
+    w.snapshot()                               # takes the setup (the shape table so far)
+    b = w.add_body(1.0, [5.0, 0.0], shape=other)   # a new shape in the table
+    snap = w.snapshot()
+    ids, k, centres, radii = w.circles()
+    digest = w.digest()
+    w.set_boundary("periodic", [-10.0, -10.0], [10.0, 10.0])   # a setting changes
+    w.restore(snap)
+    assert w.shape(b) == other
+    got = w.circles()
+    for a, want in zip(got, (ids, k, centres, radii)):
+        np.testing.assert_array_equal(a, want)
+    assert w.digest() == digest
+    assert w.query_radius([[5.0, 0.0]], 1.0).ids.tolist() == [b]
+    w.step(1)                                  # the collision tables build from it too

@@ -156,9 +156,9 @@ def _entries(lo, hi, alive, gridded, kind, size, low, high, rules, L):
 def _sort_bits(low, high, origin, cell, ncell):
     """How many low bits of the keys (a multiple of 8, 8 to 32) the radix sort groups the
     entries by: enough for the cells across the span low..high (3,) to have runs of their
-    own (a key's low 2k or 3k bits hold its indices modulo 2^k), at most 32 (4 passes: a
-    span wider than 2^16 cells (flat) or 2^10 shares runs between cells that far apart,
-    whose keys the scan then tells apart)."""
+    own (a key's low 2k or 3k bits hold its indices modulo 2^k), at most 32 (a span wider
+    than 2^16 cells (flat) or 2^10 shares runs between cells that far apart, whose keys the
+    scan then tells apart)."""
     widest = 1.0
     for c in range(3):
         if ncell[c] > 0:
