@@ -392,6 +392,24 @@ def test_a_ray_from_the_grids_far_edge_meets_the_body_there():
     assert hit.ids.tolist() == [b] and hit.distances.tolist() == [0.0]
 
 
+def test_a_ray_along_a_face_a_rounding_past_the_grid_and_one_1e231_from_a_point():
+    """Found by the compound queries' property test: a point body 2e-231 above a grid whose
+    top edge rounds to 0 (kept in the last cell) is met by a ray from its centre along that
+    face (the ray was clipped to the grid's box without a margin), and a ray from 2e-231
+    beside a point body, going away from it or across, does not meet it (|w|^2 underflowed
+    to 0, which counted the origin as inside it)."""
+    z = 2.0030101183376274e-231
+    w = sp.World(dim=3, gravity="none")
+    a = w.add_body(1.0, (0.0, 0.0, z), radius=0.0)
+    b = w.add_body(1.0, (-0.28734789, 0.0, -0.04217371), radius=0.5)
+    for d in [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (-1.0, 0.0, 0.0)]:
+        hit = w.raycast((0.0, 0.0, z), d, 12.0, first=False)[0]
+        assert sorted(hit.ids.tolist()) == sorted([a, b]) and hit.distances.tolist() == [0, 0]
+    for d, met in [((0.0, 0.0, -1.0), [b]), ((1.0, 0.0, 0.0), [b]), ((0.0, 0.0, 1.0), [a, b])]:
+        hit = w.raycast((0.0, 0.0, 0.0), d, 12.0, first=False)[0]
+        assert sorted(hit.ids.tolist()) == sorted(met)
+
+
 def test_a_body_on_the_periodic_boxs_upper_edge_is_its_lower_edge():
     """Found by the property test: a body at y = hi of a periodic box is at y = lo: a ray
     from there meets it (its cell and its position, kept in the box, agree)."""

@@ -685,6 +685,18 @@ def _nearest_row(pos, radius, ident, g, points, q, k, period, hits, dist, wanted
 # ----------------------------------------------------------------------------- ray casts
 
 @kernel(inline=True)
+def _inside(wx, wy, wz, R):
+    """Whether |w| <= R, compared scaled by the largest of them: |w|^2 and R^2 underflow to
+    0 for a centre 1e-200 from the ray's origin (a body of radius 0 there was met by every
+    ray from it, whatever its direction)."""
+    s = max(abs(wx), abs(wy), abs(wz), R)
+    if s == 0.0:
+        return True
+    x, y, z, r = wx / s, wy / s, wz / s, R / s
+    return x * x + y * y + z * z <= r * r
+
+
+@kernel(inline=True)
 def ray_sphere(ox, oy, oz, dx, dy, dz, px, py, pz, R):
     """The first t >= 0 at which the ray o + t d (d a unit vector) touches the sphere (p, R):
     0 when o is inside it, -1 when it never does."""
@@ -693,7 +705,7 @@ def ray_sphere(ox, oy, oz, dx, dy, dz, px, py, pz, R):
     wz = pz - oz
     b = wx * dx + wy * dy + wz * dz
     c = wx * wx + wy * wy + wz * wz - R * R
-    if c <= 0.0:
+    if c <= 0.0 and _inside(wx, wy, wz, R):
         return 0.0
     if b <= 0.0:
         return -1.0                          # outside and moving away
@@ -705,7 +717,8 @@ def ray_sphere(ox, oy, oz, dx, dy, dz, px, py, pz, R):
     disc = R * R - (hx * hx + hy * hy + hz * hz)
     if disc < 0.0:
         return -1.0
-    return c / (b + math.sqrt(disc))         # the nearer root, without cancellation
+    # the nearer root, without cancellation (c <= 0 here only by underflow: a hit at 0)
+    return max(c / (b + math.sqrt(disc)), 0.0)
 
 
 @kernel(inline=True)
@@ -790,14 +803,18 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
     seen, walk, times = scratch
     origin, cell, ncell, start, items, giants, rmax, gpos, grad = g
     rmax = rmax + extra
-    # clip to the grid's box (open axes), grown by the largest radius
+    # clip to the grid's box (open axes), grown by the largest radius and a margin for the
+    # roundings (a body kept in the last cell may lie a rounding past the box's edge: at
+    # 2e-231 above a top edge computed as 0, a ray from its centre along the face missed it)
     t0 = 0.0
     t1 = tmax
     for c in range(3):
         if period[c] > 0.0:
             continue
-        lo = origin[c] - rmax
-        hi = origin[c] + ncell[c] * cell[c] + rmax
+        top = origin[c] + ncell[c] * cell[c]
+        slack = 1e-9 * cell[c] + 1e-12 * (abs(origin[c]) + abs(top) + rmax)
+        lo = origin[c] - rmax - slack
+        hi = top + rmax + slack
         if d[c] == 0.0:
             if o[c] < lo or o[c] > hi:
                 return 0
@@ -816,8 +833,8 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
     for c in range(3):
         u = (o[c] + t0 * d[c] - origin[c]) / cell[c]
         cur[c] = int(math.floor(u))          # within reach of the grid: t0 is clipped
-        if period[c] == 0.0 and u == ncell[c]:
-            cur[c] = ncell[c] - 1                # on the far edge, where its bodies are kept
+        if period[c] == 0.0:                     # on an edge (or a rounding past it), where
+            cur[c] = min(max(cur[c], 0), ncell[c] - 1)     # its bodies are kept
         # (a margin: a body on the ray but a rounding into the next cell is still seen; on an
         # open axis no more than the grid: bodies a few ulps apart make cells of 1e-300)
         r = rmax / cell[c] + 1e-9
