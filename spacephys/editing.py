@@ -473,6 +473,7 @@ def set_rails(w, body, about, why_not=None, ephemeris=None, entry=None):
         return
     if about is None:
         rails.drop(int(w._b.ids[i]))
+        w._set_up()              # (the rails are part of the setup snapshots share)
         w._invalidate()
         return
     p = w.index_of(about, "about")
@@ -507,6 +508,7 @@ def set_rails(w, body, about, why_not=None, ephemeris=None, entry=None):
     except ValueError as e:
         raise ValueError(f"id = {body} about {about}: {e}") from None
     rails.put(body, about, orbit)
+    w._set_up()
     w._invalidate()
 
 
@@ -535,4 +537,5 @@ def _on_ephemeris(w, i, about, why_not, ephemeris, entry):
         raise ValueError(f"ephemeris: it covers {ephemeris.start} to {ephemeris.end}, not "
                          f"the World's time {w.t}")
     w._forces.rails.put_ephemeris(body, row, coef)
+    w._set_up()
     w._invalidate()

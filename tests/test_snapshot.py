@@ -483,3 +483,33 @@ def test_a_restore_keeps_the_shapes_added_since_the_setup_was_taken(first):
     assert w.digest() == digest
     assert w.query_radius([[5.0, 0.0]], 1.0).ids.tolist() == [b]
     w.step(1)                                  # the collision tables build from it too
+
+
+def test_a_restore_undoes_rails_put_on_after_the_setup_was_taken():
+    """Rails are part of the setup snapshots share: putting a body on rails (or taking it
+    off) makes the next snapshot take the setup again, so that a restore to a snapshot from
+    before undoes it (it once kept the rails: the World then moved as no copy from that
+    snapshot did), and the digest tells the two apart."""
+    w = sp.World(2)
+    star = w.add_body(100.0, [0.0, 0.0])
+    moon = w.add_body(0.01, [5.0, 0.0], [0.0, 4.5])
+    before, d0, c0 = w.snapshot(), w.digest(), w.copy()
+    w.set_rails(moon, star)
+    assert w.digest() != d0
+    on, d1 = w.snapshot(), w.digest()
+    w.set_collision("body", "body", "ignore")              # a setting changes too
+    w.restore(on)
+    assert w.rails["id"].tolist() == [moon] and w.digest() == d1
+    w.step(10)
+    w.restore(before)
+    assert w.rails["id"].tolist() == [] and w.digest() == d0
+    w.step(100)
+    c0.step(100)
+    assert np.array_equal(w.pos, c0.pos) and np.array_equal(w.vel, c0.vel)
+    w.set_rails(moon, star)
+    w.snapshot()                                           # the setup with the rails
+    w.set_rails(moon, None)                                # off again
+    off = w.snapshot()
+    w.set_collision("body", "body", "elastic")
+    w.restore(off)
+    assert w.rails["id"].tolist() == []
