@@ -292,7 +292,7 @@ class Driver:
             if w._event_count.item(0) > first:     # (most calls: nothing happened)
                 self._name_bodies(first)
                 if w._forces.broken().any():       # tethers broke: gone from the setup
-                    w._set_up()
+                    editing.tether_rows(w)           # now (a snapshot or copy next keeps them)
             if plan.rules is not None:
                 w._collisions.caught_up(plan.rules)
             if frames is not None:

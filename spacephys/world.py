@@ -1208,7 +1208,10 @@ class World:
         work = self._forces.work(n, sources[0].size)
         threads = self._threads.min_pairs if self._threads.mode != "never" and \
             self._forces.threaded(work) else None
+        entries = len(self._forces.rails)
         rails = self._forces.rails.table(b.lookup, b.active[:n] & (b.mass[:n] > 0))
+        if len(self._forces.rails) != entries:
+            self._setup = None   # a body whose parent is gone left its rails: a setting
         forces = self._forces.table(b.mass[:n], b.ids[:n], *sources,
                                     b.held[:n] if HELD in b.columns else None, threads,
                                     self._tether_rows(), b.fixed[:n], b.pos[:n], rails)

@@ -513,3 +513,50 @@ def test_a_restore_undoes_rails_put_on_after_the_setup_was_taken():
     w.set_collision("body", "body", "elastic")
     w.restore(off)
     assert w.rails["id"].tolist() == []
+
+
+def test_a_restore_brings_back_the_rails_a_removed_parent_took_away():
+    """A body whose parent is removed leaves its rails when the tables are next built; the
+    setup snapshots share then changed, and a restore to a snapshot from before puts the
+    rails back (it once kept them dropped: the World moved as no copy did)."""
+    w = sp.World(2)
+    star = w.add_body(100.0, [0.0, 0.0])
+    moon = w.add_body(0.01, [5.0, 0.0], [0.0, 4.5])
+    w.set_rails(moon, star)
+    w.set_collision("body", "body", "ignore")
+    before, d0, c0 = w.snapshot(), w.digest(), w.copy()
+    w.remove(star)
+    w.step(1)                                              # the moon leaves its rails
+    w.restore(before)
+    assert w.rails["id"].tolist() == [moon] and w.digest() == d0
+    w.step(100)
+    c0.step(100)
+    assert np.array_equal(w.pos, c0.pos)
+
+
+def test_a_tether_broken_in_the_last_step_stays_broken_in_a_copy_and_after_a_restore():
+    """A tether the kernels broke leaves the setup at once, so that a copy or a snapshot
+    taken right after the break does not bring it back (it once did: the flag of the break
+    lived only in the kernels' tables, and the rope snapped again)."""
+    def broken():
+        w = sp.World(2, gravity="none")
+        a = w.add_body(1.0, [0.0, 0.0], [-1.0, 0.0])
+        b = w.add_body(1.0, [1.0, 0.0], [1.0, 0.0])
+        w.tether(a, b, break_force=0.5)                    # pulled apart: breaks at once
+        w.step(1)
+        return w
+
+    def pulled(w):
+        w.set_body(w.ids[0], vel=[-1.0, 0.0])
+        w.set_body(w.ids[1], vel=[1.0, 0.0])
+        w.step(100)
+        return w.pos.copy()
+
+    alone = pulled(broken())
+    w = broken()
+    c = w.copy()
+    s = w.snapshot()
+    w.step(10)
+    w.restore(s)
+    assert alone[1, 0] - alone[0, 0] > 1.5                 # apart: no rope
+    assert np.array_equal(pulled(c), alone) and np.array_equal(pulled(w), alone)
