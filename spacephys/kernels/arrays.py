@@ -278,8 +278,8 @@ def digits(n, bits):
 @kernel
 def radix_sort(keys, values, keys_out, values_out, bits):
     """Sort (keys, values) by the low `bits` bits of keys (radix: linear; each pass streams
-    the arrays once and scatters them by one digit; digits of up to 8 bits, or of
-    up to WIDE_DIGIT from WIDE_SORT entries: digits()). Entries of one cell end up adjacent (with
+    the arrays once and scatters them by one digit; digits of up to 8 bits, or of up to
+    WIDE_DIGIT from WIDE_SORT entries: digits()). Entries of one cell end up adjacent (with
     cells whose keys share those bits, over spans wider than _sort_bits covers: the scan
     compares full keys). Returns the sorted arrays (keys and values, or keys_out and
     values_out). Fewer than SMALL_SORT entries are sorted in place by insertion, stable by

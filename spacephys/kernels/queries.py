@@ -762,6 +762,13 @@ def _to(cur, reach, n, period):
 
 
 @kernel(inline=True)
+def _margin(cell, scale):
+    """The ray walk's margin for roundings on one axis: a billionth of a cell and 1e-12 of
+    scale, the sum of the magnitudes the coordinates compared were computed from."""
+    return 1e-9 * cell + 1e-12 * scale
+
+
+@kernel(inline=True)
 def _tight(o, d, ta, tb, rmax, origin, cell, cur, reach, n, period):
     """The walk cells on one axis (first, last) of the neighbourhood cur +- reach (_from,
     _to) whose cells, grown by rmax, the ray's stretch ta..tb meets: a body that touches the
@@ -774,7 +781,7 @@ def _tight(o, d, ta, tb, rmax, origin, cell, cur, reach, n, period):
     xb = o + tb * d if d != 0.0 else o
     lo, hi = min(xa, xb), max(xa, xb)
     # (o + t d is rounded to about the size of o and t d, |t d| <= |x| + |o|)
-    slack = 1e-9 * cell + 1e-12 * (abs(lo) + abs(hi) + abs(o) + abs(origin) + rmax)
+    slack = _margin(cell, abs(lo) + abs(hi) + abs(o) + abs(origin) + rmax)
     a = (lo - rmax - slack - origin) / cell
     b = (hi + rmax + slack - origin) / cell
     if a > first:                 # (false for NaN: the whole neighbourhood)
@@ -803,8 +810,8 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
     seen, walk, times = scratch
     origin, cell, ncell, start, items, giants, rmax, gpos, grad = g
     rmax = rmax + extra
-    # clip to the grid's box (open axes), grown by the largest radius and a margin for the
-    # roundings (a body kept in the last cell may lie a rounding past the box's edge: at
+    # clip to the grid's box (open axes), grown by the largest radius and _tight's margin for
+    # the roundings (a body kept in the last cell may lie a rounding past the box's edge: at
     # 2e-231 above a top edge computed as 0, a ray from its centre along the face missed it)
     t0 = 0.0
     t1 = tmax
@@ -812,7 +819,7 @@ def cast(g, ident, period, o, d, tmax, extra, skip, first, stamp, slot, scratch,
         if period[c] > 0.0:
             continue
         top = origin[c] + ncell[c] * cell[c]
-        slack = 1e-9 * cell[c] + 1e-12 * (abs(origin[c]) + abs(top) + rmax)
+        slack = _margin(cell[c], abs(origin[c]) + abs(top) + rmax)
         lo = origin[c] - rmax - slack
         hi = top + rmax + slack
         if d[c] == 0.0:
